@@ -1,0 +1,58 @@
+"""Geometry and surface meshing: closed triangulated surfaces (metres) and their checks."""
+
+from quadmodes.mesh.io import read_surface, write_surface
+from quadmodes.mesh.revolution import (
+    Profile,
+    capsule_profile,
+    capsule_surface,
+    flat_cylinder_profile,
+    flat_cylinder_surface,
+    mesh_revolution,
+    nodes_near_pole,
+    sphere_cone_profile,
+    sphere_cone_surface,
+    sphere_profile,
+    sphere_surface,
+)
+from quadmodes.mesh.surface import (
+    TriangleSurface,
+    boundary_edges,
+    check_closed_surface,
+    enclosed_volume,
+    is_consistently_oriented,
+    is_watertight,
+    min_angle_deg,
+    non_manifold_edges,
+    orient_outward,
+    surface_area,
+    surface_report,
+    triangle_angles_deg,
+)
+
+__all__ = [
+    "Profile",
+    "TriangleSurface",
+    "boundary_edges",
+    "capsule_profile",
+    "capsule_surface",
+    "check_closed_surface",
+    "enclosed_volume",
+    "flat_cylinder_profile",
+    "flat_cylinder_surface",
+    "is_consistently_oriented",
+    "is_watertight",
+    "mesh_revolution",
+    "min_angle_deg",
+    "nodes_near_pole",
+    "non_manifold_edges",
+    "orient_outward",
+    "read_surface",
+    "sphere_cone_profile",
+    "sphere_cone_surface",
+    "sphere_profile",
+    "sphere_surface",
+    "surface_area",
+    "surface_report",
+    "triangle_angles_deg",
+    "write_surface",
+]

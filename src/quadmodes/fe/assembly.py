@@ -1,0 +1,71 @@
+"""Scatter of element arrays into global vectors and sparse matrices.
+
+Conventions used by every element kernel in :mod:`quadmodes.fe`:
+
+* The global state is an array ``x`` of shape ``(n, 3)``: one 3-vector per *vector degree of
+  freedom* (a node position, or for cable elements also a slope vector). Scalar DOF ``3*i+k`` is
+  component ``k`` of vector DOF ``i``.
+* An element set has a connectivity ``conn`` of shape ``(ne, k)`` (vector DOFs per element).
+* Element kernels take gathered arrays ``x[conn]`` of shape ``(ne, k, 3)`` and return forces of shape
+  ``(ne, k, 3)`` and stiffness blocks of shape ``(ne, 3k, 3k)`` ordered like ``x[conn].reshape(ne, 3k)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+
+def element_dofs(conn: np.ndarray) -> np.ndarray:
+    """Scalar DOF indices ``(ne, 3k)`` of an element connectivity ``(ne, k)``."""
+    conn = np.asarray(conn)
+    return (3 * conn[:, :, None] + np.arange(3)).reshape(conn.shape[0], -1)
+
+
+def assemble_vector(conn: np.ndarray, element_values: np.ndarray, n: int) -> np.ndarray:
+    """Sum element vectors ``(ne, k, 3)`` into a global ``(n, 3)`` array."""
+    out = np.empty((n, 3))
+    idx = np.asarray(conn).ravel()
+    vals = element_values.reshape(-1, 3)
+    for c in range(3):  # three bincounts are much faster than np.add.at
+        out[:, c] = np.bincount(idx, weights=vals[:, c], minlength=n)
+    return out
+
+
+def assemble_matrix(conn: np.ndarray, element_matrices: np.ndarray, n: int) -> sp.csr_matrix:
+    """Sum element matrices ``(ne, 3k, 3k)`` into a global sparse ``(3n, 3n)`` CSR matrix."""
+    dofs = element_dofs(conn)
+    m = dofs.shape[1]
+    rows = np.repeat(dofs, m, axis=1).ravel()
+    cols = np.tile(dofs, (1, m)).ravel()
+    mat = sp.coo_matrix((element_matrices.ravel(), (rows, cols)), shape=(3 * n, 3 * n))
+    return mat.tocsr()
+
+
+def assemble_scalar_matrix(conn: np.ndarray, element_matrices: np.ndarray, n: int) -> sp.csr_matrix:
+    """Sum scalar element matrices ``(ne, k, k)`` (e.g. mass ``M_s``) into a sparse ``(n, n)`` matrix."""
+    conn = np.asarray(conn)
+    k = conn.shape[1]
+    rows = np.repeat(conn, k, axis=1).ravel()
+    cols = np.tile(conn, (1, k)).ravel()
+    mat = sp.coo_matrix((element_matrices.ravel(), (rows, cols)), shape=(n, n))
+    return mat.tocsr()
+
+
+def expand_scalar_matrix(ms: sp.spmatrix) -> sp.csr_matrix:
+    """Isotropic 3-D matrix ``M = M_s ⊗ I_3`` from a scalar ``(n, n)`` matrix."""
+    return sp.kron(ms, sp.identity(3), format="csr")
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices ``[v]x`` of shape ``(..., 3, 3)`` with ``[v]x @ w = v × w``."""
+    v = np.asarray(v)
+    z = np.zeros(v.shape[:-1])
+    return np.stack(
+        [
+            np.stack([z, -v[..., 2], v[..., 1]], -1),
+            np.stack([v[..., 2], z, -v[..., 0]], -1),
+            np.stack([-v[..., 1], v[..., 0], z], -1),
+        ],
+        -2,
+    )

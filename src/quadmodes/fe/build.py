@@ -1,0 +1,166 @@
+"""Assemble a :class:`~quadmodes.fe.model.Structure` from a surface mesh or a beam description.
+
+Inputs are plain SI values; :mod:`quadmodes.pipeline` maps a validated case onto them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from quadmodes.fe.assembly import assemble_scalar_matrix
+from quadmodes.fe.bar import bar_set
+from quadmodes.fe.membrane import membrane_set
+from quadmodes.fe.model import Structure
+from quadmodes.fe.pressure import PressureSet
+from quadmodes.fe.rigid import point_mass_cluster, tie_connectivity
+
+
+@dataclass(frozen=True)
+class EndBodySpec:
+    """A rigid end body (SI): mass (kg), inertias about its own centre (kg m²), the radius of the
+    attached membrane patch around the pole (m), the outward offset of its centre from the pole (m)
+    and the half-size of the point-mass cluster (m)."""
+
+    name: str
+    pole: str
+    mass: float
+    inertia_axial: float
+    inertia_transverse: float
+    attach_radius: float
+    offset: float
+    arm: float
+
+
+@dataclass(frozen=True)
+class MembraneSpec:
+    """Membrane material and load (SI): thickness (m), Young's modulus (Pa), Poisson ratio,
+    density (kg/m³), pressure (Pa), gas-law exponent (0: constant pressure)."""
+
+    thickness: float
+    youngs_modulus: float
+    poisson_ratio: float
+    density: float
+    pressure: float
+    gas_law_exponent: float = 0.0
+    lumped_mass: bool = False
+    tie_stiffness_factor: float = 1e3
+
+
+def pole_nodes(points: np.ndarray, pole: str, radius: float, axis: int = 2) -> np.ndarray:
+    """Indices of surface nodes within ``radius`` (m) of the body axis on the ``pole`` side."""
+    z = points[:, axis]
+    radial = np.linalg.norm(np.delete(points, axis, axis=1), axis=1)
+    mid = 0.5 * (z.min() + z.max())
+    side = z < mid if pole == "front" else z > mid
+    return np.flatnonzero(side & (radial <= radius))
+
+
+def build_membrane_structure(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    spec: MembraneSpec,
+    end_bodies: Sequence[EndBodySpec] = (),
+) -> Structure:
+    """Closed membrane (outward triangles ``(nt, 3)`` on ``points`` ``(n, 3)`` m, body axis z) with
+    follower pressure and rigid end bodies. Node order: membrane nodes, then 7 points per body."""
+    points = np.asarray(points, float)
+    triangles = np.asarray(triangles, np.int64)
+    membrane = membrane_set(
+        triangles,
+        points,
+        spec.thickness,
+        spec.youngs_modulus,
+        spec.poisson_ratio,
+        spec.density,
+        lumped_mass=spec.lumped_mass,
+    )
+    all_points = [points]
+    point_masses = [np.zeros(len(points))]
+    groups: dict[str, np.ndarray] = {"membrane": np.arange(len(points))}
+    ties = []
+    tie_ea = []
+    n = len(points)
+    for body in end_bodies:
+        attached = pole_nodes(points, body.pole, body.attach_radius)
+        if len(attached) < 3:
+            raise ValueError(
+                f"end_body {body.name}: attach_radius {body.attach_radius:.4g} m reaches only "
+                f"{len(attached)} nodes; increase attach_radius or refine the mesh"
+            )
+        outward = np.array([0.0, 0.0, -1.0 if body.pole == "front" else 1.0])
+        pole_point = points[np.argmax(points @ outward)]
+        centre = np.array([0.0, 0.0, pole_point[2]]) + body.offset * outward
+        cluster_pts, cluster_m = point_mass_cluster(
+            centre,
+            outward,
+            body.mass,
+            body.inertia_axial,
+            body.inertia_transverse,
+            body.arm,
+            name=body.name,
+        )
+        idx = np.arange(n, n + len(cluster_pts))
+        n += len(cluster_pts)
+        all_points.append(cluster_pts)
+        point_masses.append(cluster_m)
+        groups[f"body:{body.name}"] = idx
+        groups[f"attach:{body.name}"] = attached
+        conn = tie_connectivity(idx, attached)
+        ties.append(conn)
+        tie_ea.append(
+            np.full(len(conn), spec.tie_stiffness_factor * spec.youngs_modulus * spec.thickness)
+        )
+    reference = np.concatenate(all_points)
+    # EA of a tie scales with its length so that every tie has axial stiffness k = factor·E·t.
+    elements: list = [membrane, PressureSet(triangles, spec.pressure)]
+    if ties:
+        conn = np.concatenate(ties)
+        lengths = np.linalg.norm(reference[conn[:, 1]] - reference[conn[:, 0]], axis=1)
+        elements.append(bar_set(conn, reference, np.concatenate(tie_ea) * lengths))
+    ms = assemble_scalar_matrix(membrane.conn, membrane.mass(), len(reference))
+    ms = (ms + sp.diags(np.concatenate(point_masses))).tocsr()
+    return Structure(
+        reference=reference,
+        translational=np.ones(len(reference), bool),
+        elements=tuple(elements),
+        mass_scalar=ms,
+        fixed=np.zeros((len(reference), 3), bool),
+        groups=groups,
+    )
+
+
+def build_beam_structure(
+    length: float,
+    n_elements: int,
+    EA: float,
+    EI: float,
+    rho_A: float,
+    clamped: bool = True,
+) -> Structure:
+    """Straight ANCF cable beam along +x from the origin (SI). A clamp at x = 0 fixes the root
+    position and the root tangent direction; the root slope's axial component stays free, because a
+    clamp fixes the direction of the centreline, not its stretch."""
+    from quadmodes.fe.cable import straight_cable
+
+    reference, translational, cable = straight_cable(
+        np.zeros(3), np.array([length, 0.0, 0.0]), n_elements, EA, EI, rho_A
+    )
+    n = len(reference)
+    fixed = np.zeros((n, 3), bool)
+    if clamped:
+        fixed[0, :] = True
+        fixed[1, 1:] = True
+    ms = assemble_scalar_matrix(cable.conn, cable.mass(), n)
+    positions = np.flatnonzero(translational)
+    return Structure(
+        reference=reference,
+        translational=translational,
+        elements=(cable,),
+        mass_scalar=ms,
+        fixed=fixed,
+        groups={"beam": positions},
+    )

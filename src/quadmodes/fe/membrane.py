@@ -1,0 +1,172 @@
+"""3-node total-Lagrangian membrane: Green–Lagrange strain, St Venant–Kirchhoff plane stress.
+
+Per element the deformation gradient is ``F = Σ_a x_a ⊗ G_a`` (3×2), with ``G`` ``(3, 2)`` the
+constant shape-function gradients in an orthonormal frame of the stress-free triangle. Then
+``E = ½(FᵀF − I)``, ``S = D : E`` and the nodal internal force is ``f_a = A₀ t F S G_a``, a cubic
+polynomial in the nodal positions, so its second-order term ``B`` is exact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def membrane_reference_gradients(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Shape-function gradients ``G`` ``(ne, 3, 2)`` (1/m) and areas ``A₀`` ``(ne,)`` (m²).
+
+    ``reference`` ``(ne, 3, 3)`` holds the stress-free node positions of each triangle.
+    """
+    e1 = reference[:, 1] - reference[:, 0]
+    e2 = reference[:, 2] - reference[:, 0]
+    normal = np.cross(e1, e2)
+    double_area = np.linalg.norm(normal, axis=1)
+    if np.any(double_area <= 0.0):
+        raise ValueError("mesh: degenerate (zero-area) membrane triangle; remesh the surface")
+    t1 = e1 / np.linalg.norm(e1, axis=1)[:, None]
+    t2 = np.cross(normal / double_area[:, None], t1)
+    # Edge vectors in the local orthonormal frame (t1, t2): Dm = [[e1·t1, e2·t1], [e1·t2, e2·t2]]
+    dm = np.stack(
+        [
+            np.stack([np.einsum("ei,ei->e", e1, t1), np.einsum("ei,ei->e", e2, t1)], -1),
+            np.stack([np.einsum("ei,ei->e", e1, t2), np.einsum("ei,ei->e", e2, t2)], -1),
+        ],
+        -2,
+    )
+    dm_inv = np.linalg.inv(dm)
+    corner = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+    gradients = np.einsum("ak,ekj->eaj", corner, dm_inv)
+    return gradients, 0.5 * double_area
+
+
+def plane_stress_matrix(youngs_modulus: float, poisson_ratio: float) -> np.ndarray:
+    """Voigt plane-stress matrix ``D`` (3×3, Pa) acting on ``[E11, E22, 2E12]``."""
+    nu = poisson_ratio
+    c = youngs_modulus / (1.0 - nu * nu)
+    return c * np.array([[1.0, nu, 0.0], [nu, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - nu)]])
+
+
+def _voigt_stress(d: np.ndarray, strain: np.ndarray) -> np.ndarray:
+    """Stress tensors ``(ne, 2, 2)`` from strain tensors ``(ne, 2, 2)`` through Voigt ``D``."""
+    ev = np.stack([strain[:, 0, 0], strain[:, 1, 1], 2.0 * strain[:, 0, 1]], -1)
+    sv = ev @ d.T
+    return np.stack([np.stack([sv[:, 0], sv[:, 2]], -1), np.stack([sv[:, 2], sv[:, 1]], -1)], -2)
+
+
+def green_strain(gradients: np.ndarray, xe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Deformation gradient ``F`` ``(ne, 3, 2)`` and Green–Lagrange strain ``E`` ``(ne, 2, 2)``."""
+    f = np.einsum("eai,eaj->eij", xe, gradients)
+    e = 0.5 * (np.einsum("eki,ekj->eij", f, f) - np.eye(2))
+    return f, e
+
+
+@dataclass(frozen=True)
+class MembraneSet:
+    """CST membrane elements over triangles ``conn`` ``(ne, 3)``.
+
+    ``gradients`` ``(ne, 3, 2)`` and ``area0`` ``(ne,)`` come from the stress-free reference
+    (see :func:`membrane_set`); ``thickness`` (m), ``youngs_modulus`` (Pa), ``poisson_ratio``,
+    ``density`` (kg/m³), ``lumped_mass`` selects row-sum lumping.
+    """
+
+    conn: np.ndarray
+    gradients: np.ndarray
+    area0: np.ndarray
+    thickness: float
+    youngs_modulus: float
+    poisson_ratio: float
+    density: float
+    lumped_mass: bool = False
+    d: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "d", plane_stress_matrix(self.youngs_modulus, self.poisson_ratio))
+
+    def _volume(self) -> np.ndarray:
+        return self.area0 * self.thickness
+
+    def strain_stress(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``F`` ``(ne,3,2)``, Green strain ``E`` and 2nd Piola–Kirchhoff stress ``S`` ``(ne,2,2)`` (Pa)."""
+        f, e = green_strain(self.gradients, x[self.conn])
+        return f, e, _voigt_stress(self.d, e)
+
+    def energy(self, x: np.ndarray) -> float:
+        _, e, s = self.strain_stress(x)
+        return float(0.5 * np.sum(self._volume() * np.einsum("eij,eij->e", e, s)))
+
+    def force(self, x: np.ndarray) -> np.ndarray:
+        f, _, s = self.strain_stress(x)
+        return self._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", f, s, self.gradients)
+
+    def stiffness(self, x: np.ndarray) -> np.ndarray:
+        f, _, s = self.strain_stress(x)
+        g = self.gradients
+        # Strain–displacement rows for [E11, E22, 2E12] w.r.t. node a, component i.
+        bm = np.stack(
+            [
+                np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 0]),
+                np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 1]),
+                np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 1])
+                + np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 0]),
+            ],
+            1,
+        ).reshape(-1, 3, 9)
+        k_mat = np.einsum("epa,pq,eqb->eab", bm, self.d, bm)
+        k_geo_scalar = np.einsum("eak,ekl,ebl->eab", g, s, g)
+        k_geo = np.einsum("eab,ij->eaibj", k_geo_scalar, np.eye(3)).reshape(-1, 9, 9)
+        return self._volume()[:, None, None] * (k_mat + k_geo)
+
+    def second_order(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        g = self.gradients
+        f, _, s = self.strain_stress(x)
+        fu = np.einsum("eai,eaj->eij", u[self.conn], g)
+        fv = np.einsum("eai,eaj->eij", v[self.conn], g)
+
+        def sym(a: np.ndarray) -> np.ndarray:
+            return 0.5 * (a + np.swapaxes(a, 1, 2))
+
+        su = _voigt_stress(self.d, sym(np.einsum("eki,ekj->eij", f, fu)))
+        sv = _voigt_stress(self.d, sym(np.einsum("eki,ekj->eij", f, fv)))
+        suv = _voigt_stress(self.d, sym(np.einsum("eki,ekj->eij", fu, fv)))
+        d2 = (
+            np.einsum("eij,ejk,eak->eai", f, suv, g)
+            + np.einsum("eij,ejk,eak->eai", fu, sv, g)
+            + np.einsum("eij,ejk,eak->eai", fv, su, g)
+        )
+        return 0.5 * self._volume()[:, None, None] * d2
+
+    def mass(self) -> np.ndarray:
+        m = self.density * self._volume()
+        if self.lumped_mass:
+            return m[:, None, None] * (np.eye(3) / 3.0)
+        return m[:, None, None] * ((np.ones((3, 3)) + np.eye(3)) / 12.0)
+
+    def principal_stress_resultants(self, x: np.ndarray) -> np.ndarray:
+        """Principal Cauchy stress resultants ``(ne, 2)`` (N/m), ascending, in the current state."""
+        f, _, s = self.strain_stress(x)
+        c = np.einsum("eki,ekj->eij", f, f)
+        jac_area = np.sqrt(np.linalg.det(c))
+        # Cauchy resultant t F S Fᵀ / J shares its in-plane eigenvalues with t S C / J.
+        a = np.einsum("eij,ejk->eik", s, c) * (self.thickness / jac_area)[:, None, None]
+        half_trace = 0.5 * (a[:, 0, 0] + a[:, 1, 1])
+        det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+        root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+        return np.stack([half_trace - root, half_trace + root], -1)
+
+
+def membrane_set(
+    conn: np.ndarray,
+    reference: np.ndarray,
+    thickness: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    density: float,
+    lumped_mass: bool = False,
+) -> MembraneSet:
+    """Membrane set from triangles ``conn`` ``(ne, 3)`` and stress-free positions ``(n, 3)`` (m)."""
+    conn = np.asarray(conn, dtype=np.int64)
+    gradients, area0 = membrane_reference_gradients(reference[conn])
+    return MembraneSet(
+        conn, gradients, area0, thickness, youngs_modulus, poisson_ratio, density, lumped_mass
+    )

@@ -1,0 +1,164 @@
+"""Glue from a validated case to the finite-element stages: mesh -> structure -> prestress ->
+modes -> labels. Each step is a small function; the CLI and the calibration call them."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadmodes.config import Case
+from quadmodes.fe.build import (
+    EndBodySpec,
+    MembraneSpec,
+    build_beam_structure,
+    build_membrane_structure,
+)
+from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor, total_mass
+from quadmodes.labels import label_modes
+from quadmodes.mesh.io import read_surface
+from quadmodes.mesh.revolution import (
+    capsule_surface,
+    flat_cylinder_surface,
+    sphere_cone_surface,
+    sphere_surface,
+)
+from quadmodes.mesh.surface import TriangleSurface, check_closed_surface, min_angle_deg
+from quadmodes.modes import ModalResult, compute_modes
+from quadmodes.prestress import PrestressedState, inflate
+
+Progress = Callable[[str, float], None]
+
+
+def surface_for_case(case: Case) -> TriangleSurface:
+    """The stress-free membrane surface of a membrane case (m)."""
+    g, h = case.geometry, case.mesh.edge_length
+    if g.shape == "sphere-cone":
+        surface = sphere_cone_surface(
+            g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter, h
+        )
+    elif g.shape == "sphere":
+        surface = sphere_surface(0.5 * g.diameter, h)
+    elif g.shape == "capsule":
+        surface = capsule_surface(0.5 * g.diameter, g.length, h)
+    elif g.shape == "flat-cylinder":
+        surface = flat_cylinder_surface(0.5 * g.diameter, g.length, h)
+    else:
+        surface = read_surface(g.file)
+    if case.pressure is not None and case.pressure.value > 0.0:
+        check_closed_surface(surface)
+    if min_angle_deg(surface.points, surface.triangles) < 5.0:
+        raise ValueError("mesh: triangles with angles below 5° found; remesh or change edge_length")
+    return surface
+
+
+def end_body_specs(case: Case) -> list[EndBodySpec]:
+    """SI end-body descriptions of a case."""
+    return [
+        EndBodySpec(
+            b.name,
+            b.pole,
+            b.mass,
+            b.inertia_axial,
+            b.inertia_transverse,
+            b.attach_radius,
+            b.offset,
+            b.arm,
+        )
+        for b in case.end_body
+    ]
+
+
+def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> Structure:
+    """The finite-element structure of a case (stress-free)."""
+    if case.kind == "beam":
+        b = case.beam
+        return build_beam_structure(
+            b.length,
+            b.elements,
+            b.youngs_modulus * b.area,
+            b.youngs_modulus * b.second_moment,
+            b.density * b.area,
+            clamped=b.support == "clamped",
+        )
+    surface = surface if surface is not None else surface_for_case(case)
+    m = case.material
+    spec = MembraneSpec(
+        thickness=m.thickness,
+        youngs_modulus=m.youngs_modulus,
+        poisson_ratio=m.poisson_ratio,
+        density=m.density,
+        pressure=case.pressure.value,
+        gas_law_exponent=case.pressure.gas_law_exponent,
+        lumped_mass=case.mesh.mass_matrix == "lumped",
+    )
+    return build_membrane_structure(surface.points, surface.triangles, spec, end_body_specs(case))
+
+
+@dataclass(frozen=True)
+class ModalModel:
+    """Everything the modal stage produced for a case."""
+
+    case: Case
+    structure: Structure
+    prestress: PrestressedState | None
+    x: np.ndarray
+    modes: ModalResult
+    labels: list[str]
+
+
+def reference_state(
+    case: Case, structure: Structure, progress: Progress | None = None
+) -> tuple[np.ndarray, PrestressedState | None]:
+    """Prestressed equilibrium of a membrane case, or the stress-free state of a beam."""
+    if case.kind == "beam":
+        return structure.reference, None
+    state = inflate(structure, progress=progress)
+    compressed = float(np.mean(state.stress_resultants[:, 0] <= 0.0))
+    if compressed > 0.05:
+        raise ValueError(
+            f"pressure.value: {100 * compressed:.0f} % of the membrane is in compression after "
+            "inflation (the pressure is too low to tension it); raise the pressure"
+        )
+    return state.x, state
+
+
+def build_modal_model(case: Case, progress: Progress | None = None) -> ModalModel:
+    """Mesh, structure, prestress, modes and labels of a case."""
+    structure = structure_for_case(case)
+    x, state = reference_state(case, structure, progress)
+    if progress:
+        progress("modes", 0.0)
+    modes = compute_modes(structure, x, case.modes.count)
+    if progress:
+        progress("modes", 1.0)
+    return ModalModel(case, structure, state, x, modes, label_modes(structure, x, modes.shapes))
+
+
+def modes_summary(model: ModalModel) -> dict:
+    """JSON-ready summary: frequencies (Hz), labels, rigid frequencies (Hz), mass (kg), inertia
+    about the centre of mass (kg m²), pressure (Pa), and prestress figures."""
+    s, x = model.structure, model.x
+    out = {
+        "case": model.case.name,
+        "frequencies_hz": [float(f) for f in model.modes.frequencies_hz],
+        "labels": list(model.labels),
+        "rigid_frequencies_hz": [float(f) for f in model.modes.rigid_frequencies_hz],
+        "mass_kg": total_mass(s),
+        "inertia_kg_m2": inertia_tensor(s, x).tolist(),
+        "centre_of_mass_m": centre_of_mass(s, x).tolist(),
+        "pressure_pa": float(model.case.pressure.value) if model.case.pressure else 0.0,
+        "n_nodes": int(s.n),
+        "n_dofs": int(s.free_dofs.size),
+    }
+    if model.prestress is not None:
+        st = model.prestress
+        out["prestress"] = {
+            "volume_change": st.volume_change,
+            "stress_resultant_min_n_per_m": float(st.stress_resultants.min()),
+            "stress_resultant_max_n_per_m": float(st.stress_resultants.max()),
+            "elements_in_compression": int(np.sum(st.stress_resultants[:, 0] <= 0.0)),
+            "relative_residual": st.residual_norm,
+        }
+    return out

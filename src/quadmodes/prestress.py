@@ -1,0 +1,196 @@
+"""Prestress stage: nonlinear statics of the free-floating inflated membrane.
+
+Load stepping on the pressure with Newton–Raphson and a backtracking line search. The six rigid
+motions of a free body are removed by the mass-weighted frame conditions ``Ψᵀ M Δx = 0`` (centre of
+mass and mean axes fixed) through a bordered system; because pressure and membrane forces are
+self-equilibrated, the Lagrange multipliers stay at round-off, i.e. there are no spurious reactions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from quadmodes.fe.membrane import MembraneSet
+from quadmodes.fe.model import (
+    Structure,
+    internal_force,
+    mass_matrix,
+    rigid_body_modes,
+    tangent_low_rank,
+    tangent_stiffness,
+    with_load_factor,
+)
+from quadmodes.fe.pressure import PressureSet, enclosed_volume
+
+Progress = Callable[[str, float], None]
+
+
+class ConvergenceError(RuntimeError):
+    """A Newton iteration did not converge; the message is one line naming the stage."""
+
+
+@dataclass(frozen=True)
+class PrestressedState:
+    """The inflated equilibrium: the reference for modes and quadratic modes.
+
+    x: ``(n, 3)`` equilibrium vector DOFs (m). residual_norm: final ``‖f(x)‖`` relative to the
+    pressure force norm. volume0, volume: enclosed volumes before and after inflation (m³).
+    stress_resultants: ``(ne, 2)`` principal Cauchy stress resultants of the membrane (N/m).
+    strain_major: ``(ne,)`` major principal Green strain. iterations: Newton iterations in total.
+    """
+
+    x: np.ndarray
+    residual_norm: float
+    volume0: float
+    volume: float
+    stress_resultants: np.ndarray
+    strain_major: np.ndarray
+    iterations: int
+
+    @property
+    def volume_change(self) -> float:
+        return self.volume / self.volume0 - 1.0 if self.volume0 else 0.0
+
+    def wrinkle_state(self) -> np.ndarray:
+        """Per element 0 taut, 1 wrinkled, 2 slack (Stein–Hedgepeth tension-field criterion)."""
+        minor = self.stress_resultants[:, 0]
+        state = np.zeros(len(minor), dtype=int)
+        state[minor <= 0.0] = 1
+        state[(minor <= 0.0) & (self.strain_major <= 0.0)] = 2
+        return state
+
+
+def _bordered_solver(k: sp.spmatrix, constraint: np.ndarray | None, low_rank) -> Callable:
+    """Factorise ``[[K + Σ c v vᵀ, C], [Cᵀ, 0]]`` and return ``rhs (3n,) -> solution (3n,)``."""
+    n = k.shape[0]
+    if constraint is None:
+        a = k.tocsc()
+    else:
+        c = sp.csc_matrix(constraint)
+        a = sp.bmat([[k, c], [c.T, None]], format="csc")
+    lu = spla.splu(a, permc_spec="COLAMD")
+    m = a.shape[0]
+
+    def base(rhs: np.ndarray) -> np.ndarray:
+        full = np.zeros(m)
+        full[:n] = rhs
+        return lu.solve(full)[:n]
+
+    if not low_rank:
+        return base
+    # Sherman–Morrison for the rank-one gas-law terms.
+    vecs = [(coef, vec, base(vec)) for coef, vec in low_rank]
+
+    def solve(rhs: np.ndarray) -> np.ndarray:
+        y = base(rhs)
+        for coef, vec, kv in vecs:
+            y = y - kv * (coef * (vec @ y) / (1.0 + coef * (vec @ kv)))
+        return y
+
+    return solve
+
+
+def _reduced(structure: Structure, vec: np.ndarray) -> np.ndarray:
+    return vec.ravel()[structure.free_dofs]
+
+
+def solve_static(
+    structure: Structure,
+    x_start: np.ndarray,
+    rtol: float = 1e-10,
+    max_iterations: int = 40,
+    stage: str = "statics",
+) -> tuple[np.ndarray, float, int]:
+    """Newton–Raphson with line search to ``‖f‖ ≤ rtol · scale``; returns ``(x, rel_residual, its)``.
+
+    The scale is the norm of the pressure force (or of the first residual without pressure).
+    """
+    x = x_start.copy()
+    free = structure.free_dofs
+    msub = mass_matrix(structure)[free][:, free] if structure.is_free else None
+    pressure_sets = [e for e in structure.elements if isinstance(e, PressureSet)]
+    scale = 0.0
+    for ps in pressure_sets:
+        scale += np.linalg.norm(ps.force(x))
+    r = _reduced(structure, internal_force(structure, x))
+    scale = max(scale, np.linalg.norm(r), 1e-300)
+    rel = np.linalg.norm(r) / scale
+    for it in range(1, max_iterations + 1):
+        if rel <= rtol:
+            return x, rel, it - 1
+        k = tangent_stiffness(structure, x)[free][:, free]
+        constraint = msub @ rigid_body_modes(structure, x)[free] if structure.is_free else None
+        solve = _bordered_solver(k, constraint, tangent_low_rank(structure, x))
+        dx_free = -solve(r)
+        dx = np.zeros(3 * structure.n)
+        dx[free] = dx_free
+        dx = dx.reshape(-1, 3)
+        # Backtracking on the residual norm (the tangent can be indefinite early in inflation).
+        step = 1.0
+        for _ in range(12):
+            trial = x + step * dx
+            r_trial = _reduced(structure, internal_force(structure, trial))
+            if np.linalg.norm(r_trial) < (1.0 - 1e-4 * step) * np.linalg.norm(r) or rel < 1e-6:
+                break
+            step *= 0.5
+        x, r = trial, r_trial
+        rel = np.linalg.norm(r) / scale
+        if not np.isfinite(rel):
+            break
+    if rel <= rtol * 10:  # accept a last-digit stall at round-off level
+        return x, rel, max_iterations
+    raise ConvergenceError(
+        f"{stage}: Newton did not converge (relative residual {rel:.2e} after {max_iterations} "
+        "iterations); use more inflation steps, a finer mesh, or check the pressure"
+    )
+
+
+def inflate(
+    structure: Structure,
+    steps: int = 1,
+    rtol: float = 1e-10,
+    progress: Progress | None = None,
+) -> PrestressedState:
+    """Inflate from the stress-free shape to full pressure in ``steps`` load increments (halved
+    automatically on failure) and return the equilibrium with its stress report."""
+    x = structure.reference.copy()
+    pressure_sets = [e for e in structure.elements if isinstance(e, PressureSet)]
+    if not pressure_sets:
+        raise ValueError("pressure: the structure has no pressure load; add a [pressure] section")
+    triangles = pressure_sets[0].conn
+    volume0 = enclosed_volume(x, triangles)
+    factor, increment, total_its = 0.0, 1.0 / steps, 0
+    rel = np.inf
+    while factor < 1.0 - 1e-12:
+        target = min(1.0, factor + increment)
+        try:
+            x_new, rel, its = solve_static(
+                with_load_factor(structure, target), x, rtol=rtol, stage="inflation"
+            )
+        except ConvergenceError:
+            if increment < 1e-3:
+                raise
+            increment *= 0.5
+            continue
+        x, factor, total_its = x_new, target, total_its + its
+        if progress:
+            progress("inflation", factor)
+    membranes = [e for e in structure.elements if isinstance(e, MembraneSet)]
+    resultants = np.concatenate([m.principal_stress_resultants(x) for m in membranes])
+    strain_major = np.concatenate(
+        [np.linalg.eigvalsh(m.strain_stress(x)[1])[:, 1] for m in membranes]
+    )
+    return PrestressedState(
+        x=x,
+        residual_norm=float(rel),
+        volume0=volume0,
+        volume=enclosed_volume(x, triangles),
+        stress_resultants=resultants,
+        strain_major=strain_major,
+        iterations=total_its,
+    )

@@ -1,0 +1,221 @@
+"""Tests for quadmodes.output (VTU/PVD writers and PNG plots) on a small closed surface."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from quadmodes import output
+
+
+def _sphere(n_theta: int = 6, n_phi: int = 10, radius: float = 0.5):
+    """Coarse closed UV sphere, slightly flattened: points (n, 3) [m], triangles (nt, 3)."""
+    theta = np.linspace(0.0, np.pi, n_theta + 1)[1:-1]
+    phi = np.linspace(0.0, 2.0 * np.pi, n_phi, endpoint=False)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    ring = np.column_stack(
+        [
+            np.sin(t).ravel() * np.cos(p).ravel(),
+            np.sin(t).ravel() * np.sin(p).ravel(),
+            0.7 * np.cos(t).ravel(),
+        ]
+    )
+    pts = radius * np.vstack([[0.0, 0.0, 0.7], ring, [0.0, 0.0, -0.7]])
+    south = len(pts) - 1
+
+    def idx(i, j):
+        return 1 + i * n_phi + (j % n_phi)
+
+    tris = []
+    for j in range(n_phi):
+        tris.append([0, idx(0, j), idx(0, j + 1)])
+        tris.append([south, idx(n_theta - 2, j + 1), idx(n_theta - 2, j)])
+    for i in range(n_theta - 2):
+        for j in range(n_phi):
+            a, b, c, d = idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)
+            tris.append([a, b, c])
+            tris.append([a, c, d])
+    return pts, np.array(tris, dtype=np.int64)
+
+
+@pytest.fixture(scope="module")
+def surface():
+    pts, tri = _sphere()
+    n = len(pts)
+    x, y, z = pts.T
+    shapes = np.stack(
+        [
+            np.column_stack([np.ones(n), np.zeros(n), np.zeros(n)]),  # translation
+            np.column_stack([-y, x, np.zeros(n)]),  # rotation about z
+            pts * z[:, None],  # "breathing" of the upper half
+        ]
+    )
+    freqs = np.array([0.0, 12.5, 31.2])
+    labels = ["translation x", "spin about z", "rocking (rear mass)"]
+    lines = np.array([[0, len(pts) - 1], [1, 6]])
+    return pts, tri, shapes, freqs, labels, lines
+
+
+def _check_png(path: Path) -> None:
+    assert path.is_file()
+    with open(path, "rb") as fh:
+        assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    img = imread(path)
+    assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
+    assert float(img[..., :3].std()) > 0.0
+    leftovers = [p for p in path.parent.iterdir() if p.name.endswith(".tmp")]
+    assert not leftovers
+
+
+def _triangles(mesh) -> np.ndarray:
+    return np.vstack([c.data for c in mesh.cells if c.type == "triangle"])
+
+
+def test_write_mesh_vtu_roundtrip(tmp_path, surface):
+    pts, tri, shapes, _, _, lines = surface
+    stress = np.linspace(-1.0, 3.0, len(tri))
+    state = np.arange(len(tri)) % 3
+    path = output.write_mesh_vtu(
+        tmp_path / "mesh.vtu",
+        pts,
+        tri,
+        lines=lines,
+        point_data={"displacement": shapes[2]},
+        cell_data={"stress_minor_N_per_m": stress, "wrinkle_state": state},
+    )
+    mesh = meshio.read(path)
+    np.testing.assert_allclose(mesh.points, pts, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(_triangles(mesh), tri)
+    lin = np.vstack([c.data for c in mesh.cells if c.type == "line"])
+    np.testing.assert_array_equal(lin, lines)
+    np.testing.assert_allclose(mesh.point_data["displacement"], shapes[2], rtol=0, atol=1e-12)
+    blocks = [c.type for c in mesh.cells]
+    s = mesh.cell_data["stress_minor_N_per_m"]
+    np.testing.assert_allclose(s[blocks.index("triangle")], stress, atol=1e-12)
+    assert np.all(np.isnan(s[blocks.index("line")]))
+    w = mesh.cell_data["wrinkle_state"]
+    np.testing.assert_array_equal(w[blocks.index("triangle")], state)
+    np.testing.assert_array_equal(w[blocks.index("line")], 0)
+    assert [p.name for p in tmp_path.iterdir()] == ["mesh.vtu"]
+
+
+def test_write_mesh_vtu_rejects_bad_input(tmp_path, surface):
+    pts, tri, *_ = surface
+    with pytest.raises(ValueError):
+        output.write_mesh_vtu(tmp_path / "bad.vtu", pts, tri, cell_data={"x": np.ones(3)})
+    with pytest.raises(ValueError):
+        output.write_mesh_vtu(tmp_path / "bad.vtu", pts, tri + len(pts))
+    assert list(tmp_path.iterdir()) == []
+
+
+def _pvd_files(path: Path) -> list[tuple[float, str]]:
+    root = ET.parse(path).getroot()
+    assert root.tag == "VTKFile" and root.attrib["type"] == "Collection"
+    return [(float(d.attrib["timestep"]), d.attrib["file"]) for d in root.iter("DataSet")]
+
+
+def test_write_modes_pvd(tmp_path, surface):
+    pts, tri, shapes, freqs, labels, lines = surface
+    frames = 8  # frame frames//4 is exactly a quarter period
+    out = tmp_path / "modes_out"
+    top = output.write_modes_pvd(out, pts, tri, shapes, freqs, labels, lines=lines, frames=frames)
+    assert top == out / "modes.pvd"
+
+    entries = _pvd_files(top)
+    assert [t for t, _ in entries] == [0.0, 1.0, 2.0]
+    for k, (_, fname) in enumerate(entries):
+        assert fname == f"mode_{k:02d}.vtu"
+        mesh = meshio.read(out / fname)
+        np.testing.assert_allclose(mesh.points, pts, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(_triangles(mesh), tri)
+        np.testing.assert_allclose(mesh.point_data["displacement"], shapes[k], atol=1e-12)
+        np.testing.assert_allclose(mesh.point_data["frequency_hz"], freqs[k], atol=1e-12)
+        np.testing.assert_allclose(mesh.field_data["frequency_hz"], [freqs[k]], atol=1e-12)
+
+        anim = _pvd_files(out / f"mode_{k:02d}.pvd")
+        assert len(anim) == frames
+        assert all((out / f).is_file() for _, f in anim)
+        # frame at a quarter period: full amplitude, default scale = 10 % of bbox diagonal
+        quarter = meshio.read(out / anim[frames // 4][1])
+        amp = np.linalg.norm(quarter.points - pts, axis=1).max()
+        diag = np.linalg.norm(pts.max(0) - pts.min(0))
+        np.testing.assert_allclose(amp, 0.1 * diag, rtol=1e-9)
+        first = meshio.read(out / anim[0][1])
+        np.testing.assert_allclose(first.points, pts, atol=1e-12)
+
+    names = sorted(p.name for p in out.iterdir())
+    assert len(names) == 1 + 1 + 3 * (2 + frames)  # modes.pvd, modes.txt, per mode
+    assert not [n for n in names if n.endswith(".tmp")]
+
+
+def test_write_modes_pvd_explicit_scale(tmp_path, surface):
+    pts, tri, shapes, freqs, labels, _ = surface
+    output.write_modes_pvd(
+        tmp_path, pts, tri, shapes[:1], freqs[:1], labels[:1], frames=4, scale=0.01
+    )
+    quarter = meshio.read(tmp_path / "mode_00_frame_001.vtu")
+    np.testing.assert_allclose(quarter.points, pts + 0.01 * shapes[0], atol=1e-12)
+
+
+@pytest.mark.parametrize("with_lines", [False, True])
+@pytest.mark.parametrize("with_values", [False, True])
+def test_plot_mesh_png(tmp_path, surface, with_lines, with_values):
+    pts, tri, _, _, _, lines = surface
+    path = output.plot_mesh_png(
+        tmp_path / "mesh.png",
+        pts,
+        tri,
+        title="test mesh",
+        lines=lines if with_lines else None,
+        cell_values=np.linspace(0.0, 1.0, len(tri)) if with_values else None,
+        cell_label="stress_minor_N_per_m" if with_values else None,
+    )
+    _check_png(Path(path))
+
+
+@pytest.mark.parametrize("with_lines", [False, True])
+def test_plot_mode_png(tmp_path, surface, with_lines):
+    pts, tri, shapes, freqs, labels, lines = surface
+    path = output.plot_mode_png(
+        tmp_path / "mode.png",
+        pts,
+        tri,
+        shapes[2],
+        freqs[2],
+        labels[2],
+        lines=lines if with_lines else None,
+        index=2,
+    )
+    _check_png(Path(path))
+
+
+def test_plot_mode_png_zero_shape(tmp_path, surface):
+    pts, tri, *_ = surface
+    _check_png(output.plot_mode_png(tmp_path / "z.png", pts, tri, np.zeros_like(pts), 1.0, "z"))
+
+
+@pytest.mark.parametrize("with_lines", [False, True])
+def test_plot_modes_overview_png(tmp_path, surface, with_lines):
+    pts, tri, shapes, freqs, labels, lines = surface
+    path = output.plot_modes_overview_png(
+        tmp_path / "overview.png",
+        pts,
+        tri,
+        shapes,
+        freqs,
+        labels,
+        lines=lines if with_lines else None,
+    )
+    _check_png(Path(path))
+
+
+def test_plot_failure_leaves_no_file(tmp_path, surface):
+    pts, tri, *_ = surface
+    with pytest.raises(ValueError):
+        output.plot_mesh_png(tmp_path / "bad.png", pts, tri, cell_values=np.ones(2))
+    assert list(tmp_path.iterdir()) == []
