@@ -300,21 +300,30 @@ class Pressure(_Section):
 
 
 class EndBody(_Section):
-    """Rigid body at a pole: mass kg, inertias kg m^2 about its own centre, lengths m.
+    """Rigid body at a pole: mass kg, lengths m, inertias kg m^2 about its own centre.
 
-    Membrane nodes on that cap within ``attach_radius`` of the axis are tied to it; its centre
-    of mass lies ``offset`` outside the pole on the axis; ``arm`` is the half-size of the
-    point-mass cluster that carries the inertia.
+    Its rotary inertia is given either directly (``inertia_axial``, ``inertia_transverse``) or as
+    the shape of a uniform solid cylinder (``radius``, ``height``; axis along the body axis), in
+    which case the inertias scale with the mass (the calibration fits masses with the shape
+    fixed). Membrane nodes on that cap within ``attach_radius`` of the axis are tied to it; its
+    centre of mass lies ``offset`` outside the pole on the axis; ``arm`` is the half-size of the
+    point-mass cluster that carries the inertia (default: 1.25 × the smallest that works).
     """
 
     name: _text("rear")
     pole: _choice("front", "rear")
     mass: _quantity("mass", "0.1 kg", _positive, "kg")
-    inertia_axial: _quantity("inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2")
-    inertia_transverse: _quantity("inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2")
+    inertia_axial: _quantity("inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2", optional=True) = (
+        None
+    )
+    inertia_transverse: _quantity(
+        "inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2", optional=True
+    ) = None
+    radius: _quantity("length", "2 in", _positive, "in", optional=True) = None
+    height: _quantity("length", "1 in", _nonnegative, "in", optional=True) = None
     attach_radius: _quantity("length", "1.5 in", _positive, "in")
     offset: _quantity("length", "0.5 in", _nonnegative, "in")
-    arm: _quantity("length", "1 in", _positive, "in")
+    arm: _quantity("length", "1 in", _positive, "in", optional=True) = None
 
     @field_validator("name")
     @classmethod
@@ -322,6 +331,42 @@ class EndBody(_Section):
         if not value.strip():
             raise _error("case_value", 'must not be empty; use e.g. "rear"')
         return value
+
+    @model_validator(mode="after")
+    def check_inertia(self) -> Self:
+        direct = (self.inertia_axial is not None, self.inertia_transverse is not None)
+        shape = (self.radius is not None, self.height is not None)
+        if any(direct) and any(shape):
+            raise _error(
+                "case_rule",
+                "give either inertia_axial and inertia_transverse, or radius and height, not both",
+                "radius" if shape[0] else "height",
+            )
+        if not (all(direct) or all(shape)):
+            missing = "inertia_transverse" if direct[0] else "inertia_axial"
+            if any(shape):
+                missing = "height" if shape[0] else "radius"
+            raise _error(
+                "case_rule",
+                "missing; give inertia_axial and inertia_transverse, or radius and height "
+                '(a uniform solid cylinder), e.g. radius = "2 in"',
+                missing,
+            )
+        return self
+
+    def inertias(self) -> tuple[float, float]:
+        """Axial and transverse moments of inertia (kg m²) about the body's own centre."""
+        if self.radius is not None:
+            r, h = self.radius, self.height or 0.0
+            return 0.5 * self.mass * r * r, self.mass * (3.0 * r * r + h * h) / 12.0
+        return self.inertia_axial, self.inertia_transverse
+
+    def cluster_arm(self) -> float:
+        """Half-size (m) of the point-mass cluster: ``arm`` or 1.25 × the smallest feasible."""
+        if self.arm is not None:
+            return self.arm
+        i_ax, i_tr = self.inertias()
+        return 1.25 * max((i_ax + 2.0 * i_tr) / (2.0 * self.mass), 1e-12) ** 0.5
 
 
 class Beam(_Section):

@@ -667,6 +667,6 @@ def plot_modes_overview_png(
             _draw_lines(ax, deformed, lin, lw=0.8)
         _set_equal_aspect(ax, np.vstack([pts, deformed]), zoom=1.2)
         _style_axes(ax, small=True)
-        ax.set_title(f"{k}: {freqs[k]:.1f} Hz\n{labels[k]}", fontsize=8)
+        ax.set_title(f"{k + 1}: {freqs[k]:.1f} Hz\n{labels[k]}", fontsize=8)
     fig.subplots_adjust(left=0.02, right=0.98, bottom=0.02, top=0.92, wspace=0.05, hspace=0.2)
     return _save_png(fig, path)

@@ -60,11 +60,10 @@ def end_body_specs(case: Case) -> list[EndBodySpec]:
             b.name,
             b.pole,
             b.mass,
-            b.inertia_axial,
-            b.inertia_transverse,
+            *b.inertias(),
             b.attach_radius,
             b.offset,
-            b.arm,
+            b.cluster_arm(),
         )
         for b in case.end_body
     ]
