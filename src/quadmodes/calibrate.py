@@ -9,6 +9,7 @@ re-solves the eigenproblem.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -23,6 +24,7 @@ from quadmodes.modes import compute_modes
 from quadmodes.pipeline import reference_state, structure_for_case
 
 Progress = Callable[[str, float], None]
+log = logging.getLogger(__name__)
 
 
 class CalibrationError(RuntimeError):
@@ -57,12 +59,6 @@ def _with_bodies(structure: Structure, bodies: dict[str, tuple[float, float, flo
     return replace(structure, mass_scalar=(structure.mass_scalar + sp.diags(change)).tocsr())
 
 
-def _pairs(freqs: np.ndarray, labels: list[str], kind: str) -> list[float]:
-    """Mean frequencies of consecutive modes carrying label ``kind`` (degenerate pairs)."""
-    idx = [i for i, lab in enumerate(labels) if lab.startswith(kind)]
-    return [float(np.mean(freqs[idx[i : i + 2]])) for i in range(0, len(idx) - 1, 2)]
-
-
 def calibrate_end_masses(
     case: Case,
     rocking_hz: float = 31.2,
@@ -89,8 +85,13 @@ def calibrate_end_masses(
             f"{sorted(names)}); add them as [[end_body]] tables"
         )
     bodies = {b.name: b for b in case.end_body}
-    # Fixed cluster arms (twice the smallest feasible at the start) keep K independent of the fit.
-    arms = {n: 2.0 * b.cluster_arm() / 1.25 if b.arm is None else b.arm for n, b in bodies.items()}
+    # Fixed cluster arms keep K independent of the fit; three times the smallest feasible arm at
+    # the start admits inertia-to-mass ratios up to 9 times the starting one. The arm is a
+    # representation detail (the cluster is rigid), not a physical parameter.
+    arms = {}
+    for name, b in bodies.items():
+        i_ax, i_tr = b.inertias()
+        arms[name] = float(3.0 * np.sqrt((i_ax + 2.0 * i_tr) / (2.0 * b.mass)))
     case = case.model_copy(
         update={
             "end_body": tuple(
@@ -146,36 +147,86 @@ def calibrate_end_masses(
             cache[key] = (values, modes, labels)
         return cache[key]
 
-    def residual(log_p: np.ndarray) -> np.ndarray:
-        _, modes, labels = solve(log_p)
+    families = {"rocking": 2, "bending": 2}
+    if fit_inertia:
+        families["axial"] = 1
+    targets = {"rocking": rocking_hz, "bending": bending_hz, "axial": axial_hz}
+    start_labels = {
+        "rocking": f"rocking ({rear} mass)",
+        "bending": "bending",
+        "axial": f"axial ({rear} mass)",
+    }
+
+    def pick(modes, reference: dict[str, np.ndarray], m_scalar) -> dict[str, np.ndarray]:
+        """Indices of each family's modes: highest mass-weighted overlap with the reference."""
+        phi = modes.shapes.reshape(len(modes.frequencies_hz), -1)
+        out = {}
+        for fam, ref in reference.items():
+            # overlap of each mode with the family subspace (shapes are mass-normalised)
+            mref = np.stack([(m_scalar @ r.reshape(-1, 3)).ravel() for r in ref])
+            overlap = np.sum((phi @ mref.T) ** 2, axis=1)
+            out[fam] = np.sort(np.argsort(-overlap)[: families[fam]])
+        return out
+
+    def family_frequencies(log_p: np.ndarray, reference) -> dict[str, float] | None:
+        values, modes, _ = solve(log_p)
         if modes is None:
-            return np.full(3 if fit_inertia else 2, 10.0)
-        f = modes.frequencies_hz
-        rock = _pairs(f, labels, f"rocking ({rear}")
-        bend = _pairs(f, labels, "bending")
-        out = [rock[0] / rocking_hz - 1.0 if rock else 1.0, bend[0] / bending_hz - 1.0 if bend else 1.0]
-        if fit_inertia:
-            ax = [fk for fk, lab in zip(f, labels, strict=True) if lab.startswith(f"axial ({rear}")]
-            out.append(ax[0] / axial_hz - 1.0 if ax else 1.0)
-        return np.array(out)
+            return None
+        s = _with_bodies(structure, values)
+        idx = pick(modes, reference, s.mass_scalar)
+        return {fam: float(np.mean(modes.frequencies_hz[i])) for fam, i in idx.items()}
+
+    def residual(log_p: np.ndarray, reference) -> np.ndarray:
+        freqs = family_frequencies(log_p, reference)
+        if freqs is None:
+            return np.full(len(families), 10.0)
+        return np.array([freqs[fam] / targets[fam] - 1.0 for fam in families])
 
     start = [bodies[front].mass, bodies[rear].mass]
     if fit_inertia:
         start.append(bodies[rear].inertia_transverse)
     log_p = np.log(start)
+    _, modes0, labels0 = solve(log_p)
+    if fit_inertia:
+        # The seed orders the rear-mass rocking pair below the bending pair. Rocking and bending
+        # are both n = 1 and veer; start on the seed's side of the veering by raising the rear
+        # inertia until the rocking pair is the lower one.
+        for _ in range(8):
+            f0 = modes0.frequencies_hz
+            rock = [fk for fk, lab in zip(f0, labels0, strict=True) if lab == start_labels["rocking"]]
+            bend = [fk for fk, lab in zip(f0, labels0, strict=True) if lab == "bending"]
+            if rock and bend and rock[0] < bend[0]:
+                break
+            log_p[2] += np.log(1.5)
+            _, modes0, labels0 = solve(log_p)
+    reference = {}
+    for fam, count_f in families.items():
+        idx = [i for i, lab in enumerate(labels0) if lab == start_labels[fam]][:count_f]
+        if len(idx) < count_f:
+            raise CalibrationError(
+                f"calibrate: the starting model has no {start_labels[fam]!r} "
+                f"{'pair' if count_f == 2 else 'mode'} among its first {count} modes; "
+                "start from end-body masses closer to the targets"
+            )
+        reference[fam] = modes0.shapes[idx]
     for _ in range(max_iterations):
-        r0 = residual(log_p)
+        r0 = residual(log_p, reference)
         if np.max(np.abs(r0)) <= rtol:
             break
-        # Damped Newton in log-parameters with a forward-difference Jacobian; the step limit keeps
-        # mode families from swapping between iterations.
+        # Damped Newton in log-parameters with a forward-difference Jacobian; modes are tracked
+        # by overlap with the last accepted iterate, and the step limit keeps tracking reliable.
         jac = np.column_stack(
-            [(residual(log_p + 1e-3 * e) - r0) / 1e-3 for e in np.eye(len(log_p))]
+            [(residual(log_p + 1e-3 * e, reference) - r0) / 1e-3 for e in np.eye(len(log_p))]
         )
         step = np.linalg.lstsq(jac, -r0, rcond=None)[0]
-        log_p = log_p + step * min(1.0, max_log_step / np.max(np.abs(step)))
+        log.debug("calibrate: params %s residual %s step %s", np.exp(log_p), r0, step)
+        log_p = log_p + step * min(1.0, max_log_step / max(np.max(np.abs(step)), 1e-300))
+        values, modes, _ = solve(log_p)
+        if modes is not None:
+            idx = pick(modes, reference, _with_bodies(structure, values).mass_scalar)
+            reference = {fam: modes.shapes[i] for fam, i in idx.items()}
     values, modes, labels = solve(log_p)
-    res = residual(log_p)
+    res = residual(log_p, reference)
     if modes is None or np.max(np.abs(res)) > 10 * rtol:
         raise CalibrationError(
             f"calibrate: could not reach the target frequencies (relative misfits "
@@ -194,17 +245,16 @@ def calibrate_end_masses(
         for b in case.end_body
     )
     new_case = case.model_copy(update={"end_body": new_bodies})
-    f = modes.frequencies_hz
-    axial = [fk for fk, lab in zip(f, labels, strict=True) if lab.startswith(f"axial ({rear}")]
+    freqs = family_frequencies(log_p, reference)
     if progress:
         progress("calibration", 1.0)
     return CalibrationResult(
         case=new_case,
         masses_kg={k: v[0] for k, v in values.items()},
-        frequencies_hz=f,
+        frequencies_hz=modes.frequencies_hz,
         labels=labels,
-        rocking_hz=_pairs(f, labels, f"rocking ({rear}")[0],
-        bending_hz=_pairs(f, labels, "bending")[0],
-        axial_hz=axial[0] if axial else None,
+        rocking_hz=freqs["rocking"],
+        bending_hz=freqs["bending"],
+        axial_hz=freqs.get("axial"),
         evaluations=evaluations,
     )

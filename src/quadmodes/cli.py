@@ -18,6 +18,7 @@ from typing import Annotated
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -49,7 +50,10 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
 def _fail(exc: BaseException) -> None:
     message = " ".join(str(exc).split())  # one line
-    err.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    # escape: messages name TOML tables such as "[pressure]", which rich would take as markup
+    err.print(
+        f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True, emoji=False
+    )
     raise typer.Exit(code=2)
 
 
@@ -83,8 +87,10 @@ def _staged_output(directory: Path | None) -> Iterator[Path | None]:
         yield None
         return
     directory = directory.resolve()
+    created = [p for p in directory.parents if not p.exists()]  # deepest first
     directory.parent.mkdir(parents=True, exist_ok=True)
     scratch = Path(tempfile.mkdtemp(prefix=f".{directory.name}.partial-", dir=directory.parent))
+    done = False
     try:
         yield scratch
         directory.mkdir(exist_ok=True)
@@ -93,8 +99,13 @@ def _staged_output(directory: Path | None) -> Iterator[Path | None]:
             if target.is_dir():
                 shutil.rmtree(target)
             item.replace(target)
+        done = True
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+        if not done:  # a failed run leaves no folders behind: remove the parents it made
+            for folder in created:
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
 
 
 def _load(case: str):
@@ -287,3 +298,37 @@ def calibrate(
 
 def main() -> None:  # pragma: no cover - console entry point
     app()
+
+
+@app.command()
+def validate(
+    write: Annotated[
+        Path | None, typer.Option("--write", help="write the tables to this Markdown file")
+    ] = None,
+    convergence: Annotated[
+        bool, typer.Option("--convergence/--no-convergence", help="paper-model mesh convergence")
+    ] = True,
+) -> None:
+    """Run the validation suite and print (or write) the measured tables with pass/fail."""
+    from quadmodes import validation
+
+    rows = []
+    with _progress() as progress:
+        for k, (name, check) in enumerate(validation.FE_CHECKS.items()):
+            progress("validation", k / len(validation.FE_CHECKS))
+            err.print(f"running {name} ...")
+            rows += check()
+        progress("validation", 1.0)
+        conv = validation.mesh_convergence() if convergence else []
+    text = validation.validation_markdown(rows, conv)
+    if write is None:
+        sys.stdout.write(text)
+    else:
+        tmp = write.with_name(f".{write.name}.partial")
+        tmp.write_text(text)
+        tmp.replace(write)
+        err.print(f"written {write}")
+    failed = [r.check for r in rows if not r.passed]
+    if failed:
+        err.print(f"[bold red]{len(failed)} checks failed:[/] {', '.join(failed)}")
+        raise typer.Exit(code=1)

@@ -19,10 +19,12 @@ from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor, total_
 from quadmodes.labels import label_modes
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
-    capsule_surface,
-    flat_cylinder_surface,
-    sphere_cone_surface,
-    sphere_surface,
+    capsule_profile,
+    flat_cylinder_profile,
+    mesh_revolution,
+    sphere_cone_profile,
+    sphere_profile,
+    with_ring_at_radius,
 )
 from quadmodes.mesh.surface import TriangleSurface, check_closed_surface, min_angle_deg
 from quadmodes.modes import ModalResult, compute_modes
@@ -34,16 +36,20 @@ Progress = Callable[[str, float], None]
 def surface_for_case(case: Case) -> TriangleSurface:
     """The stress-free membrane surface of a membrane case (m)."""
     g, h = case.geometry, case.mesh.edge_length
-    if g.shape == "sphere-cone":
-        surface = sphere_cone_surface(
-            g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter, h
-        )
-    elif g.shape == "sphere":
-        surface = sphere_surface(0.5 * g.diameter, h)
-    elif g.shape == "capsule":
-        surface = capsule_surface(0.5 * g.diameter, g.length, h)
-    elif g.shape == "flat-cylinder":
-        surface = flat_cylinder_surface(0.5 * g.diameter, g.length, h)
+    profiles = {
+        "sphere-cone": lambda: sphere_cone_profile(
+            g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter
+        ),
+        "sphere": lambda: sphere_profile(0.5 * g.diameter),
+        "capsule": lambda: capsule_profile(0.5 * g.diameter, g.length),
+        "flat-cylinder": lambda: flat_cylinder_profile(0.5 * g.diameter, g.length),
+    }
+    if g.shape in profiles:
+        profile = profiles[g.shape]()
+        # a ring at each attach radius gives every end body a sharp, mesh-independent patch edge
+        for body in case.end_body:
+            profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
+        surface = mesh_revolution(profile, h)
     else:
         surface = read_surface(g.file)
     if case.pressure is not None and case.pressure.value > 0.0:
@@ -113,6 +119,17 @@ def reference_state(
     """Prestressed equilibrium of a membrane case, or the stress-free state of a beam."""
     if case.kind == "beam":
         return structure.reference, None
+    # Membrane strain scale p R / (E t): below ~1e-8 the prestress is lost in round-off and the
+    # membrane has no meaningful stiffness out of its plane.
+    m = case.material
+    radius = np.max(np.linalg.norm(structure.reference[:, :2], axis=1))
+    strain = case.pressure.value * radius / (m.youngs_modulus * m.thickness)
+    if strain < 1e-8:
+        raise ValueError(
+            f"pressure.value: {case.pressure.value:.3g} Pa is too low to tension the membrane "
+            f"(strain scale {strain:.1e}); raise the pressure above "
+            f"{1e-8 * m.youngs_modulus * m.thickness / radius:.2g} Pa"
+        )
     state = inflate(structure, progress=progress)
     compressed = float(np.mean(state.stress_resultants[:, 0] <= 0.0))
     if compressed > 0.05:

@@ -56,7 +56,7 @@ def pole_nodes(points: np.ndarray, pole: str, radius: float, axis: int = 2) -> n
     radial = np.linalg.norm(np.delete(points, axis, axis=1), axis=1)
     mid = 0.5 * (z.min() + z.max())
     side = z < mid if pole == "front" else z > mid
-    return np.flatnonzero(side & (radial <= radius))
+    return np.flatnonzero(side & (radial <= radius * (1.0 + 1e-6)))
 
 
 def build_membrane_structure(

@@ -382,3 +382,20 @@ def capsule_surface(radius: float, length: float, edge_length: float) -> Triangl
 def flat_cylinder_surface(radius: float, length: float, edge_length: float) -> TriangleSurface:
     """Mesh of :func:`flat_cylinder_profile` with edges ~ ``edge_length`` (all in m)."""
     return mesh_revolution(flat_cylinder_profile(radius, length), edge_length)
+
+
+def with_ring_at_radius(profile: Profile, pole: str, radius: float) -> Profile:
+    """``profile`` with a mesh ring forced where the meridian first reaches ``radius`` (m) from
+    the ``pole`` ("front" or "rear"), so an attachment patch of that radius has a sharp edge."""
+    r = profile.r if pole == "front" else profile.r[::-1]
+    s = profile.s if pole == "front" else profile.arc_length - profile.s[::-1]
+    beyond = np.flatnonzero(r >= radius)
+    if radius <= 0.0 or beyond.size == 0:
+        raise ValueError(
+            f"profile: no point at radius {radius:.4g} m from the {pole} pole; "
+            "use a smaller attach_radius"
+        )
+    i = beyond[0]
+    s_ring = np.interp(radius, [r[i - 1], r[i]], [s[i - 1], s[i]])
+    s_ring = s_ring if pole == "front" else profile.arc_length - s_ring
+    return Profile(profile.r, profile.z, (*profile.features, float(s_ring)))

@@ -220,7 +220,7 @@ def check_closed_surface(surface: TriangleSurface) -> None:
     if n_open:
         raise ValueError(
             f"mesh: surface is open ({n_open} boundary edges); pressure needs a closed surface "
-            "— close it or set pressure to 0"
+            "— close the surface (or use a closed built-in shape)"
         )
     n_nm = int(np.count_nonzero(counts > 2))
     if n_nm:
