@@ -271,9 +271,24 @@ def _inch(si: float) -> str:
 
 
 class Mesh(_Section):
-    """Triangulation settings: target edge length (m) and mass matrix kind."""
+    """Triangulation settings: target edge length (m), optional grading (at least
+    ``elements_per_radius`` edges per hoop radius of curvature, e.g. on a small cap; edges of
+    ``attach_radius / elements_per_attach_radius`` at the rim of each end body's rigid patch,
+    growing away from it), and the mass matrix kind."""
 
     edge_length: _quantity("length", "1 in", _positive, "in")
+    elements_per_radius: _quantity(
+        "dimensionless",
+        "6",
+        lambda v: None if v >= 1 else "must be at least 1",
+        optional=True,
+    ) = None
+    elements_per_attach_radius: _quantity(
+        "dimensionless",
+        "8",
+        lambda v: None if v >= 1 else "must be at least 1",
+        optional=True,
+    ) = None
     mass_matrix: _choice("consistent", "lumped") = "consistent"
 
 
@@ -313,9 +328,7 @@ class EndBody(_Section):
     name: _text("rear")
     pole: _choice("front", "rear")
     mass: _quantity("mass", "0.1 kg", _positive, "kg")
-    inertia_axial: _quantity("inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2", optional=True) = (
-        None
-    )
+    inertia_axial: _quantity("inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2", optional=True) = None
     inertia_transverse: _quantity(
         "inertia", "1e-5 kg m^2", _nonnegative, "kg*m^2", optional=True
     ) = None

@@ -22,6 +22,7 @@ from quadmodes.mesh.revolution import (
     capsule_profile,
     flat_cylinder_profile,
     mesh_revolution,
+    ring_arc_length,
     sphere_cone_profile,
     sphere_profile,
     with_ring_at_radius,
@@ -46,10 +47,15 @@ def surface_for_case(case: Case) -> TriangleSurface:
     }
     if g.shape in profiles:
         profile = profiles[g.shape]()
-        # a ring at each attach radius gives every end body a sharp, mesh-independent patch edge
+        # a ring at each attach radius gives every end body a sharp, mesh-independent patch edge;
+        # the membrane stress is singular at that rim, so the mesh is refined there
+        refine = []
         for body in case.end_body:
             profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
-        surface = mesh_revolution(profile, h)
+            if case.mesh.elements_per_attach_radius:
+                s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
+                refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
+        surface = mesh_revolution(profile, h, case.mesh.elements_per_radius, tuple(refine))
     else:
         surface = read_surface(g.file)
     if case.pressure is not None and case.pressure.value > 0.0:

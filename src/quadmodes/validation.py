@@ -227,18 +227,25 @@ def foreshortening(case: Case) -> float:
     return float(g.reshape(-1, 3)[tip, 0] * case.beam.length)
 
 
-def mesh_convergence(edges_in: tuple[float, ...] = (1.0, 0.7, 0.5)) -> list[dict]:
-    """First five elastic frequencies of the paper model at several edge lengths (in)."""
+def mesh_convergence(factors: tuple[float, ...] = (1.0, 1.41, 2.0)) -> list[dict]:
+    """First five elastic frequencies of the paper model, refining every mesh length scale of the
+    default case (edge length, curvature grading, attachment-rim refinement) by ``factors``."""
     base = load_case("paper-membrane")
     out = []
-    for edge in edges_in:
-        case = base.model_copy(
-            update={"mesh": base.mesh.model_copy(update={"edge_length": edge * 0.0254})}
+    for f in factors:
+        m = base.mesh
+        mesh = m.model_copy(
+            update={
+                "edge_length": m.edge_length / f,
+                "elements_per_radius": (m.elements_per_radius or 0) * f or None,
+                "elements_per_attach_radius": (m.elements_per_attach_radius or 0) * f or None,
+            }
         )
-        model = build_modal_model(case)
+        model = build_modal_model(base.model_copy(update={"mesh": mesh}))
         out.append(
             {
-                "edge_in": edge,
+                "refinement": f,
+                "edge_in": round(mesh.edge_length / 0.0254, 3),
                 "nodes": int(model.structure.n),
                 "frequencies_hz": [float(v) for v in model.modes.frequencies_hz[:5]],
                 "labels": model.labels[:5],
@@ -277,12 +284,14 @@ def convergence_markdown(conv: list[dict]) -> str:
     if not conv:
         return ""
     finest = np.array(conv[-1]["frequencies_hz"])
-    head = "| edge (in) | nodes | " + " | ".join(f"f{k + 1} (Hz)" for k in range(5)) + " |"
-    lines = [head, "|---|---|" + "---|" * 5]
+    head = "| refinement | edge (in) | nodes | " + " | ".join(f"f{k + 1} (Hz)" for k in range(5)) + " |"
+    lines = [head, "|---|---|---|" + "---|" * 5]
     for c in conv:
         f = np.array(c["frequencies_hz"])
         cells = [f"{v:.3f} ({100 * (v / r - 1):+.2f} %)" for v, r in zip(f, finest, strict=True)]
-        lines.append(f"| {c['edge_in']} | {c['nodes']} | " + " | ".join(cells) + " |")
+        lines.append(
+            f"| {c['refinement']} | {c['edge_in']} | {c['nodes']} | " + " | ".join(cells) + " |"
+        )
     lines.append("")
     lines.append("Labels on the finest mesh: " + ", ".join(conv[-1]["labels"]) + ".")
     return "\n".join(lines)

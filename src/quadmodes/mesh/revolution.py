@@ -82,9 +82,7 @@ class Profile:
         r[0] = r[-1] = 0.0
         feats = np.sort(np.asarray(self.features, dtype=float).ravel())
         if feats.size and (feats[0] < -tol or feats[-1] > s[-1] + tol):
-            raise ValueError(
-                f"profile: features must lie within the arc length [0, {s[-1]:.6g}] m"
-            )
+            raise ValueError(f"profile: features must lie within the arc length [0, {s[-1]:.6g}] m")
         object.__setattr__(self, "r", r)
         object.__setattr__(self, "z", z)
         object.__setattr__(self, "s", s)
@@ -188,13 +186,53 @@ def flat_cylinder_profile(radius: float, length: float) -> Profile:
     return _assemble([corners[0:2], corners[1:3], corners[2:4]])
 
 
-def _ring_positions(profile: Profile, step: float) -> np.ndarray:
-    """Arc-length positions of all rings including both poles, hitting every feature."""
+def local_edge_length(
+    profile: Profile,
+    s: np.ndarray,
+    edge_length: float,
+    elements_per_radius: float | None = None,
+    refine_at: tuple[tuple[float, float], ...] = (),
+    gradation: float = 0.3,
+) -> np.ndarray:
+    """Target edge length (m) at arc lengths ``s`` (m).
+
+    ``edge_length``, reduced where the hoop radius of curvature ``ρ = r / |dz/ds|`` is small so
+    that there are at least ``elements_per_radius`` edges per ``ρ`` (never below
+    ``edge_length / 10``), and near each ``(s_ring, h_ring)`` of ``refine_at`` to
+    ``h_ring + gradation · |s − s_ring|`` (e.g. at the edge of a rigid attachment, where the
+    membrane stress is singular and frequencies converge only at first order in h).
+    """
+    s = np.asarray(s, float)
+    h = np.full(s.shape, float(edge_length))
+    if elements_per_radius:
+        dz = np.gradient(profile.z, profile.s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = np.where(np.abs(dz) > 1e-9, profile.r / np.abs(dz), np.inf)
+        # at the poles r -> 0 and dz/ds -> 0: take the neighbouring value (the cap radius)
+        rho[0], rho[-1] = rho[1], rho[-2]
+        rho_s = np.interp(s, profile.s, rho)
+        h = np.minimum(h, np.maximum(rho_s / elements_per_radius, edge_length / 10.0))
+    for s_ring, h_ring in refine_at:
+        h = np.minimum(h, h_ring + gradation * np.abs(s - s_ring))
+    return h
+
+
+def _ring_positions(profile: Profile, step, n_fine: int = 4000) -> np.ndarray:
+    """Arc-length positions of all rings including both poles, hitting every feature.
+
+    ``step`` is a row height (m) or a callable ``step(s)`` for graded meshes: rings are placed at
+    equal increments of ``∫ ds / step(s)`` between features.
+    """
     knots = np.unique(np.concatenate([[0.0], profile.features, [profile.arc_length]]))
     pieces = []
     for a, b in zip(knots[:-1], knots[1:], strict=True):
-        n = max(1, int(round((b - a) / step)))
-        pieces.append(np.linspace(a, b, n + 1)[:-1])
+        fine = np.linspace(a, b, n_fine)
+        local = step(fine) if callable(step) else np.full(n_fine, float(step))
+        count = np.concatenate(
+            [[0.0], np.cumsum(np.diff(fine) * 0.5 / local[1:] + np.diff(fine) * 0.5 / local[:-1])]
+        )
+        n = max(1, int(round(count[-1])))
+        pieces.append(np.interp(np.linspace(0.0, count[-1], n + 1)[:-1], count, fine))
     s = np.concatenate(pieces + [[profile.arc_length]])
     if len(s) == 2:
         # At least one ring between the poles, otherwise nothing closes.
@@ -247,7 +285,12 @@ def _min_angle(points: np.ndarray, triangles: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).min())
 
 
-def mesh_revolution(profile: Profile, edge_length: float) -> TriangleSurface:
+def mesh_revolution(
+    profile: Profile,
+    edge_length: float,
+    elements_per_radius: float | None = None,
+    refine_at: tuple[tuple[float, float], ...] = (),
+) -> TriangleSurface:
     """Mesh the closed surface of revolution of ``profile`` with edges ~ ``edge_length`` (m).
 
     Rings of nodes are placed along the meridian with arc-length spacing close to
@@ -258,14 +301,23 @@ def mesh_revolution(profile: Profile, edge_length: float) -> TriangleSurface:
     from a few trials. Consecutive rings are joined by an angle-merging zipper; the poles are
     single nodes joined to their neighbouring ring by fans.
 
+    With ``elements_per_radius`` the edge length is graded down where the hoop radius of
+    curvature is small (see :func:`local_edge_length`), e.g. on a small front cap.
+
     Returns a watertight, consistently outward-oriented :class:`TriangleSurface`.
     """
     if not (np.isfinite(edge_length) and edge_length > 0.0):
         raise ValueError(f"mesh: edge_length must be a positive length in m, got {edge_length}")
-    s = _ring_positions(profile, edge_length * np.sqrt(3.0) / 2.0)
+
+    def row_height(s_: np.ndarray) -> np.ndarray:
+        h_ = local_edge_length(profile, s_, edge_length, elements_per_radius, refine_at)
+        return h_ * np.sqrt(3) / 2
+
+    s = _ring_positions(profile, row_height)
     r, z = profile.point_at(s)
     r[0] = r[-1] = 0.0
-    counts = np.maximum(3, np.rint(2.0 * np.pi * r / edge_length).astype(np.int64))
+    h_ring = local_edge_length(profile, s, edge_length, elements_per_radius, refine_at)
+    counts = np.maximum(3, np.rint(2.0 * np.pi * r / h_ring).astype(np.int64))
     counts[0] = counts[-1] = 1
     offsets = np.concatenate([[0], np.cumsum(counts)])
 
@@ -384,9 +436,9 @@ def flat_cylinder_surface(radius: float, length: float, edge_length: float) -> T
     return mesh_revolution(flat_cylinder_profile(radius, length), edge_length)
 
 
-def with_ring_at_radius(profile: Profile, pole: str, radius: float) -> Profile:
-    """``profile`` with a mesh ring forced where the meridian first reaches ``radius`` (m) from
-    the ``pole`` ("front" or "rear"), so an attachment patch of that radius has a sharp edge."""
+def ring_arc_length(profile: Profile, pole: str, radius: float) -> float:
+    """Arc length (m, from the front pole) where the meridian first reaches ``radius`` (m)
+    coming from ``pole``."""
     r = profile.r if pole == "front" else profile.r[::-1]
     s = profile.s if pole == "front" else profile.arc_length - profile.s[::-1]
     beyond = np.flatnonzero(r >= radius)
@@ -396,6 +448,13 @@ def with_ring_at_radius(profile: Profile, pole: str, radius: float) -> Profile:
             "use a smaller attach_radius"
         )
     i = beyond[0]
-    s_ring = np.interp(radius, [r[i - 1], r[i]], [s[i - 1], s[i]])
-    s_ring = s_ring if pole == "front" else profile.arc_length - s_ring
-    return Profile(profile.r, profile.z, (*profile.features, float(s_ring)))
+    s_ring = float(np.interp(radius, [r[i - 1], r[i]], [s[i - 1], s[i]]))
+    return s_ring if pole == "front" else profile.arc_length - s_ring
+
+
+def with_ring_at_radius(profile: Profile, pole: str, radius: float) -> Profile:
+    """``profile`` with a mesh ring forced where the meridian first reaches ``radius`` (m) from
+    the ``pole`` ("front" or "rear"), so an attachment patch of that radius has a sharp edge."""
+    return Profile(
+        profile.r, profile.z, (*profile.features, ring_arc_length(profile, pole, radius))
+    )

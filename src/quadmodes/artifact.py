@@ -1,0 +1,130 @@
+"""The reduced-model artifact: one self-describing NetCDF file (xarray + h5netcdf).
+
+Every array of :class:`quadmodes.reduced.ReducedModel` is a variable with ``units`` and
+``description`` attributes; provenance (case TOML, package version, mesh size, content key) is
+kept in global attributes. Files are written atomically and checked on load.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from quadmodes import __version__
+from quadmodes.reduced import ReducedModel
+
+FORMAT = "quadmodes-reduced-model"
+FORMAT_VERSION = 1
+
+
+class ArtifactError(ValueError):
+    """A reduced-model file that cannot be used; one-line message naming the file and the fix."""
+
+
+# name -> (dims, units, description)
+_VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
+    "frequencies_hz": (("mode",), "Hz", "natural frequencies of the retained modes"),
+    "damping_ratio": (("mode",), "1", "modal damping ratio"),
+    "J0": (("xyz", "xyz2"), "kg m2", "reference inertia J(X, X) about the origin of X"),
+    "J1": (("mode", "xyz", "xyz2"), "kg0.5 m", "2 J(X, u^k): first-order inertia"),
+    "J2u": (("mode", "mode2", "xyz", "xyz2"), "1", "J(u^m, u^n): spin softening"),
+    "J2g": (("mode", "mode2", "xyz", "xyz2"), "1", "2 J(X, g^mn): spin stiffening"),
+    "c": (("mode", "xyz"), "kg0.5 m", "C(X, u^k): rigid-elastic coupling"),
+    "Cuu": (("mode", "mode2", "xyz"), "1", "C(u^m, u^n): gyroscopic coupling"),
+    "Cxg": (("mode", "mode2", "xyz"), "1", "C(X, g^mn)"),
+    "S1": (("mode", "xyz"), "kg0.5", "sum_j w_j u^k_j (centre-of-mass check)"),
+    "S2": (("mode", "mode2", "xyz"), "kg-0.5", "sum_j w_j g^mn_j (centre-of-mass check)"),
+    "mu": (("mode", "mode2"), "1", "modal mass Phi^T M Phi"),
+    "Lam": (("mode", "mode2"), "s-2", "modal stiffness Phi^T K Phi"),
+    "C": (("mode", "mode2"), "s-1", "modal damping matrix"),
+    "X": (("dof", "xyz"), "m", "prestressed reference vector DOFs"),
+    "translational": (("dof",), "1", "1 where the vector DOF is a position, 0 for a slope"),
+    "weights": (("dof",), "kg", "nodal mass weights w = M_s t"),
+    "Phi": (("mode", "dof", "xyz"), "kg-0.5", "mass-normalised mode shapes u^k"),
+    "G": (("mode", "mode2", "dof", "xyz"), "kg-1", "quadratic modes g^mn"),
+}
+
+
+def content_key(text: str) -> str:
+    """Short hash of the inputs that determine a reduced model (plus the package version)."""
+    return hashlib.sha256(f"{__version__}\n{text}".encode()).hexdigest()[:16]
+
+
+def to_dataset(model: ReducedModel) -> xr.Dataset:
+    """The model as an xarray Dataset with units and descriptions."""
+    data = {}
+    for name, (dims, units, desc) in _VARIABLES.items():
+        value = np.asarray(getattr(model, name))
+        if value.dtype == bool:
+            value = value.astype(np.int8)
+        data[name] = xr.Variable(dims, value, attrs={"units": units, "description": desc})
+    ds = xr.Dataset(data, coords={"mode": np.arange(model.n_modes) + 1})
+    ds["label"] = xr.Variable(("mode",), np.array(model.labels, dtype=object))
+    attrs = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "quadmodes_version": __version__,
+        "mass_kg": float(model.mass),
+        "free": int(model.free),
+        "conventions": "SI; modal coordinates s in kg^0.5 m",
+    }
+    attrs.update({f"provenance_{k}": str(v) for k, v in model.provenance.items()})
+    ds.attrs.update(attrs)
+    return ds
+
+
+def save_reduced_model(model: ReducedModel, path: str | os.PathLike) -> Path:
+    """Write ``model`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.partial")
+    try:
+        to_dataset(model).to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
+    """Read a reduced model, checking format and completeness."""
+    path = Path(path)
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            ds = ds.load()
+    except FileNotFoundError:
+        raise ArtifactError(f"{path}: no such reduced-model file; run `quadmodes reduce`") from None
+    except Exception as exc:  # corrupt or not NetCDF
+        raise ArtifactError(
+            f"{path}: not a readable reduced-model file ({type(exc).__name__}); rebuild it with "
+            "`quadmodes reduce CASE -o FILE`"
+        ) from None
+    if ds.attrs.get("format") != FORMAT:
+        raise ArtifactError(f"{path}: not a quadmodes reduced-model file; rebuild it")
+    if int(ds.attrs.get("format_version", -1)) != FORMAT_VERSION:
+        raise ArtifactError(
+            f"{path}: written by quadmodes {ds.attrs.get('quadmodes_version')} in format "
+            f"{ds.attrs.get('format_version')}, this version reads format {FORMAT_VERSION}; "
+            "rebuild it with `quadmodes reduce`"
+        )
+    missing = [v for v in _VARIABLES if v not in ds]
+    if missing:
+        raise ArtifactError(f"{path}: incomplete reduced-model file (missing {missing[0]}); rebuild")
+    values = {name: np.asarray(ds[name].values) for name in _VARIABLES}
+    if not all(np.all(np.isfinite(v)) for v in values.values()):
+        raise ArtifactError(f"{path}: reduced-model file contains NaN or inf; rebuild it")
+    values["translational"] = values["translational"].astype(bool)
+    provenance = {
+        k.removeprefix("provenance_"): v for k, v in ds.attrs.items() if k.startswith("provenance_")
+    }
+    return ReducedModel(
+        mass=float(ds.attrs["mass_kg"]),
+        free=bool(int(ds.attrs["free"])),
+        labels=tuple(str(v) for v in ds["label"].values),
+        provenance=provenance,
+        **values,
+    )

@@ -1,0 +1,266 @@
+"""Reduced-model stage: quadratic modes g^{mn} and the precomputed floating-frame arrays.
+
+From the prestressed structure and its modes (``u^k`` mass-normalised, force basis
+``f^k = K u^k``) this module forms
+
+* the quadratic modes ``g^{mn}``: ``K g = −B(u^m, u^n)`` with inertia relief and the frame
+  conditions (centre of mass and mean axes) for a free body — one factorisation of the bordered
+  matrix ``[[K, MΨ], [ΨᵀM, 0]]`` for all ``N(N+1)/2`` right-hand sides — or a plain solve on the
+  free DOFs of a clamped body;
+* the arrays of theory.md §3.2, all mass-weighted bilinear forms ``P(a, b) = aᵀ M_s b``.
+
+The result is a :class:`ReducedModel`, a frozen set of arrays with units, saved and loaded as a
+self-describing NetCDF file by :mod:`quadmodes.artifact`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from quadmodes.fe.model import (
+    Structure,
+    centre_of_mass,
+    mass_matrix,
+    rigid_body_modes,
+    second_order_force,
+    tangent_low_rank,
+    tangent_stiffness,
+    total_mass,
+)
+from quadmodes.modes import remove_rigid_part
+from quadmodes.prestress import _bordered_solver
+
+
+@dataclass(frozen=True)
+class ReducedModel:
+    """Precomputed arrays of the method of quadratic modes (SI units; N modes, n vector DOFs).
+
+    mass: total mass m (kg). free: True for a free-floating body (X about the centre of mass),
+    False for a body clamped to a hub (X measured from the hub point on the rotation axis).
+    frequencies_hz (N,), damping_ratio (N,), labels (N,): the retained modes.
+    J0 (3,3) kg m²: reference inertia 𝒥(X,X). J1 (N,3,3): 2𝒥(X,u^k). J2u (N,N,3,3): 𝒥(u^m,u^n).
+    J2g (N,N,3,3): 2𝒥(X,g^{mn}). c (N,3): 𝒞(X,u^k). Cuu (N,N,3): 𝒞(u^m,u^n). Cxg (N,N,3):
+    𝒞(X,g^{mn}). S1 (N,3): Σ w u^k, S2 (N,N,3): Σ w g^{mn} (kg m; vanish for a free body).
+    mu (N,N): ΦᵀMΦ (= I). Lam (N,N): ΦᵀKΦ (= diag ω², 1/s²). C (N,N): modal damping (1/s).
+    X (n,3) m: reference vector DOFs (prestressed, about the CoM for a free body).
+    translational (n,) bool. weights (n,) kg: w = M_s t. Phi (N,n,3): modes (1/√kg).
+    G (N,N,n,3): quadratic modes g^{mn} (1/kg).
+    Mode coordinates s are in √kg·m, so that T = ½ ṡᵀ μ ṡ and V = ½ sᵀ Λ s (J).
+    """
+
+    mass: float
+    free: bool
+    frequencies_hz: np.ndarray
+    damping_ratio: np.ndarray
+    labels: tuple[str, ...]
+    J0: np.ndarray
+    J1: np.ndarray
+    J2u: np.ndarray
+    J2g: np.ndarray
+    c: np.ndarray
+    Cuu: np.ndarray
+    Cxg: np.ndarray
+    S1: np.ndarray
+    S2: np.ndarray
+    mu: np.ndarray
+    Lam: np.ndarray
+    C: np.ndarray
+    X: np.ndarray
+    translational: np.ndarray
+    weights: np.ndarray
+    Phi: np.ndarray
+    G: np.ndarray
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def n_modes(self) -> int:
+        return len(self.frequencies_hz)
+
+    @property
+    def J2(self) -> np.ndarray:
+        """Second-order inertia coefficients ``J2u + J2g`` (N,N,3,3)."""
+        return self.J2u + self.J2g
+
+    @property
+    def D(self) -> np.ndarray:
+        """Rotation–deformation coupling ``Cuu + 2 Cxg`` (N,N,3)."""
+        return self.Cuu + 2.0 * self.Cxg
+
+    def rigid(self) -> ReducedModel:
+        """The same body with no elastic modes (N = 0)."""
+        n = self.X.shape[0]
+        z = np.zeros
+        return ReducedModel(
+            self.mass,
+            self.free,
+            z(0),
+            z(0),
+            (),
+            self.J0,
+            z((0, 3, 3)),
+            z((0, 0, 3, 3)),
+            z((0, 0, 3, 3)),
+            z((0, 3)),
+            z((0, 0, 3)),
+            z((0, 0, 3)),
+            z((0, 3)),
+            z((0, 0, 3)),
+            z((0, 0)),
+            z((0, 0)),
+            z((0, 0)),
+            self.X,
+            self.translational,
+            self.weights,
+            z((0, n, 3)),
+            z((0, 0, n, 3)),
+            dict(self.provenance),
+        )
+
+    def select(self, modes: np.ndarray) -> ReducedModel:
+        """The model restricted to the modes with indices ``modes``."""
+        i = np.asarray(modes, int)
+        ii = np.ix_(i, i)
+        return ReducedModel(
+            self.mass,
+            self.free,
+            self.frequencies_hz[i],
+            self.damping_ratio[i],
+            tuple(self.labels[k] for k in i),
+            self.J0,
+            self.J1[i],
+            self.J2u[ii],
+            self.J2g[ii],
+            self.c[i],
+            self.Cuu[ii],
+            self.Cxg[ii],
+            self.S1[i],
+            self.S2[ii],
+            self.mu[ii],
+            self.Lam[ii],
+            self.C[ii],
+            self.X,
+            self.translational,
+            self.weights,
+            self.Phi[i],
+            self.G[ii],
+            dict(self.provenance),
+        )
+
+
+def mass_product(ms: sp.spmatrix, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``P(a, b) = aᵀ M_s b`` ``(..., 3, 3)`` for fields ``a`` ``(..., n, 3)``, ``b`` ``(n, 3)``."""
+    mb = ms @ b
+    return np.einsum("...ia,ib->...ab", a, mb)
+
+
+def inertia_form(p: np.ndarray) -> np.ndarray:
+    """``𝒥 = tr P I − ½(P + Pᵀ)`` for ``P`` ``(..., 3, 3)``."""
+    tr = np.trace(p, axis1=-2, axis2=-1)[..., None, None]
+    return tr * np.eye(3) - 0.5 * (p + np.swapaxes(p, -1, -2))
+
+
+def cross_form(p: np.ndarray) -> np.ndarray:
+    """``𝒞 = (P23 − P32, P31 − P13, P12 − P21)`` for ``P`` ``(..., 3, 3)``."""
+    return np.stack(
+        [p[..., 1, 2] - p[..., 2, 1], p[..., 2, 0] - p[..., 0, 2], p[..., 0, 1] - p[..., 1, 0]], -1
+    )
+
+
+def quadratic_modes(structure: Structure, x: np.ndarray, shapes: np.ndarray, progress=None):
+    """Quadratic modes ``g^{mn}`` ``(N, N, n, 3)`` (symmetric in m, n) about state ``x``.
+
+    Free body: bordered solve ``[[K, MΨ], [ΨᵀM, 0]]`` (inertia relief + CoM/mean-axis frame);
+    clamped body: ``K_ff g_f = −B_f``.
+    """
+    n_modes = shapes.shape[0]
+    free = structure.free_dofs
+    k = tangent_stiffness(structure, x)[free][:, free]
+    low_rank = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
+    if structure.is_free:
+        constraint = (mass_matrix(structure) @ rigid_body_modes(structure, x))[free]
+        # drop rigid motions that carry no mass (line beams about their axis)
+        gram = constraint.T @ rigid_body_modes(structure, x)[free]
+        lam, vec = np.linalg.eigh(0.5 * (gram + gram.T))
+        constraint = constraint @ vec[:, lam > 1e-10 * lam.max()]
+    else:
+        constraint = None
+    solve = _bordered_solver(k, constraint, low_rank)
+    g = np.zeros((n_modes, n_modes, structure.n, 3))
+    pairs = [(m, q) for m in range(n_modes) for q in range(m, n_modes)]
+    for j, (m, q) in enumerate(pairs):
+        b = second_order_force(structure, x, shapes[m], shapes[q]).ravel()[free]
+        full = np.zeros(3 * structure.n)
+        full[free] = solve(-b)
+        g[m, q] = g[q, m] = full.reshape(-1, 3)
+        if progress:
+            progress("quadratic modes", (j + 1) / len(pairs))
+    if structure.is_free:
+        # polish the frame conditions (S2 = 0, C_xg = 0) to round-off: the removed part is a
+        # rigid motion, in the kernel of K, so K g = −ΠᵀB still holds
+        flat = g.reshape(n_modes * n_modes, -1).T
+        g = remove_rigid_part(structure, x, flat).T.reshape(g.shape)
+    return g
+
+
+def reduce(
+    structure: Structure,
+    x: np.ndarray,
+    frequencies_hz: np.ndarray,
+    shapes: np.ndarray,
+    labels,
+    damping_ratio: float | np.ndarray,
+    progress=None,
+    provenance: dict | None = None,
+) -> ReducedModel:
+    """Build the :class:`ReducedModel` from the prestressed state ``x`` and retained modes."""
+    n_modes = shapes.shape[0]
+    ms = structure.mass_scalar
+    t = structure.translational.astype(float)
+    if structure.is_free:
+        xr = x - np.outer(t, centre_of_mass(structure, x))
+    else:
+        xr = x.copy()
+    g = quadratic_modes(structure, x, shapes, progress)
+    w = ms @ t
+    p_xx = mass_product(ms, xr, xr)
+    p_xu = mass_product(ms, shapes, xr)  # P(u, X): (N,3,3); transpose for P(X, u)
+    p_x_u = np.swapaxes(p_xu, -1, -2)
+    p_uu = np.einsum("mia,nib->mnab", shapes, np.stack([ms @ s for s in shapes]))
+    p_xg = np.swapaxes(mass_product(ms, g, xr), -1, -2)  # P(X, g)
+    k = tangent_stiffness(structure, x)
+    m_full = mass_matrix(structure)
+    phi = shapes.reshape(n_modes, -1).T
+    mu = phi.T @ (m_full @ phi)
+    lam = phi.T @ (k @ phi)
+    for coef, vec in tangent_low_rank(structure, x):
+        lam += coef * np.outer(phi.T @ vec, phi.T @ vec)
+    omega = 2.0 * np.pi * np.asarray(frequencies_hz)
+    zeta = np.broadcast_to(np.asarray(damping_ratio, float), omega.shape).copy()
+    return ReducedModel(
+        mass=total_mass(structure),
+        free=structure.is_free,
+        frequencies_hz=np.asarray(frequencies_hz, float),
+        damping_ratio=zeta,
+        labels=tuple(labels),
+        J0=inertia_form(p_xx),
+        J1=2.0 * inertia_form(p_x_u),
+        J2u=inertia_form(p_uu),
+        J2g=2.0 * inertia_form(p_xg),
+        c=cross_form(p_x_u),
+        Cuu=cross_form(p_uu),
+        Cxg=cross_form(p_xg),
+        S1=np.einsum("i,kia->ka", w, shapes),
+        S2=np.einsum("i,mnia->mna", w, g),
+        mu=mu,
+        Lam=0.5 * (lam + lam.T),
+        C=np.diag(2.0 * zeta * omega * np.diag(mu)),
+        X=xr,
+        translational=structure.translational.copy(),
+        weights=w,
+        Phi=shapes.copy(),
+        G=g,
+        provenance=dict(provenance or {}),
+    )

@@ -1,0 +1,50 @@
+"""Shared fixtures: small finite-element models reduced to a handful of modes (fast)."""
+
+import pytest
+
+from quadmodes.config import case_from_toml
+from quadmodes.pipeline import build_modal_model
+from quadmodes.reduced import reduce
+
+SMALL_CAPSULE = """
+name = "small-capsule"
+description = "prolate inflated capsule with a rear end body: a fast minor-axis spinner"
+kind = "membrane"
+[geometry]
+shape = "capsule"
+length = "30 in"
+diameter = "8 in"
+[mesh]
+edge_length = "1.5 in"
+[material]
+density = "0.0335 lb/in^3"
+youngs_modulus = "0.05 Mpsi"
+poisson_ratio = 0.3
+thickness = "0.0045 in"
+damping_ratio = 0.02
+[pressure]
+value = "0.3 psi"
+[modes]
+count = 5
+[[end_body]]
+name = "rear"
+pole = "rear"
+mass = "0.05 kg"
+radius = "1.5 in"
+height = "0.5 in"
+attach_radius = "1.5 in"
+offset = "0.25 in"
+"""
+
+
+@pytest.fixture(scope="session")
+def small_modal_model():
+    """Inflated small capsule (≈400 nodes) with its first 5 elastic modes."""
+    return build_modal_model(case_from_toml(SMALL_CAPSULE, source="small-capsule"))
+
+
+@pytest.fixture(scope="session")
+def small_reduced_model(small_modal_model):
+    """:class:`quadmodes.reduced.ReducedModel` of the small capsule, N = 5, ζ = 2 %."""
+    m = small_modal_model
+    return reduce(m.structure, m.x, m.modes.frequencies_hz, m.modes.shapes, m.labels, 0.02)
