@@ -1,0 +1,371 @@
+"""Kane–Ryan–Banerjee spin-up of a hub-clamped cantilever with the reduced model.
+
+The hub turns about the inertial (and hub-fixed) z axis with the prescribed rate
+
+    Ω(t) = (Ωs/T) [t − (T/2π) sin(2πt/T)]   for t ≤ T,      Ω(t) = Ωs  for t > T,
+
+so that ω(t) = (0, 0, Ω(t)) in the hub (body) frame. The beam lies along +x from the hub point
+(hub radius 0, X measured from the axis: ``ReducedModel.free is False``), so the deflection *in
+the plane of rotation* is the hub-frame y component of the tip displacement and the tip *lags*
+(v < 0) while the hub accelerates. The reduced modal equation (theory.md §4, prescribed rotation)
+
+    μ s̈ + (Γ(ω) + C) ṡ + (Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω − A(s) ω̇
+
+is integrated with :func:`quadmodes.dynamics.prescribed_rhs` and scipy's DOP853. The tip
+displacement is rebuilt from both terms of the quadratic-mode kinematics,
+``U = Σ s_k u^k + Σ s_m s_n g^{mn}`` (the g term is the axial foreshortening of the bent beam).
+
+Mode choice (theory.md §5 "Which modes"): only the soft *bending* modes in the plane of rotation
+(hub-frame y) are kept by default. The out-of-plane (z) bending modes are inert under a rotation
+about z (no centrifugal, Coriolis or ω̇ coupling to the y modes; they can be added with
+``out_of_plane=True`` and stay at zero), and stiff axial modes are *not* added: their products
+with the bending coordinates are not small (theory §5) and the stretching that matters is
+already represented quasi-statically by g. The clamped ANCF eigenvectors of a symmetric section
+come in degenerate y/z pairs that the eigensolver returns as arbitrary mixtures; each degenerate
+set is rotated here into pure in-plane and out-of-plane members before selection.
+
+Kane's parameters are function arguments with the published defaults (references.md §3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
+
+from quadmodes.dynamics import prescribed_rhs, reduced_system
+from quadmodes.fe.build import build_beam_structure
+from quadmodes.labels import label_modes
+from quadmodes.modes import compute_modes
+from quadmodes.reduced import ReducedModel, reduce
+
+#: Kane–Ryan–Banerjee beam (references.md §3), SI.
+KANE_BEAM = {
+    "length": 10.0,  # m
+    "youngs_modulus": 7.0e10,  # Pa
+    "density": 3000.0,  # kg/m³
+    "area": 4.0e-4,  # m²
+    "second_moment": 2.0e-7,  # m⁴
+}
+
+#: In-plane (y) tip-deflection peaks of the published solution: Ωs (rad/s) → (v m, t s).
+KANE_REFERENCE_PEAKS = {4.0: (-0.400, 6.95), 6.0: (-0.574, 6.76), 10.0: (-0.860, 6.45)}
+
+#: Chordwise first rotating-frame frequency at steady spin: Ωs (rad/s) → ω (rad/s).
+KANE_REFERENCE_CHORDWISE = {4.0: 4.158, 6.0: 4.513, 10.0: 5.298}
+
+#: In-plane bending, out-of-plane bending, axial (unit vectors of the hub frame).
+PLANES = {"in-plane": 1, "out-of-plane": 2, "axial": 0}
+
+
+# ---------------------------------------------------------------------------------------------
+# hub motion
+# ---------------------------------------------------------------------------------------------
+
+
+def kane_rate(t, omega_s: float = 6.0, t_ramp: float = 15.0):
+    """Hub rate Ω(t) (rad/s) and its derivative Ω̇(t) (rad/s²) of the Kane spin-up profile.
+
+    ``t`` scalar or array (s). Ω̇ and Ω̈ vanish at t = 0 and t = T, so the ramp is smooth."""
+    t = np.asarray(t, float)
+    ramp = t <= t_ramp
+    a = 2.0 * np.pi / t_ramp
+    rate = np.where(ramp, (omega_s / t_ramp) * (t - np.sin(a * t) / a), omega_s)
+    acc = np.where(ramp, (omega_s / t_ramp) * (1.0 - np.cos(a * t)), 0.0)
+    if rate.ndim == 0:
+        return float(rate), float(acc)
+    return rate, acc
+
+
+# ---------------------------------------------------------------------------------------------
+# model
+# ---------------------------------------------------------------------------------------------
+
+
+def split_planes(
+    structure, frequencies_hz: np.ndarray, shapes: np.ndarray, rtol: float = 1e-3
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Rotate degenerate sets of a straight beam along x into pure y / z members; classify.
+
+    Within each set of modes whose frequencies agree within ``rtol`` the mass-normalised shapes are
+    replaced by the orthogonal combinations that diagonalise their mass-weighted y–y inner
+    product (so mass normalisation and Λ = diag ω² are kept). Returns the new shapes, the plane of
+    each mode (``"in-plane"`` = y, ``"out-of-plane"`` = z, ``"axial"`` = x) by kinetic-energy share,
+    and the frequency order (unchanged)."""
+    shapes = np.array(shapes, float)
+    w = np.asarray(structure.mass_scalar.sum(axis=1)).ravel()
+    w = np.where(structure.translational, w, 0.0)
+    f = np.asarray(frequencies_hz, float)
+    i = 0
+    while i < len(f):
+        j = i + 1
+        while j < len(f) and abs(f[j] - f[i]) <= rtol * abs(f[i]):
+            j += 1
+        if j - i > 1:
+            block = shapes[i:j]
+            gram = np.einsum("i,ai,bi->ab", w, block[:, :, 1], block[:, :, 1])
+            _, vec = np.linalg.eigh(gram)
+            vec = vec[:, ::-1]  # most in-plane first
+            shapes[i:j] = np.einsum("ab,ai...->bi...", vec, block)
+        i = j
+    planes = []
+    for shape in shapes:
+        energy = np.einsum("i,ia->a", w, shape * shape)
+        planes.append(("axial", "in-plane", "out-of-plane")[int(np.argmax(energy))])
+    return shapes, f, planes
+
+
+def kane_model(
+    n_modes: int = 4,
+    n_elements: int = 20,
+    out_of_plane: bool = False,
+    length: float = KANE_BEAM["length"],
+    youngs_modulus: float = KANE_BEAM["youngs_modulus"],
+    density: float = KANE_BEAM["density"],
+    area: float = KANE_BEAM["area"],
+    second_moment: float = KANE_BEAM["second_moment"],
+    damping_ratio: float = 0.0,
+    structure=None,
+) -> ReducedModel:
+    """Reduced model of the hub-clamped Kane beam (ANCF cable along +x from the hub point).
+
+    Keeps the lowest ``n_modes`` bending modes in the plane of rotation (hub-frame y) and, with
+    ``out_of_plane``, as many out-of-plane (z) bending modes; never axial modes. Mode labels read
+    ``"in-plane bending k"`` / ``"out-of-plane bending k"`` (k = 1, 2, …). ``structure``: an
+    already-built clamped beam :class:`~quadmodes.fe.model.Structure` (overrides the beam data)."""
+    if n_modes < 1:
+        raise ValueError("n_modes: keep at least one in-plane bending mode")
+    if structure is None:
+        structure = build_beam_structure(
+            length,
+            n_elements,
+            youngs_modulus * area,
+            youngs_modulus * second_moment,
+            density * area,
+            clamped=True,
+        )
+    if structure.is_free:
+        raise ValueError("kane_model: the beam must be clamped at the hub")
+    x = structure.reference
+    modes = compute_modes(structure, x, 2 * n_modes + 2)
+    shapes, freqs, planes = split_planes(structure, modes.frequencies_hz, modes.shapes)
+    wanted = ("in-plane", "out-of-plane") if out_of_plane else ("in-plane",)
+    keep, labels = [], []
+    for plane in wanted:
+        idx = [k for k, p in enumerate(planes) if p == plane][:n_modes]
+        if len(idx) < n_modes:
+            raise ValueError(f"kane_model: only {len(idx)} {plane} bending modes were found")
+        keep += idx
+        labels += [f"{plane} bending {j + 1}" for j in range(len(idx))]
+    order = np.argsort(freqs[keep], kind="stable")
+    keep = [keep[k] for k in order]
+    labels = [labels[k] for k in order]
+    provenance = {
+        "model": "kane-beam",
+        "n_elements": int(n_elements),
+        "fe_labels": ", ".join(label_modes(structure, x, shapes[keep])),
+    }
+    return reduce(
+        structure, x, freqs[keep], shapes[keep], labels, damping_ratio, provenance=provenance
+    )
+
+
+def tip_index(model: ReducedModel) -> int:
+    """Index of the tip position DOF (largest |X| among positions)."""
+    r = np.where(model.translational, np.linalg.norm(model.X, axis=1), -np.inf)
+    return int(np.argmax(r))
+
+
+def tip_displacement(model: ReducedModel, s: np.ndarray, quadratic: bool = True) -> np.ndarray:
+    """Hub-frame tip displacement U_tip (..., 3) m for modal coordinates s (..., N):
+    ``Σ s_k u^k + Σ s_m s_n g^{mn}`` (the second term only with ``quadratic``)."""
+    i = tip_index(model)
+    s = np.asarray(s, float)
+    u = s @ model.Phi[:, i, :]
+    if quadratic:
+        u = u + np.einsum("...m,...n,mna->...a", s, s, model.G[:, :, i, :])
+    return u
+
+
+# ---------------------------------------------------------------------------------------------
+# simulation
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SpinupResult:
+    """Kane spin-up run (SI).
+
+    time (nt,) s; rate (nt,) hub rate Ω rad/s; s, sdot (nt, N) modal coordinates (√kg·m, /s);
+    tip (nt, 3) hub-frame tip displacement U_tip (m): [axial x, in-plane y (= v), out-of-plane z].
+    peak_deflection (m, signed) and peak_time (s): the extreme in-plane tip deflection (largest
+    |v|, refined on the dense solution). after_ramp_max (m): max |v| for t > T.
+    status: "ok", "diverged" (|U_tip| passed ``blowup`` × L or became non-finite: the run was
+    stopped there) or "failed" (integrator error); message explains.
+    """
+
+    omega_s: float
+    t_ramp: float
+    formulation: str
+    time: np.ndarray
+    rate: np.ndarray
+    s: np.ndarray
+    sdot: np.ndarray
+    tip: np.ndarray
+    peak_deflection: float
+    peak_time: float
+    after_ramp_max: float
+    status: str
+    message: str
+    model: ReducedModel = field(repr=False)
+    n_steps: int = 0
+
+    @property
+    def diverged(self) -> bool:
+        return self.status != "ok"
+
+    @property
+    def tip_inplane(self) -> np.ndarray:
+        """In-plane tip deflection v (nt,) m (hub-frame y)."""
+        return self.tip[:, 1]
+
+    @property
+    def tip_outofplane(self) -> np.ndarray:
+        """Out-of-plane tip deflection (nt,) m (hub-frame z)."""
+        return self.tip[:, 2]
+
+    @property
+    def tip_axial(self) -> np.ndarray:
+        """Axial tip displacement (nt,) m (hub-frame x; the foreshortening)."""
+        return self.tip[:, 0]
+
+
+def kane_spinup(
+    omega_s: float = 6.0,
+    t_ramp: float = 15.0,
+    duration: float = 30.0,
+    n_modes: int = 4,
+    formulation: str = "Q",
+    model: ReducedModel | None = None,
+    n_elements: int = 20,
+    out_of_plane: bool = False,
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    n_out: int = 3001,
+    blowup: float = 100.0,
+    **beam,
+) -> SpinupResult:
+    """Kane spin-up 0 → ``omega_s`` (rad/s) in ``t_ramp`` (s), run to ``duration`` (s).
+
+    ``formulation``: "Q" (quadratic modes, spin stiffening through J2g) or "L" (linear modes,
+    no stiffening: diverges for Ωs above the first bending frequency, 3.80 rad/s). ``model``: a
+    clamped :class:`ReducedModel` (X from the hub point); default :func:`kane_model` with
+    ``n_modes`` in-plane bending modes on ``n_elements`` cable elements; ``beam``: beam data
+    overriding :data:`KANE_BEAM` (``length``, ``youngs_modulus``, …). Integration: DOP853 with
+    ``rtol``/``atol``; a terminal event stops the run cleanly when |U_tip| exceeds
+    ``blowup`` × (beam length); output on ``n_out`` uniform times."""
+    if model is None:
+        model = kane_model(n_modes, n_elements, out_of_plane, **beam)
+    if model.free:
+        raise ValueError("kane_spinup: the model must be clamped to the hub (free=False)")
+    sys = reduced_system(model, formulation)
+    n = sys.n_modes
+    length = float(np.max(np.linalg.norm(model.X[model.translational], axis=1)))
+    limit = blowup * length
+
+    def omega(t):
+        return np.array([0.0, 0.0, kane_rate(t, omega_s, t_ramp)[0]])
+
+    def omega_dot(t):
+        return np.array([0.0, 0.0, kane_rate(t, omega_s, t_ramp)[1]])
+
+    def fun(t, y):
+        return prescribed_rhs(sys, t, y, omega, omega_dot)
+
+    def blown(t, y):
+        s = y[:n]
+        if not np.all(np.isfinite(s)):
+            return -1.0
+        return limit - float(np.linalg.norm(tip_displacement(model, s)))
+
+    blown.terminal = True
+    blown.direction = -1
+
+    # the profile is C² but its third derivative jumps at t = T: integrate in two pieces
+    y0 = np.zeros(2 * n)
+    pieces = [(0.0, min(t_ramp, duration))]
+    if duration > t_ramp:
+        pieces.append((t_ramp, duration))
+    sols, status, message, n_steps = [], "ok", "completed", 0
+    for t0, t1 in pieces:
+        with np.errstate(over="ignore", invalid="ignore"):
+            sol = solve_ivp(
+                fun, (t0, t1), y0, method="DOP853", rtol=rtol, atol=atol, dense_output=True,
+                events=blown,
+            )  # fmt: skip
+        n_steps += sol.t.size
+        sols.append(sol)
+        if sol.status == 1:
+            te = float(sol.t_events[0][0])
+            status = "diverged"
+            message = (
+                f"formulation {formulation}: tip displacement exceeded {blowup:g} × L "
+                f"= {limit:g} m at t = {te:.3f} s (Ω = {kane_rate(te, omega_s, t_ramp)[0]:.3f}"
+                " rad/s); stopped"
+            )
+            break
+        if sol.status < 0 or not np.all(np.isfinite(sol.y[:, -1])):
+            status = "diverged" if not np.all(np.isfinite(sol.y)) else "failed"
+            message = f"formulation {formulation}: integrator stopped: {sol.message}"
+            break
+        y0 = sol.y[:, -1]
+    t_end = float(sols[-1].t[-1])
+    time = np.linspace(0.0, t_end, max(2, int(round(n_out * t_end / duration))))
+
+    def state(t):
+        t = np.atleast_1d(np.asarray(t, float))
+        out = np.empty((t.size, 2 * n))
+        for k, sol in enumerate(sols):
+            lo, hi = sol.t[0], sol.t[-1]
+            sel = (t >= lo) & (t <= hi) if k == 0 else (t > lo) & (t <= hi)
+            if np.any(sel):
+                out[sel] = sol.sol(t[sel]).T
+        return out
+
+    y = state(time)
+    s, sd = y[:, :n], y[:, n:]
+    tip = tip_displacement(model, s)
+    v = tip[:, 1]
+    k = int(np.nanargmax(np.abs(v)))
+    peak_t, peak_v = float(time[k]), float(v[k])
+    if status == "ok" and 0 < k < time.size - 1:
+        sign = math.copysign(1.0, peak_v)
+        res = minimize_scalar(
+            lambda tt: -sign * tip_displacement(model, state(tt)[0, :n])[1],
+            bounds=(time[k - 1], time[k + 1]),
+            method="bounded",
+            options={"xatol": 1e-6},
+        )
+        peak_t, peak_v = float(res.x), float(-sign * res.fun)
+    after = v[time > t_ramp]
+    after_max = float(np.max(np.abs(after))) if after.size else float("nan")
+    return SpinupResult(
+        omega_s=float(omega_s),
+        t_ramp=float(t_ramp),
+        formulation=formulation,
+        time=time,
+        rate=kane_rate(time, omega_s, t_ramp)[0],
+        s=s,
+        sdot=sd,
+        tip=tip,
+        peak_deflection=peak_v,
+        peak_time=peak_t,
+        after_ramp_max=after_max,
+        status=status,
+        message=message,
+        model=model,
+        n_steps=n_steps,
+    )
