@@ -139,3 +139,44 @@ def test_paper_membrane_calibrated_frequencies():
     # the seed's order: rocking pair (modes 1-2), rear axial (3), bending pair (4-5)
     assert labels[:5] == ["rocking (rear mass)"] * 2 + ["axial (rear mass)"] + ["bending"] * 2
     assert np.all(np.abs(model.modes.rigid_frequencies_hz) < 1e-3 * f[0])
+
+
+def test_gas_law_adds_volume_stiffness_only_to_volume_changing_modes():
+    from quadmodes.config import case_from_toml
+
+    base = """
+name = "gas-sphere"
+kind = "membrane"
+[geometry]
+shape = "sphere"
+diameter = "10 in"
+[mesh]
+edge_length = "1.5 in"
+[material]
+density = "0.0335 lb/in^3"
+youngs_modulus = "0.05 Mpsi"
+poisson_ratio = 0.3
+thickness = "0.0045 in"
+[pressure]
+value = "0.3 psi"
+gas_law_exponent = KAPPA
+[modes]
+count = 40
+"""
+    const = build_modal_model(case_from_toml(base.replace("KAPPA", "0")))
+    gas = build_modal_model(case_from_toml(base.replace("KAPPA", "1.4")))
+    # modes with n >= 1 keep the volume to first order: unchanged frequencies
+    assert np.allclose(gas.modes.frequencies_hz[:8], const.modes.frequencies_hz[:8], rtol=1e-6)
+    # a uniform radial (breathing) motion gains exactly the gas stiffness κ p (∇V·u)² / V
+    from quadmodes.fe.model import tangent_low_rank
+    from quadmodes.fe.pressure import volume_gradient
+
+    x = gas.x
+    u = (x - x.mean(0)) / np.linalg.norm(x - x.mean(0), axis=1)[:, None]
+    ((coef, vec),) = tangent_low_rank(gas.structure, x)
+    grad = volume_gradient(x, gas.structure.elements[1].conn)
+    volume = gas.structure.elements[1].volume(x)
+    assert coef == pytest.approx(1.4 * P / volume, rel=1e-3)
+    assert coef * (vec @ u.ravel()) ** 2 == pytest.approx(
+        1.4 * P * np.sum(grad * u) ** 2 / volume, rel=1e-3
+    )

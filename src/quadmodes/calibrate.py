@@ -21,7 +21,7 @@ from quadmodes.fe.model import Structure
 from quadmodes.fe.rigid import point_mass_cluster
 from quadmodes.labels import label_modes
 from quadmodes.modes import compute_modes
-from quadmodes.pipeline import reference_state, structure_for_case
+from quadmodes.pipeline import reference_state, structure_for_case, with_gas_law
 
 Progress = Callable[[str, float], None]
 log = logging.getLogger(__name__)
@@ -111,6 +111,7 @@ def calibrate_end_masses(
     bodies = {b.name: b for b in case.end_body}
     structure = structure_for_case(case)
     x, _ = reference_state(case, structure, progress)
+    structure = with_gas_law(case, structure, x)
     count = max(case.modes.count, 8)
     fit_inertia = axial_hz is not None
     evaluations = 0

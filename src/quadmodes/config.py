@@ -8,6 +8,7 @@ names the field path and the fix.
 """
 
 import difflib
+import functools
 import json
 import math
 import os
@@ -44,12 +45,20 @@ __all__ = [
     "Mesh",
     "Modes",
     "Pressure",
+    "RunCase",
+    "RunInitial",
+    "RunIntegration",
+    "RunReduced",
     "builtin_case_names",
+    "builtin_run_case_names",
     "builtin_case_text",
     "case_from_dict",
     "case_from_toml",
     "case_to_toml",
     "load_case",
+    "load_run_case",
+    "run_case_from_dict",
+    "run_case_from_toml",
 ]
 
 
@@ -497,6 +506,113 @@ class Case(_Section):
 
 
 # --------------------------------------------------------------------------------------------
+# run cases: a model (built-in name or case file) + initial conditions + integration settings
+
+
+def _cone(theta: float) -> str | None:
+    return None if 0.0 <= theta < 0.5 * math.pi else "must satisfy 0 deg <= cone_angle < 90 deg"
+
+
+def _rtol(x: float) -> str | None:
+    return None if 0.0 < x < 1.0 else "must satisfy 0 < rtol < 1"
+
+
+class RunReduced(_Section):
+    """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
+    formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
+    linear modes, "rigid" no elastic modes)."""
+
+    modes: _integer(5, 1) = 5
+    formulation: _choice("Q", "P", "L", "rigid") = "Q"
+
+
+class RunInitial(_Section):
+    """Initial state: spin rate (rad/s) about the minor principal axis of the (deformed)
+    inertia, cone angle (rad) between the angular momentum and that axis, and an initial
+    deformation in the first bending mode whose largest nodal displacement is
+    ``bending_amplitude`` (m; 0 = undeformed). Modal velocities start at zero."""
+
+    spin_rate: _quantity("angular_rate", "41 Hz", _positive)
+    cone_angle: _quantity("angle", "6 deg", _cone, "deg") = 0.0
+    bending_amplitude: _quantity("length", "0.5 in", _nonnegative, "in") = 0.0
+
+
+class RunIntegration(_Section):
+    """Time integration: method, step ``dt`` (s; the sampling step for "adaptive"), duration
+    (s), keep every ``save_every``-th step, relative tolerance ``rtol`` ("adaptive" only)."""
+
+    method: _choice("midpoint", "backward-euler", "adaptive") = "midpoint"
+    dt: _quantity("time", "0.5 ms", _positive, "ms")
+    duration: _quantity("time", "4 s", _positive, "s")
+    save_every: _integer(4, 1) = 1
+    rtol: _quantity("dimensionless", "1e-9", _rtol) = 1e-9
+
+    @model_validator(mode="after")
+    def check_span(self) -> Self:
+        if self.dt > self.duration:
+            raise _error(
+                "case_rule",
+                f"{format_quantity(self.dt, 'ms')} is longer than the duration "
+                f"{format_quantity(self.duration, 's')}; use a smaller dt",
+                "dt",
+            )
+        return self
+
+    @property
+    def n_steps(self) -> int:
+        """Number of (fixed) steps: ``ceil(duration / dt)``."""
+        return max(1, math.ceil(self.duration / self.dt - 1e-9))
+
+
+class RunCase(_Section):
+    """A run: integrate a model's reduced equations from given initial conditions.
+
+    ``model`` is a built-in case name or the path of a case file (relative paths are taken from
+    the run-case file)."""
+
+    name: _text("my-run")
+    description: _text("what this run is for") = ""
+    kind: _choice("run")
+    model: Annotated[str, _Meta('"paper-membrane"')]
+    reduced: RunReduced = Field(default_factory=RunReduced)
+    initial: RunInitial
+    integration: RunIntegration
+
+    @field_validator("name")
+    @classmethod
+    def check_name(cls, value: str) -> str:
+        if not _NAME.match(value):
+            raise _error("case_value", 'use letters, digits, ".", "_" or "-" only; e.g. "my-run"')
+        return value
+
+    @field_validator("model")
+    @classmethod
+    def resolve_model(cls, value: str, info: ValidationInfo) -> str:
+        if not value.strip():
+            raise _error("case_value", 'must name a model case; use e.g. "paper-membrane"')
+        if value in builtin_case_names():
+            return value
+        base = (info.context or {}).get("base_dir")
+        path = Path(value).expanduser()
+        if base is not None and not path.is_absolute():
+            return str(Path(base) / path)
+        return value
+
+    def model_case(self) -> Case:
+        """The model (membrane or beam case); raises :class:`CaseError` naming ``model``."""
+        try:
+            return load_case(self.model)
+        except CaseError as exc:
+            raise CaseError(
+                f"model = {_toml_value(self.model)}: {exc}", source=f"{self.name}", field="model"
+            ) from None
+
+    def to_toml(self) -> str:
+        """This run case as TOML text in SI units (see :func:`run_case_to_toml`)."""
+        return run_case_to_toml(self)
+
+
+# --------------------------------------------------------------------------------------------
 # error messages
 
 
@@ -511,9 +627,11 @@ def _unwrap_model(annotation: Any) -> type[BaseModel] | None:
     return None
 
 
-def _walk(loc: list[Any]) -> tuple[type[BaseModel] | None, str | None]:
-    """(model owning the last key of ``loc``, that key)."""
-    model: type[BaseModel] | None = Case
+def _walk(
+    loc: list[Any], root: type[BaseModel] | None = None
+) -> tuple[type[BaseModel] | None, str | None]:
+    """(model owning the last key of ``loc``, that key); ``root`` defaults to :class:`Case`."""
+    model: type[BaseModel] | None = Case if root is None else root
     keys = [k for k in loc if isinstance(k, str)]
     for name in keys[:-1]:
         if model is None or name not in model.model_fields:
@@ -544,8 +662,8 @@ def _table_name(loc: list[Any]) -> str:
     return ".".join(keys)
 
 
-def _describe_error(error: Any) -> tuple[str, str]:
-    """(field path, one-line message) for one pydantic error dict."""
+def _describe_error(error: Any, root: type[BaseModel] | None = None) -> tuple[str, str]:
+    """(field path, one-line message) for one pydantic error dict (``root``: see _walk)."""
     loc = list(error["loc"])
     ctx = error.get("ctx") or {}
     if "sub" in ctx:
@@ -560,13 +678,13 @@ def _describe_error(error: Any) -> tuple[str, str]:
     if kind == "case_value":
         return path, f"{shown}: {ctx['detail']}"
     if kind == "missing":
-        model, key = _walk(loc)
+        model, key = _walk(loc, root)
         if model is not None and key in model.model_fields:
             example = _field_meta(model, key).example
             return path, f"{path}: missing; add e.g. {key} = {example}"
         return path, f"{path}: missing"
     if kind == "extra_forbidden":
-        model, key = _walk(loc)
+        model, key = _walk(loc, root)
         if model is None:
             return path, f"{path}: unknown key; remove it"
         parent = _table_name(loc[:-1])
@@ -588,10 +706,12 @@ def _describe_error(error: Any) -> tuple[str, str]:
     return path, f"{shown}: {message}"
 
 
-def _case_error(exc: ValidationError, source: str | None) -> CaseError:
+def _case_error(
+    exc: ValidationError, source: str | None, root: type[BaseModel] | None = None
+) -> CaseError:
     # an unknown (misspelt) key explains the "missing" error that usually comes with it
     errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
-    path, message = _describe_error(errors[0])
+    path, message = _describe_error(errors[0], root)
     if len(errors) > 1:
         message += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
     return CaseError(message, source=source, field=path)
@@ -610,6 +730,13 @@ def case_from_dict(
     """
     if not isinstance(data, dict):
         raise CaseError("a case must be a TOML table of keys", source=source)
+    if data.get("kind") == "run":
+        raise CaseError(
+            'kind = "run": a run case, not a model; use it with `quadmodes run` or '
+            "`quadmodes reduce`, or give its model case here",
+            source=source,
+            field="kind",
+        )
     context = {"base_dir": os.fspath(base_dir) if base_dir is not None else None}
     try:
         return Case.model_validate(data, context=context)
@@ -643,24 +770,41 @@ def _cases_dir() -> Any:
     return resources.files("quadmodes").joinpath("cases")
 
 
+@functools.cache
+def _builtin_kinds() -> dict[str, str]:
+    """``{name: kind}`` of the TOML files shipped in ``quadmodes/cases``."""
+    kinds = {}
+    for entry in _cases_dir().iterdir():
+        if entry.name.endswith(".toml") and entry.is_file():
+            try:
+                kind = tomllib.loads(entry.read_text(encoding="utf-8")).get("kind")
+            except tomllib.TOMLDecodeError:
+                kind = None
+            kinds[entry.name[: -len(".toml")]] = str(kind)
+    return kinds
+
+
 def builtin_case_names() -> list[str]:
-    """Names of the built-in cases (TOML files shipped in ``quadmodes/cases``), sorted."""
-    return sorted(
-        entry.name[: -len(".toml")]
-        for entry in _cases_dir().iterdir()
-        if entry.name.endswith(".toml") and entry.is_file()
-    )
+    """Names of the built-in model cases (membrane and beam TOML files shipped in
+    ``quadmodes/cases``), sorted; run cases are listed by :func:`builtin_run_case_names`."""
+    return sorted(name for name, kind in _builtin_kinds().items() if kind != "run")
+
+
+def builtin_run_case_names() -> list[str]:
+    """Names of the built-in run cases (``kind = "run"``), sorted."""
+    return sorted(name for name, kind in _builtin_kinds().items() if kind == "run")
 
 
 def builtin_case_text(name: str) -> str:
-    """TOML text of a built-in case; raises :class:`CaseError` for an unknown name."""
-    if name not in builtin_case_names():
+    """TOML text of a built-in case (model or run); raises :class:`CaseError` for an unknown
+    name."""
+    if name not in builtin_case_names() and name not in builtin_run_case_names():
         raise CaseError(_unknown_case(name), field="case")
     return _cases_dir().joinpath(f"{name}.toml").read_text(encoding="utf-8")
 
 
 def _unknown_case(name: str) -> str:
-    names = builtin_case_names()
+    names = builtin_case_names() + builtin_run_case_names()
     close = difflib.get_close_matches(name, names, n=1)
     hint = f'did you mean "{close[0]}"? ' if close else ""
     return (
@@ -684,6 +828,13 @@ def load_case(name_or_path: str | os.PathLike[str]) -> Case:
     )
     if not looks_like_path and text in builtin_case_names():
         return case_from_toml(builtin_case_text(text), source=f"{text}.toml")
+    if not looks_like_path and text in builtin_run_case_names():
+        model = load_run_case(text).model
+        raise CaseError(
+            f'"{text}" is a run case (kind = "run"); use `quadmodes run {text}`, or its model '
+            f'"{model}" here',
+            field="case",
+        )
     path = Path(text).expanduser()
     if not path.is_file():
         if looks_like_path:
@@ -736,4 +887,117 @@ def case_to_toml(case: Case) -> str:
             lines += ["", f"[{name}]", *_section_lines(section)]
     for body in case.end_body:
         lines += ["", "[[end_body]]", *_section_lines(body)]
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------
+# run cases: loading and writing
+
+
+def run_case_from_dict(
+    data: dict[str, Any], source: str | None = None, base_dir: str | os.PathLike[str] | None = None
+) -> RunCase:
+    """Validate parsed TOML data into a :class:`RunCase` and check that its model loads;
+    raises :class:`CaseError` (one line naming the field). ``base_dir`` anchors a relative
+    ``model`` path."""
+    if not isinstance(data, dict):
+        raise CaseError("a run case must be a TOML table of keys", source=source)
+    kind = data.get("kind")
+    if kind in ("membrane", "beam"):
+        raise CaseError(
+            f'kind = "{kind}": a model case, not a run case; a run case has kind = "run", '
+            'model = "<this case>", [initial] and [integration] tables '
+            '(see src/quadmodes/cases/paper-41hz.toml)',
+            source=source,
+            field="kind",
+        )
+    context = {"base_dir": os.fspath(base_dir) if base_dir is not None else None}
+    try:
+        run = RunCase.model_validate(data, context=context)
+    except ValidationError as exc:
+        raise _case_error(exc, source, RunCase) from None
+    try:
+        run.model_case()
+    except CaseError as exc:
+        raise CaseError(exc.detail, source=source, field="model") from None
+    return run
+
+
+def run_case_from_toml(
+    text: str, source: str = "<string>", base_dir: str | os.PathLike[str] | None = None
+) -> RunCase:
+    """Parse TOML text into a :class:`RunCase`; raises :class:`CaseError` (one line)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc).splitlines()[0] if str(exc) else "invalid TOML"
+        match = _TOML_POSITION.search(message)
+        if match:
+            line, column = match.groups()
+            raise CaseError(
+                f"line {line}, column {column}: invalid TOML: {message[: match.start()]}",
+                source=source,
+            ) from None
+        raise CaseError(f"invalid TOML: {message}", source=source) from None
+    return run_case_from_dict(data, source=source, base_dir=base_dir)
+
+
+def load_run_case(name_or_path: str | os.PathLike[str]) -> RunCase:
+    """Load a built-in run case by name or a run case from a ``.toml`` file path; raises
+    :class:`CaseError` with a one-line message."""
+    text = os.fspath(name_or_path)
+    looks_like_path = (
+        not isinstance(name_or_path, str)
+        or text.endswith(".toml")
+        or os.sep in text
+        or (os.altsep is not None and os.altsep in text)
+    )
+    if not looks_like_path and text in builtin_run_case_names():
+        return run_case_from_toml(builtin_case_text(text), source=f"{text}.toml")
+    if not looks_like_path and text in builtin_case_names():
+        runs = ", ".join(builtin_run_case_names())
+        raise CaseError(
+            f'"{text}" is a model case, not a run case; built-in run cases are: {runs} '
+            f'(or write a run case with model = "{text}")',
+            field="case",
+        )
+    path = Path(text).expanduser()
+    if not path.is_file():
+        if looks_like_path:
+            raise CaseError(f"run case file not found: {text}", field="case")
+        names = builtin_run_case_names()
+        close = difflib.get_close_matches(text, names, n=1)
+        hint = f'did you mean "{close[0]}"? ' if close else ""
+        raise CaseError(
+            f'unknown run case "{text}"; {hint}built-in run cases are: {", ".join(names)} '
+            "(or give the path of a .toml file)",
+            field="case",
+        )
+    try:
+        content = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise CaseError(f"cannot read run case file: {reason}", source=text) from None
+    return run_case_from_toml(content, source=text, base_dir=path.parent)
+
+
+def run_case_to_toml(run: RunCase) -> str:
+    """TOML text for ``run`` with quantities in SI units (comments give familiar units);
+    ``run_case_from_toml(run_case_to_toml(run)) == run``."""
+    lines = [
+        f"# quadmodes run case {run.name!s}: quantities in SI units",
+        f"name = {_toml_value(run.name)}",
+        f"description = {_toml_value(run.description)}",
+        f"kind = {_toml_value(run.kind)}",
+        f"model = {_toml_value(run.model)}",
+    ]
+    for name in ("reduced", "initial", "integration"):
+        section_lines = _section_lines(getattr(run, name))
+        if name == "initial":  # the spin rate in Hz as well
+            hz = format_quantity(run.initial.spin_rate / (2.0 * math.pi), "Hz")
+            section_lines = [
+                f"{line}  # {hz}" if line.startswith("spin_rate") else line
+                for line in section_lines
+            ]
+        lines += ["", f"[{name}]", *section_lines]
     return "\n".join(lines) + "\n"

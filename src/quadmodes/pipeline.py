@@ -4,7 +4,7 @@ modes -> labels. Each step is a small function; the CLI and the calibration call
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from quadmodes.fe.build import (
     build_membrane_structure,
 )
 from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor, total_mass
+from quadmodes.fe.pressure import PressureSet
 from quadmodes.labels import label_modes
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
@@ -146,10 +147,27 @@ def reference_state(
     return state.x, state
 
 
+def with_gas_law(case: Case, structure: Structure, x: np.ndarray) -> Structure:
+    """The structure for vibrations about the inflated state ``x``: with a gas-law exponent the
+    pressure follows ``p V^κ = const`` through (p, V) of the inflated state (inflation itself is
+    done at constant pressure)."""
+    kappa = case.pressure.gas_law_exponent if case.pressure is not None else 0.0
+    if not kappa:
+        return structure
+    sets = tuple(
+        replace(e, gas_law_exponent=kappa, reference_volume=e.volume(x))
+        if isinstance(e, PressureSet)
+        else e
+        for e in structure.elements
+    )
+    return replace(structure, elements=sets)
+
+
 def build_modal_model(case: Case, progress: Progress | None = None) -> ModalModel:
     """Mesh, structure, prestress, modes and labels of a case."""
     structure = structure_for_case(case)
     x, state = reference_state(case, structure, progress)
+    structure = with_gas_law(case, structure, x)
     if progress:
         progress("modes", 0.0)
     modes = compute_modes(structure, x, case.modes.count)
