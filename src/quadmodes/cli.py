@@ -1,4 +1,4 @@
-"""Command-line interface: ``quadmodes cases | show-case | modes | calibrate``.
+"""Command-line interface: ``quadmodes cases | show-case | modes | calibrate | reduce | run``.
 
 Errors a user can fix (bad case, bad units, failed convergence) print one line on stderr and exit
 with status 2; results are written to a scratch folder and moved into place only when complete.
@@ -123,22 +123,25 @@ def version() -> None:
 @app.command()
 def cases() -> None:
     """List the built-in cases."""
-    from quadmodes.config import builtin_case_names
+    from quadmodes.config import builtin_case_names, builtin_run_case_names, load_run_case
 
     table = Table("name", "kind", "description")
     for name in builtin_case_names():
         c = _load(name)
         table.add_row(name, c.kind, c.description)
+    for name in builtin_run_case_names():
+        r = load_run_case(name)
+        table.add_row(name, r.kind, r.description)
     out.print(table)
 
 
 @app.command("show-case")
 def show_case(name: Annotated[str, typer.Argument(help="built-in case name or TOML file")]) -> None:
     """Print a case as TOML (copy it, edit it, pass the file to any command)."""
-    from quadmodes.config import builtin_case_names, builtin_case_text
+    from quadmodes.config import builtin_case_names, builtin_case_text, builtin_run_case_names
 
     try:
-        if name in builtin_case_names():
+        if name in builtin_case_names() or name in builtin_run_case_names():
             sys.stdout.write(builtin_case_text(name))
         else:
             sys.stdout.write(_load(name).to_toml())
@@ -332,3 +335,247 @@ def validate(
     if failed:
         err.print(f"[bold red]{len(failed)} checks failed:[/] {', '.join(failed)}")
         raise typer.Exit(code=1)
+
+
+# ------------------------------------------------------------------------------ reduce / run
+
+
+@app.command("reduce")
+def reduce_command(
+    case: Annotated[
+        str, typer.Argument(help="model case, or run case (its model), built-in name or TOML file")
+    ] = DEFAULT_CASE,
+    output_file: Annotated[
+        Path | None, typer.Option("-o", "--output", help="write the reduced model (NetCDF)")
+    ] = None,
+    modes: Annotated[
+        int | None,
+        typer.Option("--modes", help="elastic modes to keep (default: the run case's, else 5)"),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print JSON on stdout")] = False,
+) -> None:
+    """Build the reduced model (quadratic modes, floating-frame arrays) of a case.
+
+    Cached in $QUADMODES_CACHE or ~/.cache/quadmodes: later calls and `run` skip the FE work.
+    """
+    from quadmodes import artifact, simulate
+    from quadmodes.config import load_run_case
+
+    info: dict = {}
+    try:
+        if simulate.is_run_case(case):
+            run_case = load_run_case(case)
+            model_case = run_case.model_case()
+            n_modes = modes if modes is not None else run_case.reduced.modes
+        else:
+            model_case = _load(case)
+            n_modes = modes if modes is not None else simulate.DEFAULT_MODES
+        with _progress(not as_json) as progress:
+            model = simulate.reduced_model_for(model_case, n_modes, progress, info=info)
+        if output_file is not None:
+            artifact.save_reduced_model(model, output_file)
+    except (*_user_errors(), OSError) as exc:
+        _fail(exc)
+    summary = {
+        "case": model_case.name,
+        "n_modes": model.n_modes,
+        "frequencies_hz": [float(f) for f in model.frequencies_hz],
+        "labels": list(model.labels),
+        "damping_ratio": [float(z) for z in model.damping_ratio],
+        "mass_kg": float(model.mass),
+        "content_key": str(model.provenance.get("content_key", "")),
+        "cache": info.get("cache"),
+        "cache_path": info.get("path"),
+        "output": str(output_file) if output_file is not None else None,
+    }
+    if as_json:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        return
+    table = Table("mode", "frequency (Hz)", "label", "damping", title=f"{model_case.name}: reduced")
+    for k, (f, lab, z) in enumerate(
+        zip(model.frequencies_hz, model.labels, model.damping_ratio, strict=True)
+    ):
+        table.add_row(str(k + 1), f"{f:.3f}", lab, f"{z:.3g}")
+    out.print(table)
+    out.print(f"cache {summary['cache']}: {escape(str(summary['cache_path']))}")
+    if output_file is not None:
+        out.print(f"reduced model written to {escape(str(output_file))}")
+
+
+def _run_progress(update):
+    """Wrap a bar callback: without a terminal (no bars), print the progress in 10 % steps."""
+    shown: dict[str, int] = {}
+
+    def progress(stage: str, fraction: float) -> None:
+        update(stage, fraction)
+        if err.is_terminal:
+            return
+        tenth = int(10 * fraction + 1e-9)
+        if shown.get(stage, -1) < tenth:
+            shown[stage] = tenth
+            err.print(f"{escape(stage)}: {10 * tenth} %", highlight=False)
+
+    return progress
+
+
+_RUN_ROWS = [
+    ("status", "status", "{}"),
+    ("steps", "steps", "{}"),
+    ("wall time (s)", "wall_s", "{:.1f}"),
+    ("max |H(t) − H0| / |H0|", "H_relative_drift", "{:.2e}"),
+    ("energy start → end (J)", ("energy_start_J", "energy_end_J"), "{:.6g} → {:.6g}"),
+    ("dissipated energy (J)", "dissipated_energy_J", "{:.4g}"),
+    ("spin rate start → end (Hz)", ("spin_rate_start_hz", "spin_rate_end_hz"), "{:.5f} → {:.5f}"),
+    (
+        "cone angle start → end (deg)",
+        ("cone_angle_start_deg", "cone_angle_end_deg"),
+        "{:.4f} → {:.4f}",
+    ),
+    ("bending log decrement", "log_decrement", "{:.4f}"),
+]
+
+
+def _format_row(summary: dict, key, fmt: str) -> str:
+    keys = key if isinstance(key, tuple) else (key,)
+    values = [summary.get(k) for k in keys]
+    if any(v is None for v in values):
+        return "—"
+    return fmt.format(*values)
+
+
+@app.command("run")
+def run_command(
+    case: Annotated[
+        str | None,
+        typer.Argument(help="run case (built-in name or TOML file); default: both paper cases"),
+    ] = None,
+    output_dir: Annotated[
+        Path, typer.Option("-o", "--output", help="folder; each run writes DIR/<case name>/")
+    ] = Path("out"),
+    as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
+    method: Annotated[str | None, typer.Option(help="midpoint | backward-euler | adaptive")] = None,
+    dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
+    duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,
+    formulation: Annotated[str | None, typer.Option(help="Q | P | L | rigid")] = None,
+    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write PNG figures")] = True,
+) -> None:
+    """Integrate run cases; write results.nc, summary.json and PNG figures per case.
+
+    With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz.
+
+    Exit status 2 for bad input (nothing written), 1 if a run stopped early (partial results).
+    """
+    from quadmodes import simulate
+    from quadmodes.config import load_run_case
+    from quadmodes.results import write_outputs
+
+    names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
+    try:
+        runs = [
+            simulate.apply_overrides(
+                load_run_case(name),
+                method=method,
+                dt=dt,
+                duration=duration,
+                formulation=formulation,
+            )
+            for name in names
+        ]
+        with _progress(True) as bars:
+            setups = [simulate.prepare(r, progress=bars) for r in runs]
+    except _user_errors() as exc:
+        _fail(exc)
+    summaries: dict[str, dict] = {}
+    failed: list[str] = []
+    for setup in setups:
+        name = setup.run.name
+        target = output_dir / name
+        try:
+            with _progress(True) as bars:
+                result = simulate.execute(setup, _run_progress(bars))
+            with _staged_output(target) as scratch:
+                summaries[name] = write_outputs(result, scratch, plots=plots)
+        except (*_user_errors(), OSError) as exc:
+            _fail(exc)
+        if not result.complete:
+            failed.append(name)
+            err.print(
+                f"[bold yellow]warning:[/] {escape(name)} stopped early ("
+                f"{escape(' '.join(result.reason.split()))}); partial results with complete = 0 "
+                f"written to {escape(str(target))}",
+                highlight=False,
+                soft_wrap=True,
+            )
+    if as_json:
+        payload = next(iter(summaries.values())) if case is not None else summaries
+        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
+    else:
+        for name, summary in summaries.items():
+            table = Table("quantity", "value", title=f"{name}: run summary")
+            for label, key, fmt in _RUN_ROWS:
+                table.add_row(label, _format_row(summary, key, fmt))
+            out.print(table)
+            out.print(f"results written to {escape(str(output_dir / name))}")
+    if failed:
+        raise typer.Exit(code=1)
+
+
+@app.command()
+def campbell(
+    case: Annotated[
+        str, typer.Argument(help="model case (membrane or beam), name or TOML file")
+    ] = "kane-beam",
+    spin_min: Annotated[str, typer.Option(help="lowest spin rate, e.g. '0 Hz'")] = "0 rad/s",
+    spin_max: Annotated[str, typer.Option(help="highest spin rate, e.g. '10 rad/s'")] = "10 rad/s",
+    n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
+    formulation: Annotated[str, typer.Option(help="Q, P or L")] = "Q",
+    output_dir: Annotated[
+        Path | None, typer.Option("-o", "--output", help="folder for campbell.png/.nc/.csv")
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print JSON on stdout")] = False,
+) -> None:
+    """Frequencies of the reduced model linearised about steady spin over a range of spin rates
+    (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
+    bodies spin about their minor principal axis, clamped bodies on a hub about z."""
+    from quadmodes.campbell import campbell_main
+    from quadmodes.units import parse_quantity
+
+    try:
+        lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
+        hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
+        if formulation not in ("Q", "P", "L"):
+            raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L")
+        c = _load(case)
+        with _progress(not as_json) as progress, _staged_output(output_dir) as scratch:
+            result, _ = campbell_main(
+                c, lo, hi, n, formulation=formulation, output_dir=scratch, progress=progress
+            )
+    except _user_errors() as exc:
+        _fail(exc)
+    freqs = np.asarray(result.frequency)
+    summary = {
+        "case": c.name,
+        "formulation": formulation,
+        "spin_rate_rad_s": [float(v) for v in result.spin],
+        "branches": list(result.labels),
+        "frequency_rad_s": freqs.tolist(),
+        "unstable_spin_rates_rad_s": [
+            float(w)
+            for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)
+            if np.any(u) or k <= 0.0
+        ],
+    }
+    if as_json:
+        sys.stdout.write(json.dumps(summary) + "\n")
+        return
+    table = Table("spin (rad/s)", *result.labels[:6], title=f"{c.name}: rotating-frame (rad/s)")
+    for k in np.linspace(0, len(result.spin) - 1, min(9, len(result.spin))).astype(int):
+        table.add_row(f"{result.spin[k]:.3g}", *[f"{v:.4g}" for v in freqs[k, :6]])
+    out.print(table)
+    if summary["unstable_spin_rates_rad_s"]:
+        out.print(
+            f"[bold red]rotating stiffness not positive definite from "
+            f"{summary['unstable_spin_rates_rad_s'][0]:.4g} rad/s[/]"
+        )
+    if output_dir is not None:
+        out.print(f"outputs written to {output_dir}")

@@ -907,7 +907,7 @@ def run_case_from_dict(
         raise CaseError(
             f'kind = "{kind}": a model case, not a run case; a run case has kind = "run", '
             'model = "<this case>", [initial] and [integration] tables '
-            '(see src/quadmodes/cases/paper-41hz.toml)',
+            "(see src/quadmodes/cases/paper-41hz.toml)",
             source=source,
             field="kind",
         )

@@ -362,12 +362,16 @@ def _fixed_run(stepper, sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, 
         try:
             r, jm = residual(xg, jac=True)
             jinv = inv(jm)
-        except np.linalg.LinAlgError:
+            n_jac += 1
+            (ok, xg, its), err = _newton(residual, xg, r, jinv, wt, scale, newton_tol, max_newton)
+        except (np.linalg.LinAlgError, ValueError, OverflowError):
+            # a singular Newton matrix, or an iterate that left the reals (math domain error)
             status = 1
-            msg = f"{name}: singular Newton matrix at step {i} (t = {t0 + i * dt:.6g} s)"
+            msg = (
+                f"{name}: Newton failed at step {i} (t = {t0 + i * dt:.6g} s): singular or "
+                "non-finite iterate; reduce dt"
+            )
             break
-        n_jac += 1
-        (ok, xg, its), err = _newton(residual, xg, r, jinv, wt, scale, newton_tol, max_newton)
         n_newton += its
         n_res += its
         if not ok:

@@ -1,0 +1,247 @@
+"""PNG figures of a run, after the seed's Figures 6–16, from a results dataset.
+
+* ``angular_momentum.png`` — |H| and its relative change (seed Figs. 6, 11)
+* ``bending_mode.png`` — first bending coefficient s_b1(t) (Figs. 7, 12)
+* ``bending_mode_early.png`` — the same at early times (Fig. 13)
+* ``energy.png`` — total energy, and total + dissipated (Figs. 8, 14)
+* ``spin_rate.png`` — spin rate (Figs. 9, 15)
+* ``cone_angle.png`` — cone angle (Figs. 10, 16)
+* ``summary.png`` — all of the above plus the bending-pair envelope and its log-decrement fit
+
+Matplotlib's Agg canvas is used directly (no pyplot state), so plotting works headless.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+_DPI = 120
+
+
+def _figure(figsize=(7.0, 4.0)):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, dpi=_DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig, path: Path) -> Path:
+    tmp = path.with_name(f".{path.stem}.partial.png")
+    try:
+        fig.savefig(tmp, format="png", dpi=_DPI)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def _title(ds: xr.Dataset, what: str) -> str:
+    case = ds.attrs.get("case", "")
+    flag = "" if int(ds.attrs.get("complete", 1)) else " (INCOMPLETE)"
+    return f"{case}: {what}{flag}"
+
+
+def _first_bending(ds: xr.Dataset):
+    """(values, label) of the first bending coefficient, or of mode 1 if none is bending."""
+    s = ds["modal_coordinates"]
+    if s.sizes.get("mode", 0) == 0:
+        return None, ""
+    pair = [int(k) for k in np.atleast_1d(ds.attrs.get("bending_modes", []))]
+    mode = pair[0] if pair else 1
+    label = str(ds["mode_label"].sel(mode=mode).values)
+    freq = float(ds["mode_frequency_hz"].sel(mode=mode).values)
+    return s.sel(mode=mode).values, f"mode {mode} ({label}, {freq:.2f} Hz)"
+
+
+def _displacement_axis(ax, ds: xr.Dataset) -> None:
+    scale = ds.attrs.get("bending_displacement_per_unit")
+    if scale is None or not float(scale) > 0:
+        return
+    k = 1e3 * float(scale)  # kg^0.5 m -> mm at the node that moves most
+    sec = ax.secondary_yaxis("right", functions=(lambda v: v * k, lambda v: v / k))
+    sec.set_ylabel("largest nodal displacement (mm)")
+
+
+def _plot_h(ax, ds, relative: bool) -> None:
+    t = ds["time"].values
+    hn = ds["angular_momentum_norm"].values
+    if relative:
+        ax.plot(t, (hn - hn[0]) / hn[0], lw=0.8)
+        ax.set_ylabel("(|H| − |H₀|) / |H₀|")
+    else:
+        ax.plot(t, hn, lw=1.0)
+        ax.set_ylabel("|H| (kg m²/s)")
+        ax.ticklabel_format(axis="y", useOffset=False)
+        lo, hi = hn.min(), hn.max()
+        pad = max(0.05 * abs(hn[0]), hi - lo)
+        ax.set_ylim(lo - pad, hi + pad)
+
+
+def _plot_bending(ax, ds, t_max: float | None = None) -> bool:
+    s, label = _first_bending(ds)
+    if s is None:
+        ax.text(0.5, 0.5, "no elastic modes", ha="center", va="center", transform=ax.transAxes)
+        return False
+    t = ds["time"].values
+    if t_max is not None:
+        keep = t <= t_max
+        t, s = t[keep], s[keep]
+    ax.plot(t, s, lw=0.5)
+    ax.set_ylabel("s (kg^0.5 m)")
+    ax.set_title(label, fontsize=8)
+    return True
+
+
+def _plot_energy(ax, ds) -> None:
+    t = ds["time"].values
+    e = ds["total_energy"].values
+    ax.plot(t, e, lw=1.0, label="total energy E = T + V")
+    ax.plot(t, ds["energy_balance"].values, lw=1.0, ls="--", label="E + dissipated")
+    ax.set_ylabel("energy (J)")
+    ax.ticklabel_format(axis="y", useOffset=False)
+    ax.legend(fontsize=7, loc="best")
+
+
+def _plot_series(ax, ds, name: str, ylabel: str) -> None:
+    ax.plot(ds["time"].values, ds[name].values, lw=1.0)
+    ax.set_ylabel(ylabel)
+
+
+def _plot_envelope(ax, ds) -> None:
+    from quadmodes.results import log_decrement, peak_envelope
+
+    if "bending_amplitude" not in ds:
+        ax.text(0.5, 0.5, "no bending pair", ha="center", va="center", transform=ax.transAxes)
+        return
+    t = ds["time"].values
+    a = ds["bending_amplitude"].values
+    pair = [int(k) for k in np.atleast_1d(ds.attrs.get("bending_modes", []))]
+    f = float(np.mean(ds["mode_frequency_hz"].sel(mode=pair).values))
+    ax.semilogy(t, np.maximum(a, 1e-300), lw=0.4, color="0.6", label="a(t)")
+    et, ea = peak_envelope(t, a, 1.0 / f)
+    if len(et):
+        ax.semilogy(et, np.maximum(ea, 1e-300), ".", ms=2, label="peak per period")
+    ld = log_decrement(t, a, f)
+    if ld["log_decrement"] is not None:
+        use = (et >= ld["fit_start_s"]) & (et <= ld["fit_end_s"])
+        coef = np.polyfit(et[use], np.log(ea[use]), 1)
+        tt = np.array([ld["fit_start_s"], ld["fit_end_s"]])
+        ax.semilogy(
+            tt,
+            np.exp(np.polyval(coef, tt)),
+            "r-",
+            lw=1.2,
+            label=f"fit: δ = {ld['log_decrement']:.4g}",
+        )
+    positive = a[a > 0]
+    if len(positive):
+        ax.set_ylim(max(positive.min(), positive.max() * 1e-8) * 0.5, positive.max() * 2)
+    ax.set_ylabel("√(s_b1² + s_b2²)")
+    ax.legend(fontsize=7, loc="best")
+
+
+def _early_time(ds: xr.Dataset) -> float:
+    t = ds["time"].values
+    span = float(t[-1] - t[0]) if len(t) else 0.0
+    return min(span, max(0.5, 0.01 * span)) + (float(t[0]) if len(t) else 0.0)
+
+
+def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
+    """Write the PNG figures of ``ds`` into ``directory``; returns their paths."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+
+    def single(name, what, draw, figsize=(7.0, 4.0)):
+        fig = _figure(figsize)
+        ax = fig.add_subplot(1, 1, 1)
+        draw(ax)
+        ax.set_xlabel("time (s)")
+        ax.grid(True, lw=0.3)
+        fig.suptitle(_title(ds, what), fontsize=10)
+        fig.subplots_adjust(left=0.14, right=0.86, bottom=0.13, top=0.84)
+        paths.append(_save(fig, directory / name))
+
+    fig = _figure((7.0, 5.0))
+    ax1 = fig.add_subplot(2, 1, 1)
+    _plot_h(ax1, ds, relative=False)
+    ax1.grid(True, lw=0.3)
+    ax2 = fig.add_subplot(2, 1, 2, sharex=ax1)
+    _plot_h(ax2, ds, relative=True)
+    ax2.set_xlabel("time (s)")
+    ax2.grid(True, lw=0.3)
+    fig.suptitle(
+        _title(ds, "magnitude of the angular momentum (cf. seed Figs. 6, 11)"), fontsize=10
+    )
+    fig.subplots_adjust(left=0.14, right=0.95, bottom=0.1, top=0.9, hspace=0.3)
+    paths.append(_save(fig, directory / "angular_momentum.png"))
+
+    def bending(ax, t_max=None):
+        if _plot_bending(ax, ds, t_max):
+            _displacement_axis(ax, ds)
+
+    single(
+        "bending_mode.png",
+        "first bending coefficient (cf. seed Figs. 7, 12)",
+        bending,
+    )
+    single(
+        "bending_mode_early.png",
+        "first bending coefficient, early times (cf. seed Fig. 13)",
+        lambda ax: bending(ax, _early_time(ds)),
+    )
+    single("energy.png", "total energy (cf. seed Figs. 8, 14)", lambda ax: _plot_energy(ax, ds))
+    single(
+        "spin_rate.png",
+        "spin rate (cf. seed Figs. 9, 15)",
+        lambda ax: _plot_series(ax, ds, "spin_rate_hz", "spin rate (Hz)"),
+    )
+    single(
+        "cone_angle.png",
+        "cone angle (cf. seed Figs. 10, 16)",
+        lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
+    )
+
+    fig = _figure((13.0, 7.5))
+    panels = [
+        ("|H| relative change", lambda ax: _plot_h(ax, ds, relative=True)),
+        ("first bending coefficient", lambda ax: _plot_bending(ax, ds)),
+        ("bending pair amplitude and log decrement", lambda ax: _plot_envelope(ax, ds)),
+        ("energy", lambda ax: _plot_energy(ax, ds)),
+        (
+            "spin rate",
+            lambda ax: _plot_series(ax, ds, "spin_rate_hz", "spin rate (Hz)"),
+        ),
+        (
+            "cone angle",
+            lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
+        ),
+    ]
+    for k, (what, draw) in enumerate(panels):
+        ax = fig.add_subplot(2, 3, k + 1)
+        draw(ax)
+        if not ax.get_title():
+            ax.set_title(what, fontsize=9)
+        else:
+            ax.set_title(f"{what}: {ax.get_title()}", fontsize=8)
+        ax.set_xlabel("time (s)")
+        ax.grid(True, lw=0.3)
+    method = ds.attrs.get("method", "")
+    dt = float(ds.attrs.get("dt", math.nan))
+    fig.suptitle(
+        _title(
+            ds,
+            f"formulation {ds.attrs.get('formulation', '')}, {method}, dt = {1e3 * dt:.3g} ms",
+        ),
+        fontsize=11,
+    )
+    fig.subplots_adjust(left=0.075, right=0.985, bottom=0.07, top=0.9, wspace=0.4, hspace=0.32)
+    paths.append(_save(fig, directory / "summary.png"))
+    return paths

@@ -1,0 +1,330 @@
+"""Results of a run: a self-describing NetCDF file (``results.nc``), a JSON summary and the
+log-decrement estimate.
+
+``results.nc`` (xarray, written with h5netcdf) has a ``time`` coordinate (s) and variables with
+``units`` and ``description`` attributes; global attributes carry the run case TOML, the model
+case TOML, the method, step, formulation, status and work counters, the package version and
+``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
+from the dataset alone, so it can be recomputed from a saved file.
+
+Log decrement (:func:`log_decrement`): for the first bending pair (s_b1, s_b2) the amplitude
+``a(t) = √(s_b1² + s_b2²)``; its peak envelope is the maximum of ``a`` in consecutive windows of
+one period ``T = 1/f`` of the pair (f the mean of the pair's natural frequencies), each maximum
+refined by a parabola through the neighbouring samples. ``ln(envelope)`` is fitted by a straight
+line in time, using the windows whose envelope exceeds 10× the late-time level (the median of
+``a`` over the last 10 % of the run) so that a forced floor does not bias a decay; if fewer than
+three windows qualify, all windows are used. ``δ = −slope·T`` per period: 2πζ for a free decay
+with modal damping ratio ζ, negative for growth.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from quadmodes import __version__
+
+FORMAT = "quadmodes-run-results"
+FORMAT_VERSION = 1
+XYZ = ["x", "y", "z"]
+QUAT = ["w", "x", "y", "z"]
+
+
+def _var(dims, value, units: str, description: str) -> xr.Variable:
+    return xr.Variable(dims, np.asarray(value), attrs={"units": units, "description": description})
+
+
+def to_dataset(result) -> xr.Dataset:
+    """The :class:`quadmodes.simulate.RunResult` as an xarray Dataset (SI units)."""
+    from quadmodes import dynamics as dyn
+    from quadmodes.simulate import largest_nodal_displacement
+
+    sol, d, sys = result.solution, result.diagnostics, result.system
+    run, model = result.run, result.model
+    q, w, s, sd = dyn.split_state(sys, sol.y)
+    n = sys.n_modes
+    labels = list(model.labels[:n]) if n else []
+    freqs = np.asarray(model.frequencies_hz[:n], float)
+    t = ("time",)
+    tx = ("time", "xyz")
+    tm = ("time", "mode")
+    data = {
+        "angular_momentum": _var(
+            tx, d.H, "kg m2 s-1", "angular momentum about the centre of mass, inertial frame"
+        ),
+        "angular_momentum_norm": _var(t, d.H_norm, "kg m2 s-1", "magnitude |H|"),
+        "kinetic_energy": _var(t, d.T, "J", "kinetic energy of rotation and vibration"),
+        "potential_energy": _var(t, d.V, "J", "elastic potential energy 1/2 s^T Lambda s"),
+        "total_energy": _var(t, d.E, "J", "total mechanical energy E = T + V"),
+        "dissipated_energy": _var(
+            t, d.E_d, "J", "energy dissipated by modal damping since t = 0 (integrator's own)"
+        ),
+        "energy_balance": _var(t, d.E_balance, "J", "E + dissipated energy (constant for Q)"),
+        "spin_rate": _var(
+            t, d.spin_rate, "rad s-1", "spin rate omega . v_a about the tracked minor axis"
+        ),
+        "spin_rate_hz": _var(t, d.spin_rate / (2 * math.pi), "Hz", "spin rate in Hz"),
+        "cone_angle": _var(
+            t, d.cone_angle, "rad", "angle between H and the instantaneous minor principal axis"
+        ),
+        "cone_angle_deg": _var(t, np.degrees(d.cone_angle), "degree", "cone angle in degrees"),
+        "principal_axis": _var(
+            tx, d.axis_inertial, "1", "tracked minor principal axis of J~(s), inertial frame"
+        ),
+        "axial_inertia": _var(t, d.I_a, "kg m2", "moment of inertia about the tracked axis"),
+        "transverse_inertia": _var(
+            t, d.I_t, "kg m2", "mean of the other two principal moments of inertia"
+        ),
+        "modal_coordinates": _var(tm, s, "kg0.5 m", "modal coordinates s (mass-normalised)"),
+        "modal_velocities": _var(tm, sd, "kg0.5 m s-1", "modal velocities ds/dt"),
+        "omega_body": _var(tx, w, "rad s-1", "angular velocity, body frame"),
+        "quaternion": _var(
+            ("time", "quat"), q, "1", "attitude quaternion (scalar first), body to inertial"
+        ),
+    }
+    pair = result.initial.bending_modes
+    if pair:
+        amp = np.sqrt(np.sum(s[:, list(pair)] ** 2, axis=1))
+        data["bending_amplitude"] = _var(
+            t, amp, "kg0.5 m", "first bending pair amplitude sqrt(s_b1^2 + s_b2^2)"
+        )
+    coords = {
+        "time": ("time", np.asarray(sol.t, float), {"units": "s", "description": "time"}),
+        "xyz": ("xyz", XYZ),
+        "quat": ("quat", QUAT),
+        "mode": ("mode", np.arange(1, n + 1), {"description": "retained mode number"}),
+        "mode_label": ("mode", np.array(labels, dtype=object), {"description": "mode label"}),
+        "mode_frequency_hz": (
+            "mode",
+            freqs,
+            {"units": "Hz", "description": "natural frequency (not spinning)"},
+        ),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    stats = sol.stats
+    attrs = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "title": f"quadmodes run {run.name}",
+        "case": run.name,
+        "case_toml": run.to_toml(),
+        "model_case": result.model_case.name,
+        "model_case_toml": result.model_case.to_toml(),
+        "reduced_model_key": str(model.provenance.get("content_key", "")),
+        "method": run.integration.method,
+        "dt": float(sol.dt) if sol.dt is not None else float(run.integration.dt),
+        "dt_units": "s",
+        "duration": float(run.integration.duration),
+        "save_every": int(run.integration.save_every),
+        "rtol": float(run.integration.rtol),
+        "formulation": run.reduced.formulation,
+        "n_modes": int(n),
+        "damping_ratio": float(model.damping_ratio[0]) if len(model.damping_ratio) else 0.0,
+        "status": "complete" if result.complete else "incomplete",
+        "integrator_status": int(sol.status),
+        "integrator_message": str(sol.message),
+        "complete": int(bool(result.complete)),
+        "n_steps": int(stats.get("n_steps", 0)),
+        "n_rhs": int(stats.get("n_rhs", 0)),
+        "n_newton": int(stats.get("n_newton", 0)),
+        "n_jac": int(stats.get("n_jac", 0)),
+        "wall_s": float(result.wall_s),
+        "quadmodes_version": __version__,
+        "spin_axis_body": np.asarray(result.initial.spin_axis, float),
+        "bending_modes": np.asarray([k + 1 for k in pair], np.int64),
+        "conventions": "SI; modal coordinates s in kg^0.5 m; time in s",
+    }
+    if pair:
+        attrs["bending_displacement_per_unit"] = largest_nodal_displacement(model, pair[0])
+        attrs["bending_displacement_per_unit_units"] = "m per kg^0.5 m (largest node)"
+    if not result.complete:
+        attrs["incomplete_reason"] = result.reason
+    if result.notes:
+        attrs["notes"] = "; ".join(result.notes)
+    ds.attrs.update(attrs)
+    return ds
+
+
+def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """Write ``ds`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.partial")
+    encoding = {
+        name: {"zlib": True, "complevel": 4, "shuffle": True}
+        for name, var in ds.data_vars.items()
+        if var.dtype.kind == "f" and var.size > 0
+    }
+    try:
+        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False, encoding=encoding)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def load_results(path: str | os.PathLike) -> xr.Dataset:
+    """Read a ``results.nc`` file into memory."""
+    with xr.open_dataset(path, engine="h5netcdf") as ds:
+        return ds.load()
+
+
+# ---------------------------------------------------------------------------------------------
+# log decrement
+# ---------------------------------------------------------------------------------------------
+
+
+def peak_envelope(t: np.ndarray, a: np.ndarray, period: float):
+    """(times, values) of the maximum of ``a`` in consecutive windows of length ``period``,
+    each refined by a parabola through the maximum sample and its neighbours."""
+    t = np.asarray(t, float)
+    a = np.asarray(a, float)
+    if len(t) < 3 or not period > 0:
+        return np.zeros(0), np.zeros(0)
+    n_win = int(math.floor((t[-1] - t[0]) / period + 1e-9))
+    et, ea = [], []
+    edges = np.searchsorted(t, t[0] + period * np.arange(n_win + 1))
+    for k in range(n_win):
+        lo, hi = edges[k], max(edges[k + 1], edges[k] + 1)
+        i = lo + int(np.argmax(a[lo:hi]))
+        ti, ai = t[i], a[i]
+        if 0 < i < len(a) - 1:
+            y0, y1, y2 = a[i - 1], a[i], a[i + 1]
+            den = y0 - 2 * y1 + y2
+            if den < 0:
+                p = 0.5 * (y0 - y2) / den
+                if abs(p) <= 1:
+                    ai = y1 - 0.25 * (y0 - y2) * p
+                    ti = ti + p * 0.5 * (t[i + 1] - t[i - 1])
+        et.append(ti)
+        ea.append(ai)
+    return np.asarray(et), np.asarray(ea)
+
+
+def log_decrement(t: np.ndarray, a: np.ndarray, frequency_hz: float) -> dict:
+    """Log decrement per period of ``a(t)`` (see the module docstring).
+
+    Returns ``{"log_decrement", "fit_start_s", "fit_end_s", "fit_peaks", "period_s"}``;
+    ``log_decrement`` is None when the samples cannot resolve the period or there are fewer
+    than three windows."""
+    out = {
+        "log_decrement": None,
+        "fit_start_s": None,
+        "fit_end_s": None,
+        "fit_peaks": 0,
+        "period_s": None,
+    }
+    t = np.asarray(t, float)
+    a = np.asarray(a, float)
+    if not (frequency_hz and frequency_hz > 0) or len(t) < 8:
+        return out
+    period = 1.0 / frequency_hz
+    out["period_s"] = period
+    if np.median(np.diff(t)) > period / 4:  # too coarse to see the oscillation
+        return out
+    et, ea = peak_envelope(t, a, period)
+    ok = ea > 0
+    et, ea = et[ok], ea[ok]
+    if len(ea) < 3:
+        return out
+    floor = float(np.median(a[int(0.9 * len(a)) :]))
+    use = ea > 10.0 * floor
+    if use.sum() < 3:
+        use = np.ones_like(ea, bool)
+    slope = np.polyfit(et[use], np.log(ea[use]), 1)[0]
+    out.update(
+        log_decrement=float(-slope * period),
+        fit_start_s=float(et[use][0]),
+        fit_end_s=float(et[use][-1]),
+        fit_peaks=int(use.sum()),
+    )
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# summary
+# ---------------------------------------------------------------------------------------------
+
+
+def _float(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def summary(ds: xr.Dataset) -> dict:
+    """JSON-ready summary of a results dataset (see docs/paper-cases.md for the keys)."""
+    h = np.asarray(ds["angular_momentum"].values, float)
+    hn = np.asarray(ds["angular_momentum_norm"].values, float)
+    h0 = float(hn[0]) if len(hn) else float("nan")
+    e = np.asarray(ds["total_energy"].values, float)
+    ed = np.asarray(ds["dissipated_energy"].values, float)
+    t = np.asarray(ds["time"].values, float)
+    out: dict = {
+        "case": str(ds.attrs.get("case", "")),
+        "status": str(ds.attrs.get("status", "")),
+        "complete": bool(int(ds.attrs.get("complete", 0))),
+        "method": str(ds.attrs.get("method", "")),
+        "formulation": str(ds.attrs.get("formulation", "")),
+        "dt_s": _float(ds.attrs.get("dt", float("nan"))),
+        "t_end_s": _float(t[-1]) if len(t) else None,
+        "steps": int(ds.attrs.get("n_steps", 0)),
+        "wall_s": _float(ds.attrs.get("wall_s", float("nan"))),
+        "H0_kg_m2_s": _float(h0),
+        "H_relative_drift": _float(np.max(np.linalg.norm(h - h[0], axis=1)) / h0),
+        "H_norm_relative_drift": _float(np.max(np.abs(hn - h0)) / h0),
+        "energy_start_J": _float(e[0]),
+        "energy_end_J": _float(e[-1]),
+        "dissipated_energy_J": _float(ed[-1]),
+        "energy_balance_relative_error": _float(
+            np.max(np.abs(e + ed - e[0])) / max(abs(e[0]), 1e-300)
+        ),
+        "spin_rate_start_hz": _float(ds["spin_rate_hz"].values[0]),
+        "spin_rate_end_hz": _float(ds["spin_rate_hz"].values[-1]),
+        "cone_angle_start_deg": _float(ds["cone_angle_deg"].values[0]),
+        "cone_angle_end_deg": _float(ds["cone_angle_deg"].values[-1]),
+        "cone_angle_max_deg": _float(np.max(ds["cone_angle_deg"].values)),
+    }
+    if "bending_amplitude" in ds:
+        a = np.asarray(ds["bending_amplitude"].values, float)
+        pair = [int(k) for k in np.atleast_1d(ds.attrs.get("bending_modes", []))]
+        freqs = ds["mode_frequency_hz"].sel(mode=pair).values
+        ld = log_decrement(t, a, float(np.mean(freqs)))
+        out.update(
+            bending_modes=pair,
+            bending_frequency_hz=_float(np.mean(freqs)),
+            bending_amplitude_start=_float(a[0]),
+            bending_amplitude_max=_float(a.max()),
+            bending_amplitude_end=_float(a[-1]),
+            log_decrement=ld["log_decrement"],
+            log_decrement_fit_start_s=ld["fit_start_s"],
+            log_decrement_fit_end_s=ld["fit_end_s"],
+            log_decrement_fit_peaks=ld["fit_peaks"],
+        )
+        zeta = float(ds.attrs.get("damping_ratio", 0.0))
+        out["log_decrement_of_damping"] = _float(2 * math.pi * zeta)
+    else:
+        out.update(log_decrement=None, bending_modes=[])
+    if not out["complete"]:
+        out["incomplete_reason"] = str(ds.attrs.get("incomplete_reason", ""))
+    return out
+
+
+def write_outputs(result, directory: str | os.PathLike, plots: bool = True) -> dict:
+    """Write ``results.nc``, ``summary.json`` and (if ``plots``) the PNG figures of ``result``
+    into ``directory``; returns the summary."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    ds = to_dataset(result)
+    write_dataset(ds, directory / "results.nc")
+    info = summary(ds)
+    (directory / "summary.json").write_text(json.dumps(info, indent=2) + "\n")
+    if plots:
+        from quadmodes.plots import write_plots
+
+        write_plots(ds, directory)
+    return info
