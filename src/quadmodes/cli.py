@@ -17,6 +17,7 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from rich import box
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -129,7 +130,7 @@ def cases() -> None:
     for name in builtin_case_names():
         c = _load(name)
         table.add_row(name, c.kind, c.description)
-    for name in builtin_run_case_names():
+    for name in builtin_run_case_names(spinup=None):
         r = load_run_case(name)
         table.add_row(name, r.kind, r.description)
     out.print(table)
@@ -141,7 +142,7 @@ def show_case(name: Annotated[str, typer.Argument(help="built-in case name or TO
     from quadmodes.config import builtin_case_names, builtin_case_text, builtin_run_case_names
 
     try:
-        if name in builtin_case_names() or name in builtin_run_case_names():
+        if name in builtin_case_names() or name in builtin_run_case_names(spinup=None):
             sys.stdout.write(builtin_case_text(name))
         else:
             sys.stdout.write(_load(name).to_toml())
@@ -432,6 +433,8 @@ _RUN_ROWS = [
         "{:.4f} → {:.4f}",
     ),
     ("bending log decrement", "log_decrement", "{:.4f}"),
+    ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
+    ("reduced model valid at this spin", "valid", "{}"),
 ]
 
 
@@ -441,6 +444,58 @@ def _format_row(summary: dict, key, fmt: str) -> str:
     if any(v is None for v in values):
         return "—"
     return fmt.format(*values)
+
+
+_SPINUP_ROWS = [
+    ("status", "status", "{}"),
+    ("formulation", "formulation", "{}"),
+    ("final hub rate Ωs (rad/s)", "omega_s_rad_s", "{:.4g}"),
+    ("peak in-plane tip deflection (m)", "peak_tip_deflection_m", "{:.4f}"),
+    ("time of the peak (s)", "peak_time_s", "{:.3f}"),
+    ("max |v| after the spin-up (m)", "max_abs_after_spinup_m", "{:.4f}"),
+    ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
+    ("steps", "steps", "{}"),
+    ("wall time (s)", "wall_s", "{:.1f}"),
+]
+
+
+def _warn_validity(name: str, validity) -> None:
+    if validity is not None and not validity.valid:
+        err.print(
+            f"[bold yellow]warning:[/] {escape(name)}: {escape(validity.message())}",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
+def _dt_table(name: str, rows: list[dict]) -> Table:
+    def rel(v) -> str:
+        return "—" if v is None else f"{v:.2e}"
+
+    table = Table(
+        "dt (ms)",
+        "steps",
+        "cone angle end (deg)",
+        "rel. change",
+        "spin rate end (Hz)",
+        "rel. change",
+        "dissipated (J)",
+        "rel. change",
+        title=f"{name}: time-step convergence (t = {rows[0]['t_end_s']:.4g} s)",
+        box=box.SIMPLE_HEAD,
+    )
+    for r in rows:
+        table.add_row(
+            f"{1e3 * r['dt_s']:.4g}",
+            str(r["steps"]),
+            f"{r['cone_angle_deg']:.6f}",
+            rel(r["rel_change_cone_angle_deg"]),
+            f"{r['spin_rate_hz']:.6f}",
+            rel(r["rel_change_spin_rate_hz"]),
+            f"{r['dissipated_energy_J']:.6g}",
+            rel(r["rel_change_dissipated_energy_J"]),
+        )
+    return table
 
 
 @app.command("run")
@@ -457,17 +512,35 @@ def run_command(
     dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
     duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,
     formulation: Annotated[str | None, typer.Option(help="Q | P | L | rigid")] = None,
+    spin_rate: Annotated[
+        str | None,
+        typer.Option(
+            "--spin-rate",
+            help='initial spin rate, or the final hub rate Ωs of a spin-up, e.g. "10 rad/s"',
+        ),
+    ] = None,
+    dt_convergence: Annotated[
+        bool,
+        typer.Option(
+            "--dt-convergence", help="also run at dt/2 and dt/4 and print a convergence table"
+        ),
+    ] = False,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write PNG figures")] = True,
 ) -> None:
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
 
-    With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz.
+    With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz. A run case with a
+    [spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
 
-    Exit status 2 for bad input (nothing written), 1 if a run stopped early (partial results).
+    A formulation outside its validity (rotating-frame stiffness not positive definite at some
+    spin rate up to the run's) prints a warning; the JSON summary says `valid: false`.
+
+    Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
+    results).
     """
     from quadmodes import simulate
     from quadmodes.config import load_run_case
-    from quadmodes.results import write_outputs
+    from quadmodes.results import write_outputs, write_spinup_outputs
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     try:
@@ -478,23 +551,52 @@ def run_command(
                 dt=dt,
                 duration=duration,
                 formulation=formulation,
+                spin_rate=spin_rate,
             )
             for name in names
         ]
+        if dt_convergence:
+            for r in runs:
+                if r.spinup is not None:
+                    raise UserError(
+                        f"--dt-convergence: {r.name} is a spin-up integrated by DOP853 with "
+                        "its own step control; it has no fixed step"
+                    )
+                if r.integration.method == "adaptive":
+                    raise UserError(
+                        "--dt-convergence: needs a fixed-step method (midpoint or "
+                        'backward-euler), not "adaptive"'
+                    )
         with _progress(True) as bars:
-            setups = [simulate.prepare(r, progress=bars) for r in runs]
+            setups = [
+                r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs
+            ]
     except _user_errors() as exc:
         _fail(exc)
     summaries: dict[str, dict] = {}
+    spinups: set[str] = set()
     failed: list[str] = []
     for setup in setups:
-        name = setup.run.name
+        is_spinup = not isinstance(setup, simulate.RunSetup)
+        name = setup.name if is_spinup else setup.run.name
         target = output_dir / name
         try:
-            with _progress(True) as bars:
-                result = simulate.execute(setup, _run_progress(bars))
-            with _staged_output(target) as scratch:
-                summaries[name] = write_outputs(result, scratch, plots=plots)
+            if is_spinup:
+                spinups.add(name)
+                result = simulate.simulate_spinup(setup)
+                _warn_validity(name, result.validity)
+                with _staged_output(target) as scratch:
+                    summaries[name] = write_spinup_outputs(result, scratch, plots=plots)
+            else:
+                _warn_validity(name, setup.validity)
+                with _progress(True) as bars:
+                    result = simulate.execute(setup, _run_progress(bars))
+                    extra = None
+                    if dt_convergence:
+                        rows = simulate.dt_convergence(setup, result, _run_progress(bars))
+                        extra = {"dt_convergence": rows}
+                with _staged_output(target) as scratch:
+                    summaries[name] = write_outputs(result, scratch, plots=plots, extra=extra)
         except (*_user_errors(), OSError) as exc:
             _fail(exc)
         if not result.complete:
@@ -511,10 +613,17 @@ def run_command(
         sys.stdout.write(json.dumps(payload, indent=2) + "\n")
     else:
         for name, summary in summaries.items():
+            rows = _SPINUP_ROWS if name in spinups else _RUN_ROWS
             table = Table("quantity", "value", title=f"{name}: run summary")
-            for label, key, fmt in _RUN_ROWS:
+            for label, key, fmt in rows:
                 table.add_row(label, _format_row(summary, key, fmt))
             out.print(table)
+            if summary.get("dt_convergence"):
+                # not cropped to 80 columns when the output is not a terminal
+                out.print(
+                    _dt_table(name, summary["dt_convergence"]),
+                    width=None if out.is_terminal else 132,
+                )
             out.print(f"results written to {escape(str(output_dir / name))}")
     if failed:
         raise typer.Exit(code=1)

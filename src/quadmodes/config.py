@@ -46,6 +46,7 @@ __all__ = [
     "Modes",
     "Pressure",
     "RunCase",
+    "RunSpinup",
     "RunInitial",
     "RunIntegration",
     "RunReduced",
@@ -564,19 +565,56 @@ class RunIntegration(_Section):
         return max(1, math.ceil(self.duration / self.dt - 1e-9))
 
 
+class RunSpinup(_Section):
+    """Hub-driven spin-up of a clamped beam (Kane, Ryan & Banerjee): the hub rate rises
+    smoothly from 0 to ``omega_s`` (rad/s) in ``ramp_time`` (s) and is held until ``duration``
+    (s); integrated with scipy's DOP853 (relative tolerance ``rtol``) by
+    :func:`quadmodes.spinup.kane_spinup`. Replaces ``[initial]`` and ``[integration]``."""
+
+    omega_s: _quantity("angular_rate", "6 rad/s", _positive, "rad/s")
+    ramp_time: _quantity("time", "15 s", _positive, "s") = 15.0
+    duration: _quantity("time", "30 s", _positive, "s") = 30.0
+    rtol: _quantity("dimensionless", "1e-9", _rtol) = 1e-9
+    samples: _integer(3001, 2) = 3001
+
+
 class RunCase(_Section):
     """A run: integrate a model's reduced equations from given initial conditions.
 
     ``model`` is a built-in case name or the path of a case file (relative paths are taken from
-    the run-case file)."""
+    the run-case file). A free-body run has ``[initial]`` and ``[integration]``; a hub-driven
+    spin-up of a clamped beam has ``[spinup]`` instead."""
 
     name: _text("my-run")
     description: _text("what this run is for") = ""
     kind: _choice("run")
     model: Annotated[str, _Meta('"paper-membrane"')]
     reduced: RunReduced = Field(default_factory=RunReduced)
-    initial: RunInitial
-    integration: RunIntegration
+    initial: RunInitial | None = None
+    integration: RunIntegration | None = None
+    spinup: RunSpinup | None = None
+
+    @model_validator(mode="after")
+    def check_tables(self) -> Self:
+        if self.spinup is not None:
+            for table in ("initial", "integration"):
+                if getattr(self, table) is not None:
+                    raise _error(
+                        "case_rule",
+                        f"not used with [spinup] (hub-driven spin-up); remove the [{table}] "
+                        "table or the [spinup] table",
+                        table,
+                    )
+            return self
+        for table in ("initial", "integration"):
+            if getattr(self, table) is None:
+                raise _error(
+                    "case_rule",
+                    "missing; a free-body run needs [initial] and [integration] tables "
+                    "(or [spinup] for a hub-driven spin-up of a clamped beam)",
+                    table,
+                )
+        return self
 
     @field_validator("name")
     @classmethod
@@ -790,21 +828,43 @@ def builtin_case_names() -> list[str]:
     return sorted(name for name, kind in _builtin_kinds().items() if kind != "run")
 
 
-def builtin_run_case_names() -> list[str]:
-    """Names of the built-in run cases (``kind = "run"``), sorted."""
-    return sorted(name for name, kind in _builtin_kinds().items() if kind == "run")
+@functools.cache
+def _builtin_spinups() -> frozenset[str]:
+    """Names of the built-in run cases with a ``[spinup]`` table (hub-driven spin-ups)."""
+    names = set()
+    for entry in _cases_dir().iterdir():
+        if entry.name.endswith(".toml") and entry.is_file():
+            try:
+                data = tomllib.loads(entry.read_text(encoding="utf-8"))
+            except tomllib.TOMLDecodeError:
+                continue
+            if data.get("kind") == "run" and "spinup" in data:
+                names.add(entry.name[: -len(".toml")])
+    return frozenset(names)
+
+
+def builtin_run_case_names(spinup: bool | None = False) -> list[str]:
+    """Names of the built-in run cases (``kind = "run"``), sorted.
+
+    ``spinup``: False (default) the free-body runs (``[initial]`` + ``[integration]``, e.g. the
+    paper cases), True the hub-driven spin-ups (``[spinup]``, e.g. ``kane-spinup``), None both.
+    Name look-ups (:func:`load_run_case`, ``show-case``) accept both kinds."""
+    runs = [name for name, kind in _builtin_kinds().items() if kind == "run"]
+    if spinup is not None:
+        runs = [name for name in runs if (name in _builtin_spinups()) == spinup]
+    return sorted(runs)
 
 
 def builtin_case_text(name: str) -> str:
     """TOML text of a built-in case (model or run); raises :class:`CaseError` for an unknown
     name."""
-    if name not in builtin_case_names() and name not in builtin_run_case_names():
+    if name not in builtin_case_names() and name not in builtin_run_case_names(None):
         raise CaseError(_unknown_case(name), field="case")
     return _cases_dir().joinpath(f"{name}.toml").read_text(encoding="utf-8")
 
 
 def _unknown_case(name: str) -> str:
-    names = builtin_case_names() + builtin_run_case_names()
+    names = builtin_case_names() + builtin_run_case_names(None)
     close = difflib.get_close_matches(name, names, n=1)
     hint = f'did you mean "{close[0]}"? ' if close else ""
     return (
@@ -828,7 +888,7 @@ def load_case(name_or_path: str | os.PathLike[str]) -> Case:
     )
     if not looks_like_path and text in builtin_case_names():
         return case_from_toml(builtin_case_text(text), source=f"{text}.toml")
-    if not looks_like_path and text in builtin_run_case_names():
+    if not looks_like_path and text in builtin_run_case_names(None):
         model = load_run_case(text).model
         raise CaseError(
             f'"{text}" is a run case (kind = "run"); use `quadmodes run {text}`, or its model '
@@ -952,10 +1012,10 @@ def load_run_case(name_or_path: str | os.PathLike[str]) -> RunCase:
         or os.sep in text
         or (os.altsep is not None and os.altsep in text)
     )
-    if not looks_like_path and text in builtin_run_case_names():
+    if not looks_like_path and text in builtin_run_case_names(None):
         return run_case_from_toml(builtin_case_text(text), source=f"{text}.toml")
     if not looks_like_path and text in builtin_case_names():
-        runs = ", ".join(builtin_run_case_names())
+        runs = ", ".join(builtin_run_case_names(None))
         raise CaseError(
             f'"{text}" is a model case, not a run case; built-in run cases are: {runs} '
             f'(or write a run case with model = "{text}")',
@@ -965,7 +1025,7 @@ def load_run_case(name_or_path: str | os.PathLike[str]) -> RunCase:
     if not path.is_file():
         if looks_like_path:
             raise CaseError(f"run case file not found: {text}", field="case")
-        names = builtin_run_case_names()
+        names = builtin_run_case_names(None)
         close = difflib.get_close_matches(text, names, n=1)
         hint = f'did you mean "{close[0]}"? ' if close else ""
         raise CaseError(
@@ -991,7 +1051,9 @@ def run_case_to_toml(run: RunCase) -> str:
         f"kind = {_toml_value(run.kind)}",
         f"model = {_toml_value(run.model)}",
     ]
-    for name in ("reduced", "initial", "integration"):
+    for name in ("reduced", "initial", "integration", "spinup"):
+        if getattr(run, name) is None:
+            continue
         section_lines = _section_lines(getattr(run, name))
         if name == "initial":  # the spin rate in Hz as well
             hz = format_quantity(run.initial.spin_rate / (2.0 * math.pi), "Hz")

@@ -142,12 +142,53 @@ def to_dataset(result) -> xr.Dataset:
     if pair:
         attrs["bending_displacement_per_unit"] = largest_nodal_displacement(model, pair[0])
         attrs["bending_displacement_per_unit_units"] = "m per kg^0.5 m (largest node)"
+    attrs.update(validity_attrs(getattr(result, "validity", None)))
     if not result.complete:
         attrs["incomplete_reason"] = result.reason
     if result.notes:
         attrs["notes"] = "; ".join(result.notes)
     ds.attrs.update(attrs)
     return ds
+
+
+def validity_attrs(validity) -> dict:
+    """results.nc attributes of a :class:`quadmodes.simulate.Validity` (empty if None):
+    ``valid`` (1/0), ``rotating_stiffness_min_eigenvalue`` (s-2, at the run's spin),
+    ``validity_spin_rate`` (rad/s) and ``validity_lost_at_spin_rate`` (rad/s; NaN if never)."""
+    if validity is None:
+        return {}
+    lost = validity.lost_at
+    return {
+        "valid": int(validity.valid),
+        "rotating_stiffness_min_eigenvalue": float(validity.min_eigenvalue),
+        "rotating_stiffness_min_eigenvalue_units": "s-2",
+        "validity_spin_rate": float(validity.spin_rate),
+        "validity_lost_at_spin_rate": float("nan") if lost is None else float(lost),
+        "validity_message": validity.message(),
+    }
+
+
+def validity_summary(ds: xr.Dataset) -> dict:
+    """JSON-ready validity fields read back from the attributes of a results dataset."""
+    if "valid" not in ds.attrs:
+        return {}
+    lost = _float(ds.attrs.get("validity_lost_at_spin_rate", float("nan")))
+    return {
+        "valid": bool(int(ds.attrs["valid"])),
+        "rotating_stiffness_min_eigenvalue": _float(
+            ds.attrs.get("rotating_stiffness_min_eigenvalue", float("nan"))
+        ),
+        "validity": {
+            "valid": bool(int(ds.attrs["valid"])),
+            "rotating_stiffness_min_eigenvalue": _float(
+                ds.attrs.get("rotating_stiffness_min_eigenvalue", float("nan"))
+            ),
+            "rotating_stiffness_min_eigenvalue_units": "s-2",
+            "spin_rate_rad_s": _float(ds.attrs.get("validity_spin_rate", float("nan"))),
+            "lost_at_spin_rate_rad_s": lost,
+            "message": str(ds.attrs.get("validity_message", "")),
+        },
+    }
 
 
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
@@ -309,22 +350,178 @@ def summary(ds: xr.Dataset) -> dict:
         out["log_decrement_of_damping"] = _float(2 * math.pi * zeta)
     else:
         out.update(log_decrement=None, bending_modes=[])
+    out.update(validity_summary(ds))
     if not out["complete"]:
         out["incomplete_reason"] = str(ds.attrs.get("incomplete_reason", ""))
     return out
 
 
-def write_outputs(result, directory: str | os.PathLike, plots: bool = True) -> dict:
+def write_outputs(
+    result, directory: str | os.PathLike, plots: bool = True, extra: dict | None = None
+) -> dict:
     """Write ``results.nc``, ``summary.json`` and (if ``plots``) the PNG figures of ``result``
-    into ``directory``; returns the summary."""
+    into ``directory``; returns the summary (with ``extra`` keys merged in, e.g.
+    ``dt_convergence``)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     ds = to_dataset(result)
     write_dataset(ds, directory / "results.nc")
     info = summary(ds)
+    info.update(extra or {})
     (directory / "summary.json").write_text(json.dumps(info, indent=2) + "\n")
     if plots:
         from quadmodes.plots import write_plots
 
         write_plots(ds, directory)
+    return info
+
+
+# ---------------------------------------------------------------------------------------------
+# hub-driven spin-up (clamped beam)
+# ---------------------------------------------------------------------------------------------
+
+SPINUP_FORMAT = "quadmodes-spinup-results"
+
+
+def spinup_dataset(run) -> xr.Dataset:
+    """The :class:`quadmodes.simulate.SpinupRun` as an xarray Dataset (SI units): hub rate, tip
+    displacement (hub frame: axial x, in-plane y, out-of-plane z), modal coordinates."""
+    r = run.result
+    model = r.model
+    n = r.s.shape[1]
+    t = ("time",)
+    tm = ("time", "mode")
+    data = {
+        "hub_rate": _var(t, r.rate, "rad s-1", "prescribed hub rate Omega(t) about z"),
+        "tip_displacement": _var(
+            ("time", "xyz"), r.tip, "m", "tip displacement U_tip, hub frame (x axial)"
+        ),
+        "tip_axial": _var(t, r.tip[:, 0], "m", "axial tip displacement (hub x; foreshortening)"),
+        "tip_inplane": _var(
+            t, r.tip[:, 1], "m", "in-plane tip deflection v (hub y; negative = lag)"
+        ),
+        "tip_outofplane": _var(t, r.tip[:, 2], "m", "out-of-plane tip deflection (hub z)"),
+        "modal_coordinates": _var(tm, r.s, "kg0.5 m", "modal coordinates s (mass-normalised)"),
+        "modal_velocities": _var(tm, r.sdot, "kg0.5 m s-1", "modal velocities ds/dt"),
+    }
+    coords = {
+        "time": ("time", np.asarray(r.time, float), {"units": "s", "description": "time"}),
+        "xyz": ("xyz", XYZ),
+        "mode": ("mode", np.arange(1, n + 1), {"description": "retained mode number"}),
+        "mode_label": (
+            "mode",
+            np.array(list(model.labels[:n]), dtype=object),
+            {"description": "mode label"},
+        ),
+        "mode_frequency_hz": (
+            "mode",
+            np.asarray(model.frequencies_hz[:n], float),
+            {"units": "Hz", "description": "natural frequency (not spinning)"},
+        ),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    sp = run.run.spinup
+    attrs = {
+        "format": SPINUP_FORMAT,
+        "format_version": FORMAT_VERSION,
+        "title": f"quadmodes spin-up {run.run.name}",
+        "case": run.run.name,
+        "case_toml": run.run.to_toml(),
+        "model_case": run.model_case.name,
+        "model_case_toml": run.model_case.to_toml(),
+        "method": "DOP853",
+        "rtol": float(sp.rtol),
+        "formulation": r.formulation,
+        "n_modes": int(n),
+        "omega_s": float(r.omega_s),
+        "omega_s_units": "rad s-1",
+        "ramp_time": float(r.t_ramp),
+        "duration": float(sp.duration),
+        "peak_tip_deflection": float(r.peak_deflection),
+        "peak_time": float(r.peak_time),
+        "max_abs_after_spinup": float(r.after_ramp_max),
+        "status": r.status,
+        "message": r.message,
+        "complete": int(run.complete),
+        "n_steps": int(r.n_steps),
+        "wall_s": float(run.wall_s),
+        "quadmodes_version": __version__,
+        "conventions": "SI; hub frame, beam along +x, rotation about +z",
+    }
+    attrs.update(validity_attrs(run.validity))
+    if not run.complete:
+        attrs["incomplete_reason"] = run.reason
+    ds.attrs.update(attrs)
+    return ds
+
+
+def spinup_summary(ds: xr.Dataset) -> dict:
+    """JSON-ready summary of a spin-up results dataset."""
+    t = np.asarray(ds["time"].values, float)
+    out = {
+        "case": str(ds.attrs.get("case", "")),
+        "kind": "spinup",
+        "status": str(ds.attrs.get("status", "")),
+        "complete": bool(int(ds.attrs.get("complete", 0))),
+        "formulation": str(ds.attrs.get("formulation", "")),
+        "method": str(ds.attrs.get("method", "")),
+        "omega_s_rad_s": _float(ds.attrs.get("omega_s", float("nan"))),
+        "ramp_time_s": _float(ds.attrs.get("ramp_time", float("nan"))),
+        "t_end_s": _float(t[-1]) if len(t) else None,
+        "peak_tip_deflection_m": _float(ds.attrs.get("peak_tip_deflection", float("nan"))),
+        "peak_time_s": _float(ds.attrs.get("peak_time", float("nan"))),
+        "max_abs_after_spinup_m": _float(ds.attrs.get("max_abs_after_spinup", float("nan"))),
+        "steps": int(ds.attrs.get("n_steps", 0)),
+        "wall_s": _float(ds.attrs.get("wall_s", float("nan"))),
+        "message": str(ds.attrs.get("message", "")),
+    }
+    out.update(validity_summary(ds))
+    if not out["complete"]:
+        out["incomplete_reason"] = str(ds.attrs.get("incomplete_reason", ""))
+    return out
+
+
+def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """PNG of the in-plane (and axial) tip deflection and the hub rate of a spin-up."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    t = ds["time"].values
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    ax.plot(t, ds["tip_inplane"].values, label="in-plane v (hub y)")
+    ax.plot(t, ds["tip_axial"].values, "--", label="axial (hub x)")
+    ax.plot([ds.attrs["peak_time"]], [ds.attrs["peak_tip_deflection"]], "o", color="C3")
+    ax.set_ylabel("tip displacement (m)")
+    ax.set_title(
+        f"{ds.attrs['case']}: formulation {ds.attrs['formulation']}, "
+        f"Ωs = {ds.attrs['omega_s']:.3g} rad/s ({ds.attrs['status']})"
+    )
+    ax.legend(loc="best")
+    ax.grid(True, alpha=0.3)
+    ax2.plot(t, ds["hub_rate"].values, color="k")
+    ax2.set_ylabel("hub rate (rad/s)")
+    ax2.set_xlabel("time (s)")
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.partial.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
+def write_spinup_outputs(run, directory: str | os.PathLike, plots: bool = True) -> dict:
+    """Write ``results.nc``, ``summary.json`` and (if ``plots``) ``tip_deflection.png`` of a
+    :class:`quadmodes.simulate.SpinupRun` into ``directory``; returns the summary."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    ds = spinup_dataset(run)
+    write_dataset(ds, directory / "results.nc")
+    info = spinup_summary(ds)
+    (directory / "summary.json").write_text(json.dumps(info, indent=2) + "\n")
+    if plots:
+        plot_tip_deflection(ds, directory / "tip_deflection.png")
     return info

@@ -18,6 +18,7 @@ ends the run early: what was computed is kept and the result is marked incomplet
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -251,6 +252,88 @@ def initial_state(system: dyn.ReducedSystem, model: red.ReducedModel, run: RunCa
 
 
 # ---------------------------------------------------------------------------------------------
+# validity of the reduced model at the run's spin
+# ---------------------------------------------------------------------------------------------
+
+#: Spin rates scanned (uniformly from 0 to the run's spin) by :func:`rotating_validity`.
+VALIDITY_SCAN = 64
+
+
+@dataclass(frozen=True)
+class Validity:
+    """Whether the rotating-frame stiffness K(ω) = Λ − ωᵀJ2ω of the reduced model stays
+    positive definite for every spin rate from 0 up to the run's (ω scaled along its direction).
+
+    min_eigenvalue (1/s²): smallest eigenvalue of K at the run's ω (mass-normalised modal
+    coordinates, so the square of a rotating-frame frequency); spin_rate (rad/s): |ω|;
+    lost_at (rad/s): the spin rate at which K stops being positive definite (None if it does
+    not); valid: ``lost_at is None``."""
+
+    formulation: str
+    spin_rate: float
+    min_eigenvalue: float
+    lost_at: float | None
+
+    @property
+    def valid(self) -> bool:
+        return self.lost_at is None
+
+    def message(self) -> str:
+        """One line for a warning ("" when valid)."""
+        if self.valid:
+            return ""
+        return (
+            f"formulation {self.formulation} is outside its validity: the rotating-frame "
+            f"stiffness Λ − ωᵀJ2ω is not positive definite above a spin rate of "
+            f"{self.lost_at:.4g} rad/s ({self.lost_at / (2 * math.pi):.4g} Hz); the run's spin "
+            f"is {self.spin_rate:.4g} rad/s (smallest eigenvalue {self.min_eigenvalue:.4g} s⁻²)"
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "valid": self.valid,
+            "formulation": self.formulation,
+            "rotating_stiffness_min_eigenvalue": float(self.min_eigenvalue),
+            "rotating_stiffness_min_eigenvalue_units": "s-2",
+            "spin_rate_rad_s": float(self.spin_rate),
+            "lost_at_spin_rate_rad_s": None if self.lost_at is None else float(self.lost_at),
+            "message": self.message(),
+        }
+
+
+def _min_stiffness(system: dyn.ReducedSystem, omega: np.ndarray) -> float:
+    k = dyn.rotating_frame_matrices(system, omega)[2]
+    return float(np.linalg.eigvalsh(k).min()) if k.shape[0] else math.inf
+
+
+def rotating_validity(
+    system: dyn.ReducedSystem, omega, formulation: str, n_scan: int = VALIDITY_SCAN
+) -> Validity:
+    """:class:`Validity` of ``system`` (its formulation's J2) spinning at ``omega`` (3,) rad/s:
+    the smallest eigenvalue of Λ − ωᵀJ2ω on a scan of ``n_scan`` spin rates α·ω (0 < α ≤ 1),
+    the first loss of definiteness refined by bisection."""
+    from scipy.optimize import brentq
+
+    omega = np.asarray(omega, float)
+    rate = float(np.linalg.norm(omega))
+    if system.n_modes == 0 or rate == 0.0:
+        return Validity(formulation, rate, math.inf if system.n_modes == 0 else
+                        _min_stiffness(system, omega), None)  # fmt: skip
+    alphas = np.linspace(0.0, 1.0, n_scan + 1)
+    values = [_min_stiffness(system, a * omega) for a in alphas]
+    lost = None
+    for k in range(1, len(alphas)):
+        if values[k] <= 0.0:
+            if values[k - 1] > 0.0:
+                a = brentq(lambda x: _min_stiffness(system, x * omega), alphas[k - 1], alphas[k])
+            else:
+                a = alphas[k - 1]
+            lost = float(a * rate)
+            break
+    return Validity(formulation, rate, values[-1], lost)
+
+
+# ---------------------------------------------------------------------------------------------
 # the run
 # ---------------------------------------------------------------------------------------------
 
@@ -273,6 +356,7 @@ class RunResult:
     reason: str
     wall_s: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    validity: Validity | None = None
 
 
 def _chunk_steps(n_steps: int, save_every: int, max_chunks: int = MAX_CHUNKS) -> int:
@@ -288,14 +372,15 @@ def _first_bad_row(y: np.ndarray) -> int | None:
 @dataclass(frozen=True, eq=False)
 class RunSetup:
     """Everything a run needs before integrating: the run case, its model case, the reduced
-    model (restricted to the run's modes), the system of the run's formulation and the initial
-    state."""
+    model (restricted to the run's modes), the system of the run's formulation, the initial
+    state and the :class:`Validity` of the formulation at the initial angular velocity."""
 
     run: RunCase
     model_case: Case
     model: red.ReducedModel
     system: dyn.ReducedSystem
     initial: InitialState
+    validity: Validity | None = None
 
 
 def prepare(
@@ -307,6 +392,11 @@ def prepare(
 ) -> RunSetup:
     """Reduced model (from the cache unless ``model`` is given), system and initial state of
     ``run``; raises :class:`CaseError` for inputs that cannot be run."""
+    if run.spinup is not None:
+        raise CaseError(
+            "[spinup]: a hub-driven spin-up, not a free-body run; use simulate_spinup",
+            field="spinup",
+        )
     model_case = model_case if model_case is not None else run.model_case()
     if model is None:
         model = reduced_model_for(model_case, run.reduced.modes, progress)
@@ -325,7 +415,10 @@ def prepare(
         if model.n_modes > run.reduced.modes:
             model = model.select(np.arange(run.reduced.modes))
     system = dyn.reduced_system(model, run.reduced.formulation)
-    return RunSetup(run, model_case, model, system, initial_state(system, model, run))
+    init = initial_state(system, model, run)
+    omega0 = dyn.split_state(system, init.y0)[1]
+    validity = rotating_validity(system, omega0, run.reduced.formulation)
+    return RunSetup(run, model_case, model, system, init, validity)
 
 
 def execute(setup: RunSetup, progress: Progress | None = None, max_chunks: int = MAX_CHUNKS):
@@ -426,6 +519,7 @@ def execute(setup: RunSetup, progress: Progress | None = None, max_chunks: int =
         reason=reason,
         wall_s=wall,
         notes=init.notes,
+        validity=setup.validity,
     )
 
 
@@ -452,16 +546,37 @@ def apply_overrides(
     duration: str | None = None,
     formulation: str | None = None,
     save_every: int | None = None,
+    spin_rate: str | None = None,
 ) -> RunCase:
     """``run`` with command-line overrides (quantity strings such as ``"0.25 ms"``), validated
-    like the case file; raises :class:`CaseError` naming the field."""
+    like the case file; raises :class:`CaseError` naming the field.
+
+    ``spin_rate`` sets ``initial.spin_rate`` (free-body run) or ``spinup.omega_s`` (spin-up);
+    ``duration`` sets ``integration.duration`` or ``spinup.duration``."""
     import tomllib
 
     from quadmodes.config import run_case_from_dict
 
-    if all(v is None for v in (method, dt, duration, formulation, save_every)):
+    if all(v is None for v in (method, dt, duration, formulation, save_every, spin_rate)):
         return run
     data = tomllib.loads(run.to_toml())
+    if run.spinup is not None:
+        for option, value in (("method", method), ("dt", dt), ("save_every", save_every)):
+            if value is not None:
+                raise CaseError(
+                    f"--{option.replace('_', '-')}: not used by a hub-driven spin-up ([spinup] "
+                    "is integrated by DOP853 with its own step control)",
+                    field=f"spinup.{option}",
+                )
+        if duration is not None:
+            data["spinup"]["duration"] = duration
+        if spin_rate is not None:
+            data["spinup"]["omega_s"] = spin_rate
+        if formulation is not None:
+            data.setdefault("reduced", {})["formulation"] = formulation
+        return run_case_from_dict(data, source="command line")
+    if spin_rate is not None:
+        data.setdefault("initial", {})["spin_rate"] = spin_rate
     integ = data.setdefault("integration", {})
     if method is not None:
         integ["method"] = method
@@ -482,7 +597,7 @@ def is_run_case(name_or_path: str) -> bool:
 
     from quadmodes.config import builtin_run_case_names
 
-    if name_or_path in builtin_run_case_names():
+    if name_or_path in builtin_run_case_names(None):
         return True
     path = Path(name_or_path).expanduser()
     if path.suffix != ".toml" or not path.is_file():
@@ -491,3 +606,151 @@ def is_run_case(name_or_path: str) -> bool:
         return tomllib.loads(path.read_text(encoding="utf-8")).get("kind") == "run"
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return False  # let the loader report it
+
+
+# ---------------------------------------------------------------------------------------------
+# time-step convergence
+# ---------------------------------------------------------------------------------------------
+
+#: Step refinements of :func:`dt_convergence`: dt, dt/2, dt/4.
+DT_FACTORS = (1, 2, 4)
+
+
+def _rel(new: float, old: float) -> float | None:
+    if not (math.isfinite(new) and math.isfinite(old)) or old == 0.0:
+        return None
+    return abs(new - old) / abs(old)
+
+
+def dt_convergence(
+    setup: RunSetup,
+    first: RunResult | None = None,
+    progress: Progress | None = None,
+    factors: tuple[int, ...] = DT_FACTORS,
+) -> list[dict]:
+    """Run ``setup`` at dt/f for f in ``factors`` (fixed-step methods only; ``first``: the run
+    at the case's dt, if already done) and return one row per step: ``dt_s``, ``steps``,
+    ``complete``, ``t_end_s``, final ``cone_angle_deg``, ``spin_rate_hz`` and
+    ``dissipated_energy_J``, and their relative changes from the previous row (``rel_change_*``,
+    None for the first row or a zero reference). ``save_every`` scales with the refinement so
+    the samples stay on the same times."""
+    run = setup.run
+    if run.integration.method == "adaptive":
+        raise CaseError(
+            "--dt-convergence: needs a fixed-step method (midpoint or backward-euler), not "
+            '"adaptive"',
+            field="integration.method",
+        )
+    rows: list[dict] = []
+    keys = ("cone_angle_deg", "spin_rate_hz", "dissipated_energy_J")
+    for f in factors:
+        if f == 1 and first is not None:
+            result = first
+        else:
+            integ = run.integration.model_copy(
+                update={"dt": run.integration.dt / f, "save_every": run.integration.save_every * f}
+            )
+            sub = dataclasses.replace(setup, run=run.model_copy(update={"integration": integ}))
+            result = execute(sub, progress)
+        d = result.diagnostics
+        row = {
+            "dt_s": float(run.integration.dt / f),
+            "steps": int(result.solution.stats.get("n_steps", 0)),
+            "complete": bool(result.complete),
+            "t_end_s": float(d.t[-1]),
+            "cone_angle_deg": float(np.degrees(d.cone_angle[-1])),
+            "spin_rate_hz": float(d.spin_rate[-1] / (2 * math.pi)),
+            "dissipated_energy_J": float(d.E_d[-1]),
+            "wall_s": float(result.wall_s),
+        }
+        for key in keys:
+            row[f"rel_change_{key}"] = _rel(row[key], rows[-1][key]) if rows else None
+        rows.append(row)
+    return rows
+
+
+# ---------------------------------------------------------------------------------------------
+# hub-driven spin-up (clamped beam)
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class SpinupRun:
+    """A hub-driven spin-up run: the run case, its (beam) model case, the
+    :class:`quadmodes.spinup.SpinupResult`, the :class:`Validity` of the formulation at the
+    final hub rate (about the hub z axis), and the wall time (s)."""
+
+    run: RunCase
+    model_case: Case
+    result: object
+    validity: Validity
+    wall_s: float
+
+    @property
+    def complete(self) -> bool:
+        return self.result.status == "ok"
+
+    @property
+    def reason(self) -> str:
+        return "" if self.complete else self.result.message
+
+
+def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedModel:
+    """Reduced model of a spin-up: :func:`quadmodes.spinup.kane_model` of the run's clamped beam
+    case with ``reduced.modes`` in-plane bending modes."""
+    from quadmodes.spinup import kane_model
+
+    case = model_case if model_case is not None else run.model_case()
+    if case.kind != "beam" or case.beam.support != "clamped":
+        raise CaseError(
+            f'model = "{run.model}": a [spinup] run needs a beam clamped to the hub '
+            '(kind = "beam", support = "clamped"), e.g. "kane-beam"',
+            field="model",
+        )
+    if run.reduced.formulation == "rigid":
+        raise CaseError(
+            'reduced.formulation = "rigid": a spin-up needs the elastic modes (Q, P or L)',
+            field="reduced.formulation",
+        )
+    structure = pipeline.structure_for_case(case)
+    try:
+        return kane_model(
+            run.reduced.modes,
+            n_elements=case.beam.elements,
+            damping_ratio=float(case.beam.damping_ratio),
+            structure=structure,
+        )
+    except ValueError as exc:
+        raise CaseError(
+            f"reduced.modes = {run.reduced.modes}: {exc}", field="reduced.modes"
+        ) from None
+
+
+def simulate_spinup(
+    run: RunCase, model: red.ReducedModel | None = None, *, model_case: Case | None = None
+) -> SpinupRun:
+    """Integrate the hub-driven spin-up of ``run`` (``[spinup]``) with
+    :func:`quadmodes.spinup.kane_spinup`; a diverged run is returned (status "diverged"), not
+    raised."""
+    from quadmodes.spinup import kane_spinup
+
+    if run.spinup is None:
+        raise CaseError("not a spin-up run: it has no [spinup] table", field="spinup")
+    model_case = model_case if model_case is not None else run.model_case()
+    if model is None:
+        model = spinup_model(run, model_case)
+    sp = run.spinup
+    system = dyn.reduced_system(model, run.reduced.formulation)
+    validity = rotating_validity(system, np.array([0.0, 0.0, sp.omega_s]), run.reduced.formulation)
+    start = time.perf_counter()
+    result = kane_spinup(
+        sp.omega_s,
+        sp.ramp_time,
+        sp.duration,
+        formulation=run.reduced.formulation,
+        model=model,
+        rtol=sp.rtol,
+        atol=sp.rtol * 1e-2,
+        n_out=sp.samples,
+    )
+    return SpinupRun(run, model_case, result, validity, time.perf_counter() - start)
