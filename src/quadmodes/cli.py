@@ -304,27 +304,68 @@ def main() -> None:  # pragma: no cover - console entry point
     app()
 
 
+VALIDATION_SUITES = ("fe", "reduced", "full-order")
+
+
 @app.command()
 def validate(
     write: Annotated[
         Path | None, typer.Option("--write", help="write the tables to this Markdown file")
     ] = None,
+    suite: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--suite",
+            help="fe | reduced | full-order (repeat to combine; default: all three)",
+        ),
+    ] = None,
     convergence: Annotated[
         bool, typer.Option("--convergence/--no-convergence", help="paper-model mesh convergence")
     ] = True,
+    quick: Annotated[
+        bool, typer.Option("--quick", help="only the fast checks (the subset the tests run)")
+    ] = False,
 ) -> None:
-    """Run the validation suite and print (or write) the measured tables with pass/fail."""
-    from quadmodes import validation
+    """Run the validation suite and print (or write) the measured tables with pass/fail.
 
-    rows = []
+    The whole suite (finite elements, reduced dynamics, full order) takes tens of minutes on two
+    cores; --quick runs the subset the tests also run."""
+    from quadmodes import validation
+    from quadmodes import validation_dynamics as vdyn
+
+    chosen = list(suite or VALIDATION_SUITES)
+    bad = [s for s in chosen if s not in VALIDATION_SUITES]
+    if bad:
+        _fail(UserError(f"--suite: unknown {', '.join(bad)}; choose from fe, reduced, full-order"))
+    checks: dict[str, dict] = {
+        "fe": validation.FE_CHECKS,
+        "reduced": vdyn.ROM_CHECKS,
+        "full-order": vdyn.FULL_ORDER_CHECKS,
+    }
+    titles = {"reduced": "Reduced dynamics", "full-order": "Full-order reference"}
+    results: dict[str, list] = {k: [] for k in chosen}
+    todo = [
+        (k, name, fn)
+        for k in chosen
+        for name, fn in checks[k].items()
+        if not quick or name in vdyn.FAST or k == "fe"
+    ]
     with _progress() as progress:
-        for k, (name, check) in enumerate(validation.FE_CHECKS.items()):
-            progress("validation", k / len(validation.FE_CHECKS))
-            err.print(f"running {name} ...")
-            rows += check()
+        for i, (k, name, fn) in enumerate(todo):
+            progress("validation", i / max(len(todo), 1))
+            err.print(f"running {k}/{name} ...")
+            try:
+                results[k] += fn()
+            except (*_user_errors(), ImportError, RuntimeError) as exc:
+                err.print(f"[bold red]check {escape(name)} failed to run:[/] {escape(str(exc))}")
+                results[k].append(
+                    validation.Row(f"{name}: ran to completion", 0.0, 1.0, 0.0, absolute=True,
+                                   source=" ".join(str(exc).split())[:200])
+                )
         progress("validation", 1.0)
-        conv = validation.mesh_convergence() if convergence else []
-    text = validation.validation_markdown(rows, conv)
+        conv = validation.mesh_convergence() if convergence and "fe" in chosen and not quick else []
+    sections = {titles[k]: results[k] for k in chosen if k != "fe"}
+    text = validation.validation_markdown(results.get("fe", []), conv, sections)
     if write is None:
         sys.stdout.write(text)
     else:
@@ -332,7 +373,7 @@ def validate(
         tmp.write_text(text)
         tmp.replace(write)
         err.print(f"written {write}")
-    failed = [r.check for r in rows if not r.passed]
+    failed = [r.check for rows in results.values() for r in rows if not r.passed]
     if failed:
         err.print(f"[bold red]{len(failed)} checks failed:[/] {', '.join(failed)}")
         raise typer.Exit(code=1)

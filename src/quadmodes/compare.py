@@ -1,0 +1,401 @@
+"""The reduced formulations side by side with the full-order reference on one window.
+
+``compare(run, window)`` integrates the run case with each reduced formulation (``rigid``,
+``L``, ``P``, ``Q``: :mod:`quadmodes.dynamics`) and the full-order finite-element transient
+(:mod:`quadmodes.fullorder`) from the same initial state over ``[0, window]``, reduces every
+model to the same few time series (:class:`Series`) and measures each formulation against the
+full order.
+
+Error measures (all relative, dimensionless; the full order is the reference ``F``):
+
+* ``envelope_error``: the modal amplitude ``a(t) = ‖s(t)‖`` (all retained modes, √kg·m;
+  for the full order the M-projection of its displacement in the best-fit body frame onto the
+  same modes) reduced to its peak envelope (maximum over consecutive windows of one period of
+  the lowest retained mode, :func:`quadmodes.results.peak_envelope`);
+  ``max |env_R − env_F| / max env_F`` over the full order's envelope times. A model without
+  elastic modes (rigid) scores 1.
+* ``cone_angle_error``: ``max |θ_R − θ_F| / max θ_F`` (θ the cone angle, theory.md §6).
+* ``cone_angle_change_error``: the error of the change over the window,
+  ``|Δθ_R(T) − Δθ_F(T)| / max_t |Δθ_F(t)|`` with ``Δθ(t) = θ(t) − θ(0)``: this is what
+  dissipation-driven coning growth is about, and it is far more demanding than the angle itself.
+* ``spin_rate_error``: ``max |ω_R − ω_F| / ω_F(0)``; ``spin_rate_change_error`` as for θ.
+* ``wall_s``: integration wall time of the model (s; the reduced model's precomputation is
+  paid once and cached, so it is reported apart as ``reduce_wall_s``); ``speedup`` = full-order
+  wall time / reduced wall time.
+
+Reduced series are interpolated linearly onto the full order's sample times where two series
+are compared point by point; both are sampled at the same interval by default.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from quadmodes import __version__
+from quadmodes import dynamics as dyn
+from quadmodes.results import peak_envelope
+
+#: Formulations compared, in table order.
+FORMULATIONS = ("rigid", "L", "P", "Q")
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass(frozen=True, eq=False)
+class Series:
+    """The compared time series of one model (k samples, SI units).
+
+    t (k,) s; amplitude (k,) √kg·m = ‖s‖; cone_angle (k,) rad; spin_rate (k,) rad/s;
+    H_norm (k,) kg m²/s; E (k,) J total energy; E_d (k,) J dissipated since t = 0;
+    wall_s: integration wall time (s); complete / reason: whether the run reached the end."""
+
+    name: str
+    t: np.ndarray
+    amplitude: np.ndarray
+    cone_angle: np.ndarray
+    spin_rate: np.ndarray
+    H_norm: np.ndarray
+    E: np.ndarray
+    E_d: np.ndarray
+    wall_s: float
+    complete: bool = True
+    reason: str = ""
+    stats: dict = field(default_factory=dict)
+
+
+def series_from_run(name: str, result) -> Series:
+    """:class:`Series` of a reduced :class:`quadmodes.simulate.RunResult`."""
+    d, sys = result.diagnostics, result.system
+    _, _, s, _ = dyn.split_state(sys, result.solution.y)
+    amp = np.linalg.norm(s, axis=1) if s.shape[1] else np.zeros(len(d.t))
+    return Series(
+        name=name,
+        t=np.asarray(d.t, float),
+        amplitude=amp,
+        cone_angle=np.asarray(d.cone_angle, float),
+        spin_rate=np.asarray(d.spin_rate, float),
+        H_norm=np.asarray(d.H_norm, float),
+        E=np.asarray(d.E, float),
+        E_d=np.asarray(d.E_d, float),
+        wall_s=float(result.wall_s),
+        complete=bool(result.complete),
+        reason=result.reason,
+        stats={k: v for k, v in result.solution.stats.items() if np.isscalar(v)},
+    )
+
+
+def series_from_full_order(sol) -> Series:
+    """:class:`Series` of a :class:`quadmodes.fullorder.FullOrderSolution`."""
+    s = np.asarray(sol.modal_coordinates, float)
+    return Series(
+        name="full",
+        t=np.asarray(sol.t, float),
+        amplitude=np.linalg.norm(s, axis=1) if s.ndim == 2 and s.shape[1] else np.zeros(len(sol.t)),
+        cone_angle=np.asarray(sol.cone_angle, float),
+        spin_rate=np.asarray(sol.spin_rate, float),
+        H_norm=np.asarray(sol.H_norm, float),
+        E=np.asarray(sol.E, float),
+        E_d=np.asarray(sol.E_d, float),
+        wall_s=float(sol.stats.get("wall_s", float("nan"))),
+        complete=sol.status == 0,
+        reason="" if sol.status == 0 else sol.message,
+        stats={k: v for k, v in sol.stats.items() if np.isscalar(v)},
+    )
+
+
+def envelope(series: Series, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """Peak envelope (times (m,) s, values (m,) √kg·m) of the modal amplitude."""
+    return peak_envelope(series.t, series.amplitude, period)
+
+
+def _on(t_ref: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``y`` sampled at ``t`` interpolated onto ``t_ref`` (NaN outside the sampled span)."""
+    out = np.interp(t_ref, t, y)
+    out[(t_ref < t[0] - 1e-12) | (t_ref > t[-1] + 1e-12)] = np.nan
+    return out
+
+
+def _max_rel(diff: np.ndarray, scale: float) -> float:
+    if not np.isfinite(diff).any() or not scale > 0:
+        return float("nan")
+    return float(np.nanmax(np.abs(diff)) / scale)
+
+
+def errors(rom: Series, ref: Series, period: float) -> dict[str, float]:
+    """Error measures of ``rom`` against ``ref`` (see the module docstring)."""
+    out: dict[str, float] = {}
+    te, ef = envelope(ref, period)
+    if rom.amplitude.any():
+        tr, er = envelope(rom, period)
+        er_on = _on(te, tr, er) if len(tr) >= 2 else np.full_like(ef, np.nan)
+        out["envelope_error"] = _max_rel(er_on - ef, float(np.max(ef)) if len(ef) else 0.0)
+    else:
+        out["envelope_error"] = 1.0 if len(ef) and np.max(ef) > 0 else 0.0
+    t = ref.t
+    for key, scale_of in (("cone_angle", np.max), ("spin_rate", lambda y: abs(y[0]))):
+        r = _on(t, rom.t, getattr(rom, key))
+        f = getattr(ref, key)
+        out[f"{key}_error"] = _max_rel(r - f, float(scale_of(f)))
+        df = f - f[0]
+        dr = r - r[0]
+        last = np.flatnonzero(np.isfinite(dr))
+        if len(last) == 0:
+            out[f"{key}_change_error"] = float("nan")
+            continue
+        i = last[-1]
+        out[f"{key}_change_error"] = _max_rel(np.array([dr[i] - df[i]]), float(np.max(np.abs(df))))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# running the comparison
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """A finished comparison: the run case (with the window as its duration), the full-order
+    series, the reduced series by formulation, the error table, the lowest retained frequency
+    (Hz, sets the envelope window), and timing of the shared precomputation (s)."""
+
+    run: object
+    full: Series
+    reduced: dict[str, Series]
+    table: dict[str, dict[str, float]]
+    lowest_frequency_hz: float
+    reduce_wall_s: float
+    full_order_dt: float
+    notes: tuple[str, ...] = ()
+
+    def as_json(self) -> dict:
+        """The table as the JSON payload of ``quadmodes compare --json``."""
+        return {
+            "case": self.run.name,
+            "window_s": float(self.run.integration.duration),
+            "full_order": {
+                "wall_s": self.full.wall_s,
+                "dt_s": self.full_order_dt,
+                "complete": self.full.complete,
+                "reason": self.full.reason,
+                "steps": int(self.full.stats.get("n_steps", 0)),
+                "newton_iterations": int(self.full.stats.get("n_newton", 0)),
+                "factorisations": int(self.full.stats.get("n_factor", 0)),
+                "cone_angle_start_deg": math.degrees(self.full.cone_angle[0]),
+                "cone_angle_end_deg": math.degrees(self.full.cone_angle[-1]),
+                "spin_rate_start_hz": self.full.spin_rate[0] / (2 * math.pi),
+                "spin_rate_end_hz": self.full.spin_rate[-1] / (2 * math.pi),
+                "H_relative_drift": _drift(self.full.H_norm),
+            },
+            "reduce_wall_s": self.reduce_wall_s,
+            "formulations": {k: dict(v) for k, v in self.table.items()},
+            "notes": list(self.notes),
+        }
+
+
+def _drift(h: np.ndarray) -> float:
+    return float(np.max(np.abs(h - h[0])) / h[0]) if len(h) and h[0] > 0 else float("nan")
+
+
+def window_run(run, window: float, formulation: str | None = None):
+    """``run`` with ``integration.duration = window`` (s) and, if given, the formulation."""
+    integ = run.integration.model_copy(update={"duration": float(window)})
+    update = {"integration": integ}
+    if formulation is not None:
+        update["reduced"] = run.reduced.model_copy(update={"formulation": formulation})
+    return run.model_copy(update=update)
+
+
+def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None):
+    """Reduced runs of ``run`` per formulation: ``({name: RunResult}, reduce_wall_s)``.
+
+    The reduced model is built (or loaded from the cache) once; its time is returned apart."""
+    from quadmodes import simulate
+
+    start = time.perf_counter()
+    model = simulate.reduced_model_for(run.model_case(), run.reduced.modes, progress)
+    reduce_wall = time.perf_counter() - start
+    results = {}
+    for name in formulations:
+        sub = window_run(run, run.integration.duration, name)
+        results[name] = simulate.simulate(sub, model=model)
+        if progress:
+            progress(f"reduced {name}", 1.0)
+    return results, reduce_wall
+
+
+def compare(
+    run,
+    window: float,
+    *,
+    formulations=FORMULATIONS,
+    full_order_dt: float | None = None,
+    full_order: Callable | None = None,
+    progress: Progress | None = None,
+) -> Comparison:
+    """Compare ``formulations`` of run case ``run`` with the full order over ``[0, window]`` s.
+
+    ``full_order(run, dt) -> FullOrderSolution`` runs the reference (default:
+    :func:`quadmodes.fullorder.full_order_for_run` with the run's initial state);
+    ``full_order_dt`` its step (default: the run's step)."""
+    unknown = [f for f in formulations if f not in FORMULATIONS]
+    if unknown:
+        raise ValueError(
+            f"--formulations: unknown {', '.join(unknown)}; choose from {', '.join(FORMULATIONS)}"
+        )
+    if not window > 0:
+        raise ValueError("--window: must be a positive duration, e.g. \"1 s\"")
+    run = window_run(run, window)
+    dt_full = float(full_order_dt or run.integration.dt)
+    roms, reduce_wall = run_reduced(run, formulations, progress)
+    if full_order is None:
+        from quadmodes.fullorder import full_order_for_run
+
+        def full_order(r, dt):
+            return full_order_for_run(r, dt=dt, progress=progress)
+
+    full = series_from_full_order(full_order(run, dt_full))
+    freqs = roms[formulations[-1]].model.frequencies_hz[: run.reduced.modes]
+    f_low = float(np.min(freqs)) if len(freqs) else 1.0
+    reduced = {name: series_from_run(name, r) for name, r in roms.items()}
+    table = {}
+    for name, ser in reduced.items():
+        row = errors(ser, full, 1.0 / f_low)
+        row["wall_s"] = ser.wall_s
+        row["speedup"] = full.wall_s / ser.wall_s if ser.wall_s > 0 else float("nan")
+        row["complete"] = ser.complete
+        row["steps_per_s"] = ser.stats.get("n_steps", 0) / ser.wall_s if ser.wall_s > 0 else None
+        table[name] = row
+    notes = []
+    if not full.complete:
+        notes.append(f"full order stopped early: {full.reason}")
+    return Comparison(run, full, reduced, table, f_low, reduce_wall, dt_full, tuple(notes))
+
+
+# ---------------------------------------------------------------------------------------------
+# outputs
+# ---------------------------------------------------------------------------------------------
+
+_SERIES_VARS = {
+    "modal_amplitude": ("amplitude", "kg0.5 m", "modal amplitude ‖s‖ over the retained modes"),
+    "cone_angle": ("cone_angle", "rad", "angle between H and the tracked minor principal axis"),
+    "spin_rate": ("spin_rate", "rad s-1", "angular velocity about the tracked principal axis"),
+    "angular_momentum_norm": ("H_norm", "kg m2 s-1", "|H| about the centre of mass"),
+    "total_energy": ("E", "J", "kinetic + potential energy"),
+    "dissipated_energy": ("E_d", "J", "energy dissipated by damping since t = 0"),
+}
+
+
+def to_dataset(cmp: Comparison) -> xr.Dataset:
+    """All series on the full order's time grid (reduced ones interpolated), dims
+    (model, time), with units; the error table as (formulation, metric) variable."""
+    t = cmp.full.t
+    models = ["full", *cmp.reduced]
+    series = [cmp.full, *cmp.reduced.values()]
+    data = {}
+    for var, (attr, unit, desc) in _SERIES_VARS.items():
+        rows = [getattr(cmp.full, attr)] + [
+            _on(t, s.t, getattr(s, attr)) for s in series[1:]
+        ]
+        data[var] = xr.Variable(("model", "time"), np.vstack(rows), {"units": unit, "description": desc})
+    metrics = ["envelope_error", "cone_angle_error", "cone_angle_change_error", "spin_rate_error",
+               "spin_rate_change_error", "wall_s", "speedup"]
+    table = np.array([[float(cmp.table[f].get(m, np.nan)) for m in metrics] for f in cmp.reduced])
+    data["error_table"] = xr.Variable(
+        ("formulation", "metric"), table,
+        {"units": "1", "description": "errors against full order (relative); wall_s in s"},
+    )
+    ds = xr.Dataset(
+        data,
+        coords={
+            "time": xr.Variable(("time",), t, {"units": "s", "description": "time"}),
+            "model": models,
+            "formulation": list(cmp.reduced),
+            "metric": metrics,
+        },
+        attrs={
+            "format": "quadmodes-comparison",
+            "quadmodes_version": __version__,
+            "case": cmp.run.name,
+            "run_case_toml": cmp.run.to_toml(),
+            "window_s": float(cmp.run.integration.duration),
+            "full_order_dt_s": cmp.full_order_dt,
+            "reduced_dt_s": float(cmp.run.integration.dt),
+            "full_order_complete": int(cmp.full.complete),
+        },
+    )
+    return ds
+
+
+def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]:
+    """Overlay plots (modal amplitude with envelopes, cone angle, spin rate, |H|, energy)."""
+    from quadmodes.plots import _figure, _save
+
+    directory = Path(directory)
+    series = [cmp.full, *cmp.reduced.values()]
+    style = {"full": dict(color="k", lw=1.6, label="full order")}
+    colours = {"rigid": "tab:gray", "L": "tab:orange", "P": "tab:green", "Q": "tab:blue"}
+    paths = []
+    panels = (
+        ("amplitude", "modal amplitude ‖s‖ (√kg·m)", 1.0, "modal_amplitude"),
+        ("cone_angle", "cone angle (deg)", 180.0 / math.pi, "cone_angle"),
+        ("spin_rate", "spin rate (Hz)", 1.0 / (2 * math.pi), "spin_rate"),
+        ("H_norm", "|H| / |H(0)| − 1", None, "angular_momentum"),
+        ("E", "total energy (J)", 1.0, "energy"),
+    )
+    for attr, ylabel, scale, stem in panels:
+        fig = _figure((8.0, 4.2))
+        ax = fig.add_subplot(111)
+        for s in series:
+            y = getattr(s, attr)
+            y = y / y[0] - 1.0 if scale is None and y[0] else y * (scale or 1.0)
+            kw = style.get(s.name, dict(color=colours.get(s.name), lw=1.0, label=s.name))
+            ax.plot(s.t, y, **kw)
+            if attr == "amplitude" and s.amplitude.any():
+                te, ee = envelope(s, 1.0 / cmp.lowest_frequency_hz)
+                ax.plot(te, ee, ls="--", color=kw["color"], lw=0.8)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"{cmp.run.name}: {ylabel.split(' (')[0]} — reduced vs full order")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        paths.append(_save(fig, directory / f"compare_{stem}.png"))
+    return paths
+
+
+def table_rows(cmp: Comparison) -> list[dict]:
+    """One flat dict per formulation (for CSV/Markdown)."""
+    rows = []
+    for name, row in cmp.table.items():
+        rows.append({"formulation": name, **{k: row[k] for k in row}})
+    return rows
+
+
+def write_comparison(cmp: Comparison, directory: str | os.PathLike, plots: bool = True) -> dict:
+    """Write ``comparison.nc``, ``comparison.json``, ``comparison.csv`` and the plots into
+    ``directory``; returns the JSON payload."""
+    import csv
+    import json
+
+    from quadmodes.results import write_dataset
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    write_dataset(to_dataset(cmp), directory / "comparison.nc")
+    payload = cmp.as_json()
+    (directory / "comparison.json").write_text(json.dumps(payload, indent=2) + "\n")
+    rows = table_rows(cmp)
+    with open(directory / "comparison.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    if plots:
+        plot_comparison(cmp, directory)
+    return payload
