@@ -27,7 +27,7 @@ from quadmodes.mesh.revolution import sphere_surface
 from quadmodes.mesh.surface import TriangleSurface
 from quadmodes.prestress import ConvergenceError
 
-BUILTINS = ["capsule", "kane-beam", "paper-membrane", "sphere"]
+BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi
 
 

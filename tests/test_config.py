@@ -15,7 +15,7 @@ from quadmodes.config import (
 )
 from quadmodes.units import QuantityError, format_quantity, parse_quantity
 
-BUILTINS = ["capsule", "kane-beam", "paper-membrane", "sphere"]
+BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
 
 
 def _one_line(message: str) -> None:

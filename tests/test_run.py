@@ -108,7 +108,9 @@ def _undamped(model):
 
 
 def test_paper_run_cases_load_and_validate():
-    assert builtin_run_case_names() == PAPER_RUNS
+    assert builtin_run_case_names() == ["paper-0.5hz", "paper-41hz", "paper-41hz-coarse"]
+    coarse = load_run_case("paper-41hz-coarse")
+    assert coarse.model == "paper-membrane-coarse" and coarse.initial.spin_rate > 0
     assert not set(PAPER_RUNS) & set(builtin_case_names())  # model cases are unchanged
     slow, fast = (load_run_case(n) for n in PAPER_RUNS)
     for run in (slow, fast):
