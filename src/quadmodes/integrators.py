@@ -3,7 +3,8 @@
 Contract
 --------
 ``integrate(system, y0, t_span, method="midpoint", dt=None, rtol=1e-9, atol=1e-12,
-save_every=1, t_eval=None, solver="DOP853", newton_tol=1e-13, max_newton=25) -> Solution``
+save_every=1, t_eval=None, solver="DOP853", newton_tol=1e-13, max_newton=25,
+backend="auto") -> Solution``
 
 * ``system``: a :class:`~quadmodes.dynamics.ReducedSystem` (a ReducedModel is converted with
   formulation "Q"). ``y0`` (7+2N,) = ``[q, ω, s, ṡ]``; q is normalised first.
@@ -30,7 +31,13 @@ save_every=1, t_eval=None, solver="DOP853", newton_tol=1e-13, max_newton=25) -> 
   Success: ``status = 0``, ``message = "ok"``.
 * Stats: ``n_steps`` (accepted steps), ``n_rhs`` (evaluations of the right-hand side, or of the
   step residual for implicit methods), ``n_newton`` (Newton iterations), ``n_jac`` (Jacobian
-  evaluations), ``wall_s``; Radau adds ``n_lu``.
+  evaluations), ``wall_s``, ``backend`` ("numpy" or "numba"); Radau adds ``n_lu``.
+* Backend (``backend=``): ``"numpy"`` runs the steppers below from Python; ``"numba"`` runs the
+  whole midpoint loop in one compiled call (:mod:`quadmodes.midpoint_kernel`, the ``[jit]``
+  extra; 20–30× faster for N = 5; same equations and convergence test, results equal to
+  round-off); ``"auto"`` (default) uses numba for ``method="midpoint"`` when numba is
+  importable, numpy otherwise (backward Euler and the adaptive solvers are numpy only).
+  ``"numba"`` without numba, or with another method, raises ``ValueError``.
 
 Methods
 -------
@@ -67,6 +74,7 @@ from scipy import integrate as _ode
 from quadmodes import dynamics as dyn
 
 METHODS = ("midpoint", "backward-euler", "adaptive")
+BACKENDS = ("auto", "numpy", "numba")
 ADAPTIVE_SOLVERS = {"DOP853": _ode.DOP853, "Radau": _ode.Radau, "RK45": _ode.RK45}
 
 
@@ -519,6 +527,36 @@ def _fixed_grid(t_span, dt, save_every, t_eval):
     return n_steps, h, idx
 
 
+_KERNEL: list = []  # [module or None] once looked up: the import is tried once per process
+
+
+def numba_kernel():
+    """:mod:`quadmodes.midpoint_kernel` if numba is importable, else None (looked up once)."""
+    if not _KERNEL:
+        try:
+            from quadmodes import midpoint_kernel
+        except ImportError:  # numba (the [jit] extra) not installed
+            midpoint_kernel = None
+        _KERNEL.append(midpoint_kernel)
+    return _KERNEL[0]
+
+
+def _select_backend(backend: str, method: str):
+    """The compiled kernel module to use, or None for the numpy steppers."""
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
+    if backend == "numpy":
+        return None
+    if backend == "numba" and method != "midpoint":
+        raise ValueError(f'backend "numba" supports method "midpoint" only, not {method!r}')
+    kernel = numba_kernel() if method == "midpoint" else None
+    if backend == "numba" and kernel is None:
+        raise ValueError(
+            'backend "numba" needs numba, which is not installed: pip install "quadmodes[jit]"'
+        )
+    return kernel
+
+
 def integrate(
     system,
     y0,
@@ -532,10 +570,12 @@ def integrate(
     solver: str = "DOP853",
     newton_tol: float = 1e-13,
     max_newton: int = 25,
+    backend: str = "auto",
 ) -> Solution:
     """Integrate the free-body equations of ``system`` from ``y0`` over ``t_span`` (s).
 
-    See the module docstring for the contract. Returns a :class:`Solution`."""
+    See the module docstring for the contract (``backend``: "auto", "numpy" or "numba").
+    Returns a :class:`Solution`."""
     sys = system if isinstance(system, dyn.ReducedSystem) else dyn.reduced_system(system, "Q")
     y0 = np.array(y0, float)
     if y0.shape != (sys.n_state,):
@@ -545,6 +585,7 @@ def integrate(
         method, solver = "adaptive", method
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {METHODS}")
+    kernel = _select_backend(backend, method)
     start = time.perf_counter()
     if method == "adaptive":
         if solver not in ADAPTIVE_SOLVERS:
@@ -561,15 +602,21 @@ def integrate(
         name = f"adaptive/{solver}"
     else:
         n_steps, h, idx = _fixed_grid(t_span, dt, save_every, t_eval)
-        stepper = (_Midpoint if method == "midpoint" else _BackwardEuler)(sys, h)
         t0 = float(t_span[0])
-        y, ed, done, stats, status, msg = _fixed_run(
-            stepper, sys, y0, n_steps, h, idx, newton_tol, max_newton, t0, method
-        )
+        if kernel is not None:  # whole loop compiled (midpoint only)
+            y, ed, done, stats, status, msg = kernel.fixed_run(
+                sys, y0, n_steps, h, idx, newton_tol, max_newton, t0, method
+            )
+        else:
+            stepper = (_Midpoint if method == "midpoint" else _BackwardEuler)(sys, h)
+            y, ed, done, stats, status, msg = _fixed_run(
+                stepper, sys, y0, n_steps, h, idx, newton_tol, max_newton, t0, method
+            )
         t = t0 + h * np.asarray(idx[: len(y)], float)
         if status:
             t[-1] = t0 + h * done
         step = h
         name = method
     stats["wall_s"] = time.perf_counter() - start
+    stats["backend"] = "numpy" if kernel is None else "numba"
     return Solution(t, y, name, stats, status, msg, ed, step)

@@ -1,0 +1,256 @@
+"""Full-order runs of run cases (as ``quadmodes run`` sets them up), the hub-driven Kane spin-up,
+and the wall-time estimate printed before a long run."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from quadmodes import pipeline
+from quadmodes.config import RunCase, load_case, load_run_case
+from quadmodes.fe.model import Structure, centre_of_mass
+from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
+from quadmodes.fullorder.kinematics import (
+    HubDrive,
+    centrifugal_stretch,
+    initial_state_from_reduced,
+    kane_hub,
+    quaternion_matrix,
+)
+from quadmodes.reduced import ReducedModel
+
+Progress = Callable[[str, float], None]
+
+#: Default time step (s) of the full-order Kane spin-up (bending period ≈ 1.65 s).
+KANE_DT = 5e-3
+
+
+@dataclass(frozen=True, eq=False)
+class FullOrderSetup:
+    """What a full-order run of a run case integrates: the structure, its reference state x_ref
+    (n,3) m, the reduced model (modes, damping), the initial state (x0, v0) (n,3), the hub drive
+    (spin-up) or None, the nominal spin axis (body frame) and the run's time step/sampling."""
+
+    run: RunCase
+    structure: Structure
+    x_ref: np.ndarray
+    model: ReducedModel
+    x0: np.ndarray
+    v0: np.ndarray
+    hub: HubDrive | None
+    spin_axis: np.ndarray | None
+    duration: float
+    sample_interval: float
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def setup_for_run(
+    run: RunCase | str, model: ReducedModel | None = None, stretch: bool = True
+) -> FullOrderSetup:
+    """Structure, inflated reference, reduced model (from the cache) and initial state of a run
+    case exactly as ``quadmodes run`` builds them (:func:`quadmodes.simulate.prepare`), mapped to
+    the full order by :func:`initial_state_from_reduced` (centre of mass at the reference's).
+
+    ``stretch`` (free-body runs): add the quasi-static centrifugal displacement of the initial
+    spin outside the retained modes (:func:`~quadmodes.fullorder.kinematics.centrifugal_stretch`),
+    rotated with the body, and its rigid-rotation velocity ω × u_c; the retained modal
+    coordinates are those of the reduced state."""
+    from quadmodes import simulate
+
+    run = load_run_case(run) if isinstance(run, str) else run
+    case = run.model_case()
+    structure = pipeline.structure_for_case(case)
+    if run.spinup is not None:
+        sp = run.spinup
+        model = model if model is not None else simulate.spinup_model(run, case)
+        x_ref = structure.reference
+        hub = kane_hub(float(sp.omega_s), float(sp.ramp_time))
+        x0, v0 = initial_state_from_reduced(model, np.zeros(7 + 2 * model.n_modes))
+        return FullOrderSetup(run, structure, x_ref, model, x0, v0, hub, None,
+                              float(sp.duration), float(sp.duration) / max(int(sp.samples) - 1, 1))  # fmt: skip
+    x_ref, _ = pipeline.reference_state(case, structure)
+    structure = pipeline.with_gas_law(case, structure, x_ref)
+    setup = simulate.prepare(run, model, model_case=case)
+    y0 = setup.initial.y0
+    x0, v0 = initial_state_from_reduced(setup.model, y0, p=centre_of_mass(structure, x_ref))
+    notes = setup.initial.notes
+    if stretch and np.any(y0[4:7]):
+        u_c = centrifugal_stretch(structure, x_ref, y0[4:7], setup.model)
+        rot = quaternion_matrix(y0[:4])
+        x0 = x0 + u_c @ rot.T
+        v0 = v0 + np.cross(y0[4:7], u_c) @ rot.T
+        notes = (*notes, "full order: centrifugal stretch outside the retained modes added")
+    integ = run.integration
+    return FullOrderSetup(run, structure, x_ref, setup.model, x0, v0, None,
+                          setup.initial.spin_axis, float(integ.duration),
+                          float(integ.dt) * int(integ.save_every), notes)  # fmt: skip
+
+
+def full_order_for_run(
+    run: RunCase | str,
+    *,
+    dt: float | None = None,
+    window: float | None = None,
+    damping: bool = True,
+    save_every: int | None = None,
+    model: ReducedModel | None = None,
+    stretch: bool = True,
+    progress: Progress | None = None,
+    **options,
+) -> FullOrderSolution:
+    """Full-order transient of run case ``run`` (name or :class:`RunCase`) over ``[0, window]``
+    (default: the run's duration) with step ``dt`` (default: the run's ``integration.dt``; a
+    spin-up: :data:`KANE_DT`), from the run's initial state (:func:`setup_for_run`).
+
+    Samples are taken at the run's sampling interval (``dt × save_every`` of the run) unless
+    ``save_every`` is given. ``stretch``: see :func:`setup_for_run`. ``progress(stage, fraction)`` with stage "full order". Other
+    keyword ``options`` go to :func:`integrate_full_order` (newton_tol, checkpoint, ...)."""
+    st = setup_for_run(run, model, stretch)
+    run = st.run
+    if dt is None:
+        dt = KANE_DT if st.hub is not None else float(run.integration.dt)
+    window = st.duration if window is None else float(window)
+    if save_every is None:
+        save_every = max(1, int(round(st.sample_interval / dt)))
+    frac = (lambda f: progress("full order", f)) if progress else None
+    return integrate_full_order(
+        st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, model=st.model,
+        damping=damping, save_every=save_every, hub=st.hub, spin_axis=st.spin_axis,
+        progress=frac, **options,
+    )  # fmt: skip
+
+
+def estimate_wall_time(
+    structure: Structure,
+    x_ref: np.ndarray,
+    x0: np.ndarray,
+    v0: np.ndarray,
+    t_span: tuple[float, float],
+    dt: float,
+    n_probe: int = 8,
+    **options,
+) -> dict:
+    """Time ``n_probe`` steps from the initial state and extrapolate to ``t_span``.
+
+    Returns ``{"estimate_s", "per_step_s", "first_step_s", "n_steps", "newton_per_step",
+    "factor_per_step"}`` (s; the first step carries the setup and first factorisation and is
+    counted once). ``options`` as for :func:`integrate_full_order` (checkpoint options are
+    dropped)."""
+    for key in ("checkpoint", "resume", "progress", "checkpoint_every"):
+        options.pop(key, None)
+    n_steps = max(1, math.ceil((t_span[1] - t_span[0]) / dt - 1e-9))
+    t0 = float(t_span[0])
+    start = time.perf_counter()
+    integrate_full_order(structure, x_ref, x0, v0, (t0, t0 + dt), dt, **options)
+    first = time.perf_counter() - start
+    k = max(1, min(n_probe, n_steps))
+    start = time.perf_counter()
+    sol = integrate_full_order(
+        structure, x_ref, x0, v0, (t0, t0 + (k + 1) * dt), dt, save_every=k + 1, **options
+    )
+    per = max(time.perf_counter() - start - first, 0.0) / k
+    return {
+        "estimate_s": first + per * (n_steps - 1),
+        "per_step_s": per,
+        "first_step_s": first,
+        "n_steps": n_steps,
+        "newton_per_step": sol.stats["newton_per_step"],
+        "factor_per_step": sol.stats["factor_per_step"],
+    }
+
+
+def estimate_for_run(run: RunCase | str, *, dt: float | None = None, window=None, n_probe=8) -> dict:
+    """:func:`estimate_wall_time` of :func:`full_order_for_run` (same arguments)."""
+    st = setup_for_run(run)
+    if dt is None:
+        dt = KANE_DT if st.hub is not None else float(st.run.integration.dt)
+    window = st.duration if window is None else float(window)
+    return estimate_wall_time(st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt,
+                              n_probe, model=st.model, hub=st.hub, spin_axis=st.spin_axis)  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------
+# Kane spin-up
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class KaneFullOrder:
+    """Full-order Kane spin-up: Ωs (rad/s), ramp T (s), the solution, the in-plane tip peak
+    (m, signed) and its time (s) refined by a parabola through the extreme sample and its
+    neighbours, and the wall time (s)."""
+
+    omega_s: float
+    t_ramp: float
+    solution: FullOrderSolution
+    peak_deflection: float
+    peak_time: float
+    wall_s: float
+
+    @property
+    def complete(self) -> bool:
+        return self.solution.status == 0
+
+
+def refined_extreme(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """``(t*, y*)`` of the largest |y| sample refined by the parabola through it and its two
+    neighbours (the sample itself at an end of the series)."""
+    k = int(np.nanargmax(np.abs(y)))
+    if 0 < k < len(y) - 1:
+        t3, y3 = t[k - 1 : k + 2], y[k - 1 : k + 2]
+        a, b, c = np.polyfit(t3 - t[k], y3, 2)
+        if a != 0.0:
+            tau = float(np.clip(-b / (2 * a), t3[0] - t[k], t3[2] - t[k]))
+            return float(t[k] + tau), float(c + b * tau + a * tau * tau)
+    return float(t[k]), float(y[k])
+
+
+def kane_full_order(
+    omega_s: float = 6.0,
+    t_ramp: float = 15.0,
+    duration: float = 9.0,
+    dt: float = KANE_DT,
+    n_elements: int | None = None,
+    save_every: int = 2,
+    **options,
+) -> KaneFullOrder:
+    """Full-order (ANCF cable, inertial frame, hub-driven clamp) Kane spin-up 0 → ``omega_s``
+    (rad/s) in ``t_ramp`` (s) over ``duration`` (s; the published peaks are at 6.4–7 s) with
+    step ``dt``; the beam of the built-in ``kane-beam`` case (``n_elements`` overrides its
+    element count). Returns the in-plane tip peak (hub-frame y) — compare with
+    :data:`quadmodes.spinup.KANE_REFERENCE_PEAKS`."""
+    from quadmodes.spinup import kane_model
+
+    case = load_case("kane-beam")
+    if n_elements is not None:
+        beam = case.beam.model_copy(update={"elements": int(n_elements)})
+        case = case.model_copy(update={"beam": beam})
+    structure = pipeline.structure_for_case(case)
+    model = kane_model(4, n_elements=case.beam.elements, structure=structure)
+    x_ref = structure.reference
+    x0, v0 = x_ref.copy(), np.zeros_like(x_ref)
+    start = time.perf_counter()
+    sol = integrate_full_order(
+        structure, x_ref, x0, v0, (0.0, duration), dt, model=model, damping=False,
+        save_every=save_every, hub=kane_hub(omega_s, t_ramp), **options,
+    )  # fmt: skip
+    wall = time.perf_counter() - start
+    tp, vp = refined_extreme(sol.t, sol.tip[:, 1])
+    return KaneFullOrder(float(omega_s), float(t_ramp), sol, vp, tp, wall)
+
+
+__all__ = [
+    "FullOrderSetup",
+    "KaneFullOrder",
+    "estimate_for_run",
+    "estimate_wall_time",
+    "full_order_for_run",
+    "kane_full_order",
+    "refined_extreme",
+    "setup_for_run",
+]
+
