@@ -729,3 +729,137 @@ def campbell(
         )
     if output_dir is not None:
         out.print(f"outputs written to {output_dir}")
+
+
+# ------------------------------------------------------------------------------ compare
+
+def _num(value, fmt: str) -> str:
+    return "n/a" if value is None else format(value, fmt)
+
+
+#: Full-order runs estimated longer than this (s) need --yes.
+LONG_FULL_ORDER_S = 1800.0
+
+
+@app.command("compare")
+def compare_command(
+    case: Annotated[
+        str, typer.Argument(help="run case (built-in name or TOML file)")
+    ] = "paper-41hz-coarse",
+    window: Annotated[str, typer.Option(help='simulated window, e.g. "1 s"')] = "1 s",
+    full_dt: Annotated[
+        str | None, typer.Option("--full-dt", help='full-order step (default: the run\'s dt)')
+    ] = None,
+    modes: Annotated[
+        int | None, typer.Option(help="retained modes of the reduced model (default: the run's)")
+    ] = None,
+    formulations: Annotated[
+        str, typer.Option(help="comma-separated, from rigid, L, P, Q")
+    ] = "rigid,L,P,Q",
+    output_dir: Annotated[
+        Path | None, typer.Option("-o", "--output", help="folder (default: out/compare-<case>)")
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print the table as JSON")] = False,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="continue the full-order run from its checkpoint")
+    ] = False,
+    yes: Annotated[
+        bool, typer.Option("--yes", help="run a full-order window estimated over 30 min")
+    ] = False,
+    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write overlay PNGs")] = True,
+) -> None:
+    """Reduced formulations (rigid, L, P, Q) against the full-order finite-element transient on
+    one window: errors of the modal-amplitude envelope, cone angle and spin rate, wall times and
+    speed-ups. Writes comparison.nc/.json/.csv and overlay plots.
+
+    The full-order run is estimated first and checkpointed as it goes: Ctrl-C stops it, and the
+    same command with --resume continues from the checkpoint."""
+    from quadmodes import compare as cmp
+    from quadmodes.config import load_run_case
+    from quadmodes.fullorder import estimate_for_run, full_order_for_run
+    from quadmodes.units import parse_quantity
+
+    try:
+        run = load_run_case(case)
+        if run.spinup is not None:
+            raise UserError(f"{case}: a hub-driven spin-up; compare needs a free-body run case")
+        t_window = parse_quantity(window, "time", "--window")
+        dt_full = parse_quantity(full_dt, "time", "--full-dt") if full_dt else run.integration.dt
+        if not t_window > 0:
+            raise UserError('--window: must be positive, e.g. "1 s"')
+        if not 0 < dt_full < t_window:
+            raise UserError("--full-dt: must be positive and shorter than the window")
+        names = tuple(f.strip() for f in formulations.split(",") if f.strip())
+        bad = [f for f in names if f not in cmp.FORMULATIONS]
+        if bad or not names:
+            raise UserError(
+                f"--formulations: unknown {', '.join(bad) or '(none given)'}; use rigid, L, P, Q"
+            )
+        if modes is not None:
+            if modes < 1:
+                raise UserError("--modes: must be at least 1")
+            run = run.model_copy(
+                update={"reduced": run.reduced.model_copy(update={"modes": modes})}
+            )
+        run = cmp.window_run(run, t_window)
+        target = output_dir or Path("out") / f"compare-{run.name}"
+        checkpoint = target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
+        if resume and not checkpoint.exists():
+            raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
+        if not resume and checkpoint.exists():
+            checkpoint.unlink()
+        est = estimate_for_run(run, dt=dt_full, window=t_window)
+        minutes = est["estimate_s"] / 60.0
+        err.print(
+            f"full order: {run.name}, {t_window:g} s at dt = {dt_full * 1e3:g} ms, estimated "
+            f"{minutes:.1f} min (checkpoint {checkpoint.name}; Ctrl-C stops, --resume continues)",
+            highlight=False,
+        )
+        if est["estimate_s"] > LONG_FULL_ORDER_S and not yes and not resume:
+            raise UserError(
+                f"--window: the full-order run is estimated at {minutes:.0f} min; pass --yes to "
+                "run it (Ctrl-C stops it, --resume continues), or shorten --window"
+            )
+
+        def full(r, dt):
+            return full_order_for_run(
+                r, dt=dt, progress=bars, checkpoint=checkpoint, checkpoint_every=500,
+                resume=resume,
+            )  # fmt: skip
+
+        with _progress(not as_json) as bars:
+            try:
+                result = cmp.compare(
+                    run, t_window, formulations=names, full_order_dt=dt_full,
+                    full_order=full, progress=bars,
+                )  # fmt: skip
+            except KeyboardInterrupt:
+                err.print(
+                    f"stopped; the full-order checkpoint is kept at {checkpoint}: continue with "
+                    f"quadmodes compare {case} --window '{window}' --resume"
+                )
+                raise typer.Exit(code=130) from None
+        with _staged_output(target) as scratch:
+            payload = cmp.write_comparison(result, scratch, plots=plots)
+        checkpoint.unlink(missing_ok=True)
+    except _user_errors() as exc:
+        _fail(exc)
+    except RuntimeError as exc:  # a full-order Newton failure (one line, checkpoint kept)
+        _fail(exc)
+    if as_json:
+        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
+        return
+    table = Table(
+        "model", "envelope", "cone angle", "cone change", "spin rate", "wall (s)", "speed-up",
+        title=f"{run.name}: {t_window:g} s window, errors relative to full order",
+    )
+    fo = payload["full_order"]
+    table.add_row("full order", "—", "—", "—", "—", f"{fo['wall_s']:.3g}", "1")
+    for name, row in payload["formulations"].items():
+        table.add_row(
+            name, *(_num(row[k], ".2e") for k in ("envelope_error", "cone_angle_error",
+                                                  "cone_angle_change_error", "spin_rate_error")),
+            _num(row["wall_s"], ".3g"), _num(row["speedup"], ".3g"),
+        )  # fmt: skip
+    out.print(table)
+    out.print(f"results written to {escape(str(target))}")

@@ -176,8 +176,9 @@ class Comparison:
     notes: tuple[str, ...] = ()
 
     def as_json(self) -> dict:
-        """The table as the JSON payload of ``quadmodes compare --json``."""
-        return {
+        """The table as the JSON payload of ``quadmodes compare --json`` (undefined numbers,
+        e.g. an envelope error on a window shorter than two periods, are null)."""
+        return _json_safe({
             "case": self.run.name,
             "window_s": float(self.run.integration.duration),
             "full_order": {
@@ -197,7 +198,20 @@ class Comparison:
             "reduce_wall_s": self.reduce_wall_s,
             "formulations": {k: dict(v) for k, v in self.table.items()},
             "notes": list(self.notes),
-        }
+        })
+
+
+def _json_safe(obj):
+    """``obj`` with non-finite floats replaced by None (strict JSON has no NaN)."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float | np.floating):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer | np.bool_):
+        return obj.item()
+    return obj
 
 
 def _drift(h: np.ndarray) -> float:
@@ -217,8 +231,11 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     """Reduced runs of ``run`` per formulation: ``({name: RunResult}, reduce_wall_s)``.
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
-    from quadmodes import simulate
+    from quadmodes import integrators, simulate
 
+    kernel = integrators.numba_kernel()
+    if kernel is not None:  # load the compiled kernel before any timing
+        kernel.warm_up()
     start = time.perf_counter()
     model = simulate.reduced_model_for(run.model_case(), run.reduced.modes, progress)
     reduce_wall = time.perf_counter() - start
