@@ -753,6 +753,9 @@ def compare_command(
     modes: Annotated[
         int | None, typer.Option(help="retained modes of the reduced model (default: the run's)")
     ] = None,
+    spin_rate: Annotated[
+        str | None, typer.Option("--spin-rate", help='initial spin rate, e.g. "20 Hz"')
+    ] = None,
     formulations: Annotated[
         str, typer.Option(help="comma-separated, from rigid, L, P, Q")
     ] = "rigid,L,P,Q",
@@ -775,6 +778,7 @@ def compare_command(
     The full-order run is estimated first and checkpointed as it goes: Ctrl-C stops it, and the
     same command with --resume continues from the checkpoint."""
     from quadmodes import compare as cmp
+    from quadmodes import simulate
     from quadmodes.config import load_run_case
     from quadmodes.fullorder import estimate_for_run, full_order_for_run
     from quadmodes.units import parse_quantity
@@ -783,6 +787,7 @@ def compare_command(
         run = load_run_case(case)
         if run.spinup is not None:
             raise UserError(f"{case}: a hub-driven spin-up; compare needs a free-body run case")
+        run = simulate.apply_overrides(run, spin_rate=spin_rate)
         t_window = parse_quantity(window, "time", "--window")
         dt_full = parse_quantity(full_dt, "time", "--full-dt") if full_dt else run.integration.dt
         if not t_window > 0:
