@@ -313,6 +313,8 @@ def validation_markdown(
         "",
         f"Measured by `quadmodes validate --write docs/validation.md` (quadmodes {__version__}).",
         "Every number below comes from that run; tolerances are the issue's acceptance limits.",
+        "A row marked **NO** is a limit this version does not meet (docs/full-order.md says why);",
+        "rows marked \"reported\" are measured and shown without a limit.",
         "",
         "## Finite-element foundation",
         "",
