@@ -36,8 +36,7 @@ backend="auto") -> Solution``
   whole midpoint loop in one compiled call (:mod:`quadmodes.midpoint_kernel`, the ``[jit]``
   extra; 20–30× faster for N = 5; same equations and convergence test, results equal to
   round-off); ``"auto"`` (default) uses numba for ``method="midpoint"`` when numba is
-  importable, numpy otherwise (backward Euler, the adaptive solvers and formulation "Q4" are
-  numpy only).
+  importable, numpy otherwise (backward Euler and the adaptive solvers are numpy only).
   ``"numba"`` without numba, or with another method, raises ``ValueError``.
 
 Methods
@@ -566,16 +565,12 @@ def numba_kernel():
     return _KERNEL[0]
 
 
-def _select_backend(backend: str, method: str, quartic: bool = False):
-    """The compiled kernel module to use, or None for the numpy steppers. The kernel has no
-    quartic potential: ``quartic`` (formulation "Q4") selects numpy under "auto"."""
+def _select_backend(backend: str, method: str):
+    """The compiled kernel module to use, or None for the numpy steppers (every formulation,
+    "Q4" included, runs on both)."""
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
     if backend == "numpy":
-        return None
-    if quartic:
-        if backend == "numba":
-            raise ValueError('backend "numba" does not support formulation "Q4"; use "numpy"')
         return None
     if backend == "numba" and method != "midpoint":
         raise ValueError(f'backend "numba" supports method "midpoint" only, not {method!r}')
@@ -615,7 +610,7 @@ def integrate(
         method, solver = "adaptive", method
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {METHODS}")
-    kernel = _select_backend(backend, method, sys.quartic)
+    kernel = _select_backend(backend, method)
     start = time.perf_counter()
     if method == "adaptive":
         if solver not in ADAPTIVE_SOLVERS:
