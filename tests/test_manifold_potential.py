@@ -336,3 +336,48 @@ def test_centrifugal_deflection_q4_vs_full_order(paper_coarse):
     assert abs(errors["Q4", 41.0]) < 0.03
     assert errors["Q", 41.0] > 0.05
     assert abs(errors["Q4", 41.0]) < 0.5 * abs(errors["Q", 41.0])
+
+
+def test_tensors_clamped_cable_beam():
+    """Clamped ANCF cable (position and slope DOFs, f(x0) ≠ 0 only at the clamp): the quartic
+    coefficient of the exact manifold energy is V4·dddd (the cubic one vanishes by symmetry)."""
+    from quadmodes.config import load_case
+    from quadmodes.pipeline import build_modal_model
+    from quadmodes.reduced import reduce
+
+    mm = build_modal_model(load_case("kane-beam"))
+    f = mm.modes
+    m = reduce(mm.structure, mm.x, f.frequencies_hz[:4], f.shapes[:4], mm.labels[:4], 0.0)
+    assert m.manifold_potential and not m.free
+    v_exact = manifold_energy(mm.structure, mm.x, m)
+    d = np.random.default_rng(0).normal(size=4)
+    d /= np.linalg.norm(d)
+    nodes = np.cos(np.pi * (np.arange(17) + 0.5) / 17)
+    emax = 0.1
+    c = np.polynomial.polynomial.polyfit(nodes, [v_exact(emax * t * d) for t in nodes], 8)
+    c = c / emax ** np.arange(9)
+    assert c[2] == pytest.approx(0.5 * d @ m.Lam @ d, rel=1e-9)
+    assert c[4] == pytest.approx(np.einsum("mnpq,m,n,p,q", m.V4, d, d, d, d), rel=1e-6)
+    assert abs(c[3] - np.einsum("mnp,m,n,p", m.V3, d, d, d)) < 1e-8 * abs(c[4])
+
+
+def test_gas_law_pressure_has_no_manifold_potential():
+    """A gas-law pressure is not polynomial: reduce stores no tensors and Q4 refuses clearly."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from conftest import SMALL_CAPSULE
+
+    from quadmodes.config import case_from_toml
+    from quadmodes.pipeline import build_modal_model
+    from quadmodes.reduced import reduce
+
+    toml = SMALL_CAPSULE.replace('value = "0.3 psi"', 'value = "0.3 psi"\ngas_law_exponent = 1.4')
+    mm = build_modal_model(case_from_toml(toml, source="gas"))
+    f = mm.modes
+    m = reduce(mm.structure, mm.x, f.frequencies_hz[:2], f.shapes[:2], mm.labels[:2], 0.0)
+    assert not m.manifold_potential and not m.V4.any()
+    with pytest.raises(ValueError, match="gas-law"):
+        dy.reduced_system(m, "Q4")
+    dy.reduced_system(m, "Q")
