@@ -3,6 +3,11 @@
 Every array of :class:`quadmodes.reduced.ReducedModel` is a variable with ``units`` and
 ``description`` attributes; provenance (case TOML, package version, mesh size, content key) is
 kept in global attributes. Files are written atomically and checked on load.
+
+Format 2 adds the manifold-potential tensors V3, V4 and the global attribute
+``manifold_potential`` (1 if they were computed). Format-1 files still load, with V3 = V4 = 0
+and ``manifold_potential = False``: formulations Q, P, L and rigid are unchanged, "Q4" refuses
+such a model (rebuild it with ``quadmodes reduce``).
 """
 
 from __future__ import annotations
@@ -18,7 +23,9 @@ from quadmodes import __version__
 from quadmodes.reduced import ReducedModel
 
 FORMAT = "quadmodes-reduced-model"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+_V2_VARIABLES = ("V3", "V4")  # absent from format-1 files
 
 
 class ArtifactError(ValueError):
@@ -46,6 +53,16 @@ _VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
     "weights": (("dof",), "kg", "nodal mass weights w = M_s t"),
     "Phi": (("mode", "dof", "xyz"), "kg-0.5", "mass-normalised mode shapes u^k"),
     "G": (("mode", "mode2", "dof", "xyz"), "kg-1", "quadratic modes g^mn"),
+    "V3": (
+        ("mode", "mode2", "mode3"),
+        "J kg-1.5 m-3",
+        "cubic manifold-potential coefficients (symmetric): V3_mnp s_m s_n s_p",
+    ),
+    "V4": (
+        ("mode", "mode2", "mode3", "mode4"),
+        "J kg-2 m-4",
+        "quartic manifold-potential coefficients (symmetric): V4_mnpq s_m s_n s_p s_q",
+    ),
 }
 
 
@@ -70,6 +87,7 @@ def to_dataset(model: ReducedModel) -> xr.Dataset:
         "quadmodes_version": __version__,
         "mass_kg": float(model.mass),
         "free": int(model.free),
+        "manifold_potential": int(model.manifold_potential),
         "conventions": "SI; modal coordinates s in kg^0.5 m",
     }
     attrs.update({f"provenance_{k}": str(v) for k, v in model.provenance.items()})
@@ -105,16 +123,18 @@ def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
         ) from None
     if ds.attrs.get("format") != FORMAT:
         raise ArtifactError(f"{path}: not a quadmodes reduced-model file; rebuild it")
-    if int(ds.attrs.get("format_version", -1)) != FORMAT_VERSION:
+    version = int(ds.attrs.get("format_version", -1))
+    if version not in READABLE_VERSIONS:
         raise ArtifactError(
             f"{path}: written by quadmodes {ds.attrs.get('quadmodes_version')} in format "
-            f"{ds.attrs.get('format_version')}, this version reads format {FORMAT_VERSION}; "
-            "rebuild it with `quadmodes reduce`"
+            f"{ds.attrs.get('format_version')}, this version reads formats "
+            f"{', '.join(map(str, READABLE_VERSIONS))}; rebuild it with `quadmodes reduce`"
         )
-    missing = [v for v in _VARIABLES if v not in ds]
+    expected = [v for v in _VARIABLES if version >= 2 or v not in _V2_VARIABLES]
+    missing = [v for v in expected if v not in ds]
     if missing:
         raise ArtifactError(f"{path}: incomplete reduced-model file (missing {missing[0]}); rebuild")
-    values = {name: np.asarray(ds[name].values) for name in _VARIABLES}
+    values = {name: np.asarray(ds[name].values) for name in expected}
     if not all(np.all(np.isfinite(v)) for v in values.values()):
         raise ArtifactError(f"{path}: reduced-model file contains NaN or inf; rebuild it")
     values["translational"] = values["translational"].astype(bool)
@@ -124,6 +144,7 @@ def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
     return ReducedModel(
         mass=float(ds.attrs["mass_kg"]),
         free=bool(int(ds.attrs["free"])),
+        manifold_potential=version >= 2 and bool(int(ds.attrs.get("manifold_potential", 0))),
         labels=tuple(str(v) for v in ds["label"].values),
         provenance=provenance,
         **values,

@@ -145,7 +145,8 @@ def relative_equilibrium(
 ):
     """Relative equilibrium of the free body spinning at ``spin`` (rad/s) near ``axis``.
 
-    Fixed point of ``(Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω`` and ``ω = spin · e*``, e* the eigenvector of
+    Fixed point of ``(Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω`` (for "Q4" ``∂V/∂s − (ωᵀJ2ω) s = ½ ωᵀJ1ω``
+    with the quartic manifold potential, solved by Newton) and ``ω = spin · e*``, e* the eigenvector of
     J̃(s) nearest ``axis`` (sign kept). Returns ``(ω (3,), s (N,), residual)`` where residual is
     the largest |ż| (scaled) of the body-frame equations at (ω, s, ṡ = 0)."""
     n = sys.n_modes
@@ -157,7 +158,7 @@ def relative_equilibrium(
         if n:
             k = dy.rotating_frame_matrices(sys, w)[2]
             f = 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
-            s = np.linalg.solve(k, f)
+            s = _static_solve(sys, k, f, s) if sys.quartic else np.linalg.solve(k, f)
         jt = dy.inertia_tensor(sys, s, "rot")
         lam, vec = np.linalg.eigh(0.5 * (jt + jt.T))
         j = int(np.argmax(np.abs(vec.T @ e)))
@@ -170,6 +171,30 @@ def relative_equilibrium(
     d = dy.rhs(sys, 0.0, y)
     scale = max(abs(spin), 1e-12) ** 2
     return w, s, float(np.max(np.abs(d[4:]), initial=0.0) / scale)
+
+
+def _static_solve(
+    sys: dy.ReducedSystem,
+    k: np.ndarray,
+    f: np.ndarray,
+    s: np.ndarray,
+    iterations: int = 50,
+    tol: float = 1e-14,
+) -> np.ndarray:
+    """Newton solution (N,) of ``k s + (∂V/∂s − Λs)(s) = f`` ("Q4": k = Λ − ωᵀJ2ω, f (N,)
+    the centrifugal modal force), started from ``s`` and, failing that, from the linear one."""
+    for start in (s, np.linalg.solve(k, f)):
+        x = start.copy()
+        for _ in range(iterations):
+            r = k @ x + dy.potential_nonlinear_force(sys, x) - f
+            jac = k + dy.potential_hessian(sys, x) - sys.Lam
+            dx = np.linalg.solve(jac, r)
+            x = x - dx
+            if not np.all(np.isfinite(x)):
+                break
+            if np.linalg.norm(dx) <= tol * max(np.linalg.norm(x), 1e-300):
+                return x
+    raise ValueError("relative equilibrium (Q4): Newton on the modal statics did not converge")
 
 
 def _free_jacobian(sys: dy.ReducedSystem, w: np.ndarray, s: np.ndarray, mass: float, length):
@@ -205,6 +230,8 @@ def _linearise(sys: dy.ReducedSystem, model: ReducedModel, spin: float, axis: np
         jac = _free_jacobian(sys_l, w, s, model.mass, length)
         mm = dy.mass_matrix(sys, s)
         k = dy.rotating_frame_matrices(sys, w)[2] if n else np.zeros((0, 0))
+        if sys.quartic and n:  # stiffness of the full potential at s*
+            k = k + dy.potential_hessian(sys, s) - sys.Lam
         # energy weight on z = (δω, δs, δṡ): ½ νᵀ𝕄ν with ν = (δω, δṡ), plus ½ δsᵀ|K|δs
         wgt = np.zeros((3 + 2 * n, 3 + 2 * n))
         vel = np.r_[0:3, 3 + n : 3 + 2 * n]

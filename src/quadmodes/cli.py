@@ -552,7 +552,7 @@ def run_command(
     method: Annotated[str | None, typer.Option(help="midpoint | backward-euler | adaptive")] = None,
     dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
     duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,
-    formulation: Annotated[str | None, typer.Option(help="Q | P | L | rigid")] = None,
+    formulation: Annotated[str | None, typer.Option(help="Q | P | L | rigid | Q4")] = None,
     spin_rate: Annotated[
         str | None,
         typer.Option(
@@ -678,7 +678,7 @@ def campbell(
     spin_min: Annotated[str, typer.Option(help="lowest spin rate, e.g. '0 Hz'")] = "0 rad/s",
     spin_max: Annotated[str, typer.Option(help="highest spin rate, e.g. '10 rad/s'")] = "10 rad/s",
     n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
-    formulation: Annotated[str, typer.Option(help="Q, P or L")] = "Q",
+    formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
     output_dir: Annotated[
         Path | None, typer.Option("-o", "--output", help="folder for campbell.png/.nc/.csv")
     ] = None,
@@ -693,8 +693,8 @@ def campbell(
     try:
         lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
         hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
-        if formulation not in ("Q", "P", "L"):
-            raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L")
+        if formulation not in ("Q", "P", "L", "Q4"):
+            raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
         c = _load(case)
         with _progress(not as_json) as progress, _staged_output(output_dir) as scratch:
             result, _ = campbell_main(
@@ -757,7 +757,7 @@ def compare_command(
         str | None, typer.Option("--spin-rate", help='initial spin rate, e.g. "20 Hz"')
     ] = None,
     formulations: Annotated[
-        str, typer.Option(help="comma-separated, from rigid, L, P, Q")
+        str, typer.Option(help="comma-separated, from rigid, L, P, Q, Q4")
     ] = "rigid,L,P,Q",
     output_dir: Annotated[
         Path | None, typer.Option("-o", "--output", help="folder (default: out/compare-<case>)")
@@ -771,7 +771,7 @@ def compare_command(
     ] = False,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write overlay PNGs")] = True,
 ) -> None:
-    """Reduced formulations (rigid, L, P, Q) against the full-order finite-element transient on
+    """Reduced formulations (rigid, L, P, Q, Q4) against the full-order finite-element transient on
     one window: errors of the modal-amplitude envelope, cone angle and spin rate, wall times and
     speed-ups. Writes comparison.nc/.json/.csv and overlay plots.
 
@@ -795,10 +795,10 @@ def compare_command(
         if not 0 < dt_full < t_window:
             raise UserError("--full-dt: must be positive and shorter than the window")
         names = tuple(f.strip() for f in formulations.split(",") if f.strip())
-        bad = [f for f in names if f not in cmp.FORMULATIONS]
+        bad = [f for f in names if f not in cmp.AVAILABLE]
         if bad or not names:
             raise UserError(
-                f"--formulations: unknown {', '.join(bad) or '(none given)'}; use rigid, L, P, Q"
+                f"--formulations: unknown {', '.join(bad) or '(none given)'}; use rigid, L, P, Q, Q4"
             )
         if modes is not None:
             if modes < 1:

@@ -43,8 +43,10 @@ from quadmodes import __version__
 from quadmodes import dynamics as dyn
 from quadmodes.results import peak_envelope
 
-#: Formulations compared, in table order.
+#: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q")
+#: Formulations that may be requested (Q4: Q with the quartic manifold potential; numpy stepper).
+AVAILABLE = FORMULATIONS + ("Q4",)
 
 Progress = Callable[[str, float], None]
 
@@ -262,10 +264,10 @@ def compare(
     ``full_order(run, dt) -> FullOrderSolution`` runs the reference (default:
     :func:`quadmodes.fullorder.full_order_for_run` with the run's initial state);
     ``full_order_dt`` its step (default: the run's step)."""
-    unknown = [f for f in formulations if f not in FORMULATIONS]
+    unknown = [f for f in formulations if f not in AVAILABLE]
     if unknown:
         raise ValueError(
-            f"--formulations: unknown {', '.join(unknown)}; choose from {', '.join(FORMULATIONS)}"
+            f"--formulations: unknown {', '.join(unknown)}; choose from {', '.join(AVAILABLE)}"
         )
     if not window > 0:
         raise ValueError("--window: must be a positive duration, e.g. \"1 s\"")
@@ -358,7 +360,13 @@ def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]
     directory = Path(directory)
     series = [cmp.full, *cmp.reduced.values()]
     style = {"full": dict(color="k", lw=1.6, label="full order")}
-    colours = {"rigid": "tab:gray", "L": "tab:orange", "P": "tab:green", "Q": "tab:blue"}
+    colours = {
+        "rigid": "tab:gray",
+        "L": "tab:orange",
+        "P": "tab:green",
+        "Q": "tab:blue",
+        "Q4": "tab:purple",
+    }
     paths = []
     panels = (
         ("amplitude", "modal amplitude ‖s‖ (√kg·m)", 1.0, "modal_amplitude"),

@@ -521,10 +521,11 @@ def _rtol(x: float) -> str | None:
 class RunReduced(_Section):
     """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
     formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
-    linear modes, "rigid" no elastic modes)."""
+    linear modes, "rigid" no elastic modes, "Q4" quadratic modes with the quartic manifold
+    potential)."""
 
     modes: _integer(5, 1) = 5
-    formulation: _choice("Q", "P", "L", "rigid") = "Q"
+    formulation: _choice("Q", "P", "L", "rigid", "Q4") = "Q"
 
 
 class RunInitial(_Section):

@@ -33,6 +33,11 @@ Formulations (``reduced_system(model, formulation)``):
   ``h_P`` is conserved, E (same formula as Q) is not.
 * ``"L"``: linear modes: ``J2g = 0`` and ``Cxg = 0`` everywhere (a consistent Lagrangian too).
 * ``"rigid"``: N = 0.
+* ``"Q4"``: Q kinetics with the manifold potential truncated at fourth order,
+  ``V(s) = ½ sᵀΛs + V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q`` (tensors of
+  :func:`quadmodes.reduced.manifold_potential_tensors`): the modal force is ``−∂V/∂s =
+  −Λs − 3 V3·ss − 4 V4·sss`` in place of ``−Λs``, its Jacobian ``−(Λ + 6 V3·s + 12 V4·ss)``.
+  E (with this V) and H are conserved by the continuous equations.
 
 State vector ``y = [q (4), ω (3), s (N), ṡ (N)]``, length ``7 + 2N``: q a unit quaternion,
 scalar first, rotating body-frame vectors into the inertial frame; ω (rad/s) body-frame angular
@@ -53,7 +58,7 @@ import numpy as np
 
 from quadmodes.reduced import ReducedModel
 
-FORMULATIONS = ("Q", "P", "L", "rigid")
+FORMULATIONS = ("Q", "P", "L", "rigid", "Q4")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -70,6 +75,8 @@ class ReducedSystem:
     energy). J2_rot, D_rot: the same arrays as used by the rotational row (differ from J2, D for
     "P" only). c (N,3) √kg·m. mu (N,N) 1, Lam (N,N) 1/s², C (N,N) 1/s. quat_gain (1/s): gain of
     the quaternion norm-drift correction ``k (1 − |q|²) q`` in :func:`rhs`.
+    V3 (N,N,N), V4 (N,N,N,N) J/(√kg·m)^k: symmetric cubic and quartic potential coefficients,
+    used only when ``quartic`` (formulation "Q4"); None means zeros.
     The private ``_*`` arrays are flattened copies for fast matrix products.
     """
 
@@ -86,7 +93,10 @@ class ReducedSystem:
     J2_rot: np.ndarray
     D_rot: np.ndarray
     quat_gain: float = 1.0
+    V3: np.ndarray | None = None
+    V4: np.ndarray | None = None
     n_modes: int = field(init=False)
+    quartic: bool = field(init=False)
     same_rows: bool = field(init=False, repr=False)
     _J1f: np.ndarray = field(init=False, repr=False)
     _J2s: np.ndarray = field(init=False, repr=False)
@@ -99,12 +109,22 @@ class ReducedSystem:
     _YtE: np.ndarray = field(init=False, repr=False)
     _WtE: np.ndarray = field(init=False, repr=False)
     _Wt: np.ndarray = field(init=False, repr=False)
+    _V3g: np.ndarray = field(init=False, repr=False)
+    _V4g: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
         n = self.J1.shape[0]
         m3 = 3 + n
         put = object.__setattr__
         put(self, "n_modes", n)
+        put(self, "quartic", self.formulation == "Q4")
+        v3 = np.zeros((n, n, n)) if self.V3 is None else np.asarray(self.V3, float)
+        v4 = np.zeros((n, n, n, n)) if self.V4 is None else np.asarray(self.V4, float)
+        put(self, "V3", v3)
+        put(self, "V4", v4)
+        # ∂V/∂s − Λs = 3 V3·ss + 4 V4·sss = _V3g @ (s⊗s) + _V4g @ (s⊗s⊗s)
+        put(self, "_V3g", np.ascontiguousarray(3.0 * v3.reshape(n, n * n)))
+        put(self, "_V4g", np.ascontiguousarray(4.0 * v4.reshape(n, n * n * n)))
         same = self.J2_rot is self.J2 and self.D_rot is self.D
         put(self, "same_rows", same)
         c = np.ascontiguousarray
@@ -174,6 +194,12 @@ def reduced_system(
         raise ValueError(f"unknown formulation {formulation!r}; choose one of {FORMULATIONS}")
     if formulation == "rigid":
         model = model.rigid()
+    if formulation == "Q4" and not getattr(model, "manifold_potential", False):
+        raise ValueError(
+            "formulation Q4 needs the manifold potential (V3, V4) of the reduced model, which this "
+            "model does not have (a file of artifact format 1: rebuild it with `quadmodes "
+            "reduce`; or a gas-law pressure, which is not polynomial: use Q)"
+        )
     f = np.asarray
     j2u = _sym_tensor(_sym_pair(f(model.J2u, float)))
     j2g = _sym_tensor(_sym_pair(f(model.J2g, float)))
@@ -201,6 +227,8 @@ def reduced_system(
         J2_rot=j2_rot,
         D_rot=d_rot,
         quat_gain=float(quat_gain),
+        V3=f(model.V3, float) if formulation == "Q4" else None,
+        V4=f(model.V4, float) if formulation == "Q4" else None,
     )
 
 
@@ -208,7 +236,7 @@ def with_damping(sys: ReducedSystem, C: np.ndarray) -> ReducedSystem:
     """``sys`` with the modal damping matrix replaced by ``C`` (N,N) 1/s."""
     return ReducedSystem(
         sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam,
-        np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain,
+        np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4,
     )  # fmt: skip
 
 
@@ -348,9 +376,37 @@ def kinetic_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
 
 
 def potential_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
-    """V = ½ sᵀΛs (…) J."""
+    """V = ½ sᵀΛs (…) J; for "Q4" plus ``V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q``."""
     s = split_state(sys, y)[2]
-    return 0.5 * np.einsum("...m,mn,...n->...", s, sys.Lam, s)
+    v = 0.5 * np.einsum("...m,mn,...n->...", s, sys.Lam, s)
+    if sys.quartic:
+        ss = np.einsum("...m,...n->...mn", s, s)
+        v = v + np.einsum("...mn,...p,mnp->...", ss, s, sys.V3)
+        v = v + np.einsum("...mn,...pq,mnpq->...", ss, ss, sys.V4)
+    return v
+
+
+def potential_gradient(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
+    """∂V/∂s (N,) J/(√kg·m) at one s (N,): ``Λs`` (+ ``3 V3·ss + 4 V4·sss`` for "Q4")."""
+    g = sys.Lam @ s
+    return g + potential_nonlinear_force(sys, s) if sys.quartic else g
+
+
+def potential_nonlinear_force(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
+    """``∂V/∂s − Λs = 3 V3·ss + 4 V4·sss`` (N,) J/(√kg·m) at one s (N,) (zeros unless "Q4")."""
+    ss = np.outer(s, s).ravel()
+    return sys._V3g @ ss + sys._V4g @ np.outer(ss, s).ravel()
+
+
+def potential_hessian(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
+    """∂²V/∂s² (N,N) 1/s² at one s (N,): ``Λ`` (+ ``6 V3·s + 12 V4·ss`` for "Q4")."""
+    if not sys.quartic:
+        return sys.Lam
+    n = sys.n_modes
+    ss = np.outer(s, s).ravel()
+    h3 = (sys._V3g.reshape(n * n, n) @ s).reshape(n, n)  # 3 V3·s
+    h4 = (sys._V4g.reshape(n * n, n * n) @ ss).reshape(n, n)  # 4 V4·ss
+    return sys.Lam + 2.0 * h3 + 3.0 * h4
 
 
 def energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
@@ -434,6 +490,8 @@ def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
     b[2] -= wx * hy - wy * hx
     pe = p if sys.same_rows else ((z @ sys._YtE).reshape(n * m3, m3) @ nu).reshape(n, m3)
     b[3:] += pe @ nu - sys.Lam @ s - sys.C @ sd  # ∂T/∂s_k = νᵀ (½∂𝕄/∂s_k) ν
+    if sys.quartic:
+        b[3:] -= potential_nonlinear_force(sys, s)
     if torque is not None:
         b[:3] += torque
     if force is not None:
@@ -511,7 +569,7 @@ def prescribed_rhs(
     f = (
         (0.5 * sys._J1f + g) @ ww
         + (sys._Dsk @ w).reshape(n, n) @ sd
-        - sys.Lam @ s
+        - potential_gradient(sys, s)
         - sys.C @ sd
         - a @ wd
     )

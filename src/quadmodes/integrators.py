@@ -167,7 +167,13 @@ class _Midpoint:
 
     With z = (1, s) and the mass tensor of :class:`~quadmodes.dynamics.ReducedSystem`,
     momenta are ``𝕄(s)ν`` (one matrix product) and ``F_s = P(z, ν)·ν − Λs − Cṡ`` with
-    ``P[k] = ½ ∂𝕄_E/∂s_k ν`` (T = ½νᵀ𝕄_Eν)."""
+    ``P[k] = ½ ∂𝕄_E/∂s_k ν`` (T = ½νᵀ𝕄_Eν).
+
+    Formulation "Q4" (quartic manifold potential): the potential force is the average vector
+    field ``∫₀¹ ∂V/∂s(s₀ + τ(s₁ − s₀)) dτ``, exact by Simpson's rule since ∂V/∂s is cubic:
+    ``Λs½ + (n(s₀) + 4 n(s½) + n(s₁))/6`` with n = ∂V/∂s − Λs. It is a discrete gradient,
+    ``(s₁ − s₀)·F_V = V(s₁) − V(s₀)`` exactly, so the potential adds no energy error: the energy
+    error is that of the kinetic terms, as for Q (bounded, O(Δt²), no drift)."""
 
     def __init__(self, sys: dyn.ReducedSystem, dt: float):
         self.n = n = sys.n_modes
@@ -182,6 +188,8 @@ class _Midpoint:
         self.z1 = np.ones(n + 1)  # z at t1 (z[0] = 1)
         self.zm = np.ones(n + 1)  # z at t½
         self.y_m = np.empty(2 * n)  # (s½, ṡ½)
+        self.sys = sys
+        self.quartic = sys.quartic
 
     def momenta(self, x, s):
         """𝕄(s) ν (3+N,): (h, p_s) at ν = x, s."""
@@ -198,6 +206,8 @@ class _Midpoint:
         self.s_basem = s0 + 0.25 * self.dt * x0[3:]  # s½ = s_basem + ¼Δt ṡ1
         self.h0 = mom0[:3]
         self.p0 = mom0[3:]
+        if self.quartic:
+            self.n0 = dyn.potential_nonlinear_force(self.sys, s0)
 
     def advance(self, x1):
         """(ν₁, s₁, rotation vector Δt ω½, dissipated energy Δt ṡ½ᵀCṡ½) of the converged step.
@@ -236,6 +246,9 @@ class _Midpoint:
         ym[n:] = numid[3:]
         pm = ((zm @ self.YtE).reshape(n * m3, m3) @ numid).reshape(n, m3)
         f = pm @ numid - self.LC @ ym
+        if self.quartic:  # average vector field of the cubic and quartic potential (Simpson)
+            nl = dyn.potential_nonlinear_force
+            f -= (self.n0 + 4.0 * nl(self.sys, zm[1:]) + nl(self.sys, z1[1:])) / 6.0
         r[3:] -= self.p0 + dt * f
         if not jac:
             return r
@@ -248,6 +261,10 @@ class _Midpoint:
         w2 = (self.WtE @ (numid[:, None] * numid).ravel()).reshape(n, n)  # ∂²T/∂s∂s
         jm[3:] -= dt * pm
         jm[3:, 3:] += self.hC - (0.25 * dt * dt) * (w2 - self.LC[:, :n])
+        if self.quartic:  # ∂s½/∂ṡ₁ = ¼Δt, ∂s₁/∂ṡ₁ = ½Δt
+            hm = dyn.potential_hessian(self.sys, zm[1:]) - self.Lam
+            h1 = dyn.potential_hessian(self.sys, z1[1:]) - self.Lam
+            jm[3:, 3:] += (dt * dt) * (hm / 6.0 + h1 / 12.0)
         return r, jm
 
 
@@ -260,7 +277,8 @@ class _BackwardEuler:
     """Residual and analytic Jacobian of one backward-Euler step (velocity form), x = ν₁.
 
     ``r = 𝕄(s₁)(ν₁ − ν₀) − Δt b(s₁, ν₁)``, ``s₁ = s₀ + Δt ṡ₁``, with
-    ``b = [−ω × h, P_E·ν − Λs − Cṡ] − 2 ṡ·P`` (``P[k] = ½∂𝕄/∂s_k ν``, see dynamics)."""
+    ``b = [−ω × h, P_E·ν − Λs − Cṡ] − 2 ṡ·P`` (``P[k] = ½∂𝕄/∂s_k ν``, see dynamics);
+    "Q4" replaces ``Λs`` by the full potential gradient ``∂V/∂s(s₁)``."""
 
     def __init__(self, sys: dyn.ReducedSystem, dt: float):
         self.n = n = sys.n_modes
@@ -279,6 +297,8 @@ class _BackwardEuler:
         self.wt = np.concatenate([np.sqrt(np.diag(sys.J0)), np.sqrt(np.diag(sys.mu))])
         self.z1 = np.ones(n + 1)
         self.y1 = np.empty(2 * n)
+        self.sys = sys
+        self.quartic = sys.quartic
 
     def begin(self, x0, s0):
         """Per-step constants from the state at t0."""
@@ -309,6 +329,8 @@ class _BackwardEuler:
         yv[:n] = z1[1:]
         yv[n:] = sd1
         b[3:] += pe @ x - self.LC @ yv
+        if self.quartic:
+            b[3:] -= dyn.potential_nonlinear_force(self.sys, z1[1:])
         dxv = x - self.x0
         r = m1 @ dxv - dt * b
         if not jac:
@@ -329,6 +351,8 @@ class _BackwardEuler:
         dbs = -2.0 * ((sd1 @ self.Wt).reshape(n * m3, m3) @ x).reshape(n, m3).T
         dbs[:3] -= 2.0 * (ww @ p[:, :3].T)
         dbs[3:] += (self.WtE @ (x[:, None] * x).ravel()).reshape(n, n) - self.Lam
+        if self.quartic:
+            dbs[3:] -= dyn.potential_hessian(self.sys, z1[1:]) - self.Lam
         jm -= dt * db
         jm[:, 3:] -= (dt * dt) * dbs
         return r, jm
@@ -542,7 +566,8 @@ def numba_kernel():
 
 
 def _select_backend(backend: str, method: str):
-    """The compiled kernel module to use, or None for the numpy steppers."""
+    """The compiled kernel module to use, or None for the numpy steppers (every formulation,
+    "Q4" included, runs on both)."""
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
     if backend == "numpy":

@@ -24,6 +24,9 @@ Generic over the formulations (Q, P, L, rigid) through the mass tensors of
 Mt (N+1, N+1, 3+N, 3+N). ``Mt`` (rotational rows from the formulation's arrays, modal rows from
 the energy arrays) gives the momenta; ``MtE`` (energy arrays) gives ∂T/∂s. For "P" they differ;
 for the others they are the same array. N = 0 (rigid) is the same code with empty loops.
+Formulation "Q4" adds the cubic/quartic potential through ``v3g = 3 V3`` (N, N²) and
+``v4g = 4 V4`` (N, N³) (the ``ReducedSystem._V3g/_V4g`` layout; other formulations pass
+(N, 0) arrays and skip it), with the average-vector-field force of ``integrators._Midpoint``.
 The kernel takes the tensors flattened as ((N+1)², (3+N)²) (the ``ReducedSystem._Mt`` layout)
 so that its inner loops run over contiguous blocks and vectorise.
 
@@ -261,13 +264,51 @@ def _begin(m0, dt, x0, s0, h0, p0, sb1, sbm):
 
 
 @_jit
-def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm):
+def _nl_force(v3g, v4g, z, out):
+    """``out = 3 V3·ss + 4 V4·sss`` (N,) at s = z[1:] (z = (1, s)); v3g (N, N²), v4g (N, N³)."""
+    n = out.shape[0]
+    for k in range(n):
+        acc = 0.0
+        for m in range(n):
+            sm = z[m + 1]
+            for q in range(n):
+                smq = sm * z[q + 1]
+                acc += v3g[k, m * n + q] * smq
+                base = (m * n + q) * n
+                for p in range(n):
+                    acc += v4g[k, base + p] * smq * z[p + 1]
+        out[k] = acc
+
+
+@_jit
+def _nl_hessian(v3g, v4g, z, out):
+    """``out = 6 V3·s + 12 V4·ss`` (N, N) at s = z[1:]: the Hessian of the cubic/quartic
+    potential (V3, V4 symmetric)."""
+    n = out.shape[0]
+    for k in range(n):
+        for m in range(n):
+            acc = 0.0
+            for q in range(n):
+                sq = z[q + 1]
+                acc += 2.0 * v3g[k, m * n + q] * sq
+                base = (m * n + q) * n
+                for p in range(n):
+                    acc += 3.0 * v4g[k, base + p] * sq * z[p + 1]
+            out[k, m] = acc
+
+
+@_jit
+def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm, v3g, v4g, n0, qwk):
     """Residual r (3+N,) of the step equations at ν₁ = x (3+N,) and, if ``jac``, its Jacobian
     ``jm`` (3+N, 3+N) with respect to x. Returns False if the iterate is non-finite.
 
     ``wk`` is a tuple of work arrays ``(z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y)``
-    (``y`` (3+N)²); on return ``m1`` = 𝕄(s₁). Mirrors ``integrators._Midpoint.residual``."""
+    (``y`` (3+N)²); on return ``m1`` = 𝕄(s₁). Mirrors ``integrators._Midpoint.residual``.
+    Q4 (``v3g.shape[1] > 0``): n0 (N,) = 3V3·s₀s₀ + 4V4·s₀s₀s₀ of the step, ``qwk`` =
+    ``(nm, n1, hm, h1)`` work arrays ((N,), (N,), (N,N), (N,N))."""
     z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y = wk
+    nm, n1, hm, h1 = qwk
+    quartic = v3g.shape[1] > 0
     n = lam.shape[0]
     m3 = n + 3
     hdt = 0.5 * dt
@@ -292,12 +333,17 @@ def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm):
         r[a] -= rh0[a]
     # modal rows: p₁ − p₀ − Δt F_s(½),  F_s = P_E(z½, ν½)·ν½ − Λs½ − Cṡ½
     _y_times(mte, zm, numid, y, pm)
+    if quartic:  # average vector field (Simpson, exact for the cubic ∂V/∂s)
+        _nl_force(v3g, v4g, zm, nm)
+        _nl_force(v3g, v4g, z1, n1)
     for k in range(n):
         f = 0.0
         for a in range(m3):
             f += pm[k, a] * numid[a]
         for j in range(n):
             f -= lam[k, j] * zm[j + 1] + cmat[k, j] * numid[3 + j]
+        if quartic:
+            f -= (n0[k] + 4.0 * nm[k] + n1[k]) / 6.0
         r[3 + k] -= p0[k] + dt * f
     if not jac:
         return True
@@ -327,6 +373,13 @@ def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm):
             jm[3 + k, a] -= dt * pm[k, a]
         for j in range(n):
             jm[3 + k, 3 + j] += hdt * cmat[k, j] - qdt2 * (w2[k, j] - lam[k, j])
+    if quartic:  # ∂s½/∂ṡ₁ = ¼Δt, ∂s₁/∂ṡ₁ = ½Δt
+        _nl_hessian(v3g, v4g, zm, hm)
+        _nl_hessian(v3g, v4g, z1, h1)
+        dt2 = dt * dt
+        for k in range(n):
+            for j in range(n):
+                jm[3 + k, 3 + j] += dt2 * (hm[k, j] / 6.0 + h1[k, j] / 12.0)
     return True
 
 
@@ -417,7 +470,7 @@ def _store(out, ed_out, k, q, x, s, e_d):
 
 @_jit
 def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, max_newton,
-                 out, ed_out, last, info, finfo):  # fmt: skip
+                 out, ed_out, last, info, finfo, v3g, v4g):  # fmt: skip
     """Run ``n_steps`` midpoint steps of size ``dt`` (s) from ``y0`` (7+2N,) = [q, ω, s, ṡ].
 
     Inputs: mt, mte ((N+1)², (3+N)²) flattened mass tensors (momenta, energy); lam (N,N) 1/s²,
@@ -427,7 +480,8 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     (7+2N,) the last accepted state, info (int64, 7) = [status (OK / NOT_CONVERGED /
     SINGULAR), failing step, its Newton iterations, n_newton, n_jac, n_res, steps done],
     finfo (float64, 2) = [relative Newton update at failure, E_d of the last accepted state].
-    Returns the number of samples written.
+    v3g (N, N²), v4g (N, N³): 3V3 and 4V4 of formulation Q4, or (N, 0) arrays (no quartic
+    potential). Returns the number of samples written.
     """
     n = lam.shape[0]
     m3 = n + 3
@@ -447,6 +501,9 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
           np.empty(3), np.empty((n, m3)), np.empty((n, m3)), np.empty((n, n)),
           np.empty((3, 3)), np.empty(m3 * m3))  # fmt: skip
     z, m = np.empty(n + 1), np.empty((m3, m3))  # 𝕄(s) of the current state (kept across steps)
+    n0 = np.zeros(n)
+    qwk = (np.empty(n), np.empty(n), np.empty((n, n)), np.empty((n, n)))
+    quartic = v3g.shape[1] > 0
     phi, tgt, lu3, piv3 = np.empty(3), np.empty(3), np.empty((3, 3)), np.empty(3, np.int64)
     z[0] = 1.0
     z[1:] = s
@@ -463,11 +520,15 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     done = 0
     for i in range(1, n_steps + 1):
         _begin(m, dt, x, s, h0, p0, sb1, sbm)
+        if quartic:
+            _nl_force(v3g, v4g, z, n0)  # z = (1, s₀)
         for a in range(m3):
             xg[a] = 2.0 * x[a] - x_prev[a]
         scale = _state_scale(x, xg, s, wt, lam)
         # analytic Jacobian once per step, at the predictor; chord iterations after that
-        if not _residual(xg, True, mt, mte, lam, cmat, dt, x, h0, p0, sb1, sbm, wk, r, jm):
+        if not _residual(
+            xg, True, mt, mte, lam, cmat, dt, x, h0, p0, sb1, sbm, wk, r, jm, v3g, v4g, n0, qwk
+        ):
             status, fail_step = SINGULAR, i
             break
         if not _lu_factor(jm, piv):
@@ -500,7 +561,10 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
                     ok = True  # stagnation at round-off
                     break
             err_prev = err
-            if not _residual(xg, False, mt, mte, lam, cmat, dt, x, h0, p0, sb1, sbm, wk, r, jm):
+            if not _residual(
+                xg, False, mt, mte, lam, cmat, dt, x, h0, p0, sb1, sbm, wk, r, jm, v3g, v4g, n0,
+                qwk,
+            ):
                 finite = False
                 break
         if not finite:
@@ -541,15 +605,20 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
 def _arrays(sys):
     """Arrays of ``sys`` (a ReducedSystem) in the kernel's layout, always with the same types and
     ranks, so one compiled specialisation serves every formulation and N: Mt, MtE ((N+1)²,
-    (3+N)²); Λ, C (N,N); weights √diag(J0, μ) (3+N,) of the Newton convergence test."""
+    (3+N)²); Λ, C (N,N); weights √diag(J0, μ) (3+N,) of the Newton convergence test; 3V3
+    (N, N²) and 4V4 (N, N³) for "Q4", else (N, 0) arrays."""
     f = np.ascontiguousarray
     wt = np.concatenate([np.sqrt(np.diag(sys.J0)), np.sqrt(np.diag(sys.mu))])
+    n = sys.n_modes
+    quartic = getattr(sys, "quartic", False)
     return (
         f(sys._Mt, dtype=np.float64),
         f(sys._MtE, dtype=np.float64),
         f(sys.Lam, dtype=np.float64),
         f(sys.C, dtype=np.float64),
         f(wt),
+        f(sys._V3g, dtype=np.float64) if quartic else np.zeros((n, 0)),
+        f(sys._V4g, dtype=np.float64) if quartic else np.zeros((n, 0)),
     )
 
 
@@ -560,7 +629,7 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="
     indices to sample, starting at 0; newton_tol; max_newton; t0 (s, for messages). Returns
     ``(ys (K, 7+2N), dissipated (K,), steps done, stats, status, message)`` with the same
     sampling, counters and failure messages as the numpy driver."""
-    mt, mte, lam, cmat, wt = _arrays(sys)
+    mt, mte, lam, cmat, wt, v3g, v4g = _arrays(sys)
     y0 = np.ascontiguousarray(y0, dtype=np.float64)
     idx = np.ascontiguousarray(save_idx, dtype=np.int64)
     out = np.empty((len(idx), len(y0)))
@@ -570,7 +639,7 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="
     finfo = np.zeros(2)
     k_save = run_midpoint(mt, mte, lam, cmat, wt, y0, int(n_steps), float(dt), idx,
                           float(newton_tol), int(max_newton), out, ed_out, last, info,
-                          finfo)  # fmt: skip
+                          finfo, v3g, v4g)  # fmt: skip
     status, step, its, n_newton, n_jac, n_res, done = (int(v) for v in info)
     msg = "ok"
     out, ed_out = out[:k_save], ed_out[:k_save]
@@ -601,5 +670,5 @@ def warm_up() -> float:
     y0 = np.array([1.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3])
     idx = np.array([0, 2], np.int64)
     run_midpoint(mt, mt, e, e, np.ones(3), y0, 2, 1e-3, idx, 1e-13, 25, np.empty((2, 7)),
-                 np.empty(2), np.empty(7), np.zeros(7, np.int64), np.zeros(2))  # fmt: skip
+                 np.empty(2), np.empty(7), np.zeros(7, np.int64), np.zeros(2), e, e)  # fmt: skip
     return time.perf_counter() - start

@@ -15,6 +15,8 @@ self-describing NetCDF file by :mod:`quadmodes.artifact`.
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,6 +32,7 @@ from quadmodes.fe.model import (
     tangent_stiffness,
     total_mass,
 )
+from quadmodes.fe.pressure import PressureSet
 from quadmodes.modes import remove_rigid_part
 from quadmodes.prestress import _bordered_solver
 
@@ -48,7 +51,12 @@ class ReducedModel:
     X (n,3) m: reference vector DOFs (prestressed, about the CoM for a free body).
     translational (n,) bool. weights (n,) kg: w = M_s t. Phi (N,n,3): modes (1/√kg).
     G (N,N,n,3): quadratic modes g^{mn} (1/kg).
-    Mode coordinates s are in √kg·m, so that T = ½ ṡᵀ μ ṡ and V = ½ sᵀ Λ s (J).
+    V3 (N,N,N) J/(√kg·m)³, V4 (N,N,N,N) J/(√kg·m)⁴: fully symmetric cubic and quartic
+    coefficients of the manifold potential (:func:`manifold_potential_tensors`), the strain
+    energy of ``x0 + Φs + Σ s_m s_n g^{mn}`` truncated at fourth order in s:
+    ``V(s) = ½ sᵀΛs + V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q``. They default to zeros;
+    ``manifold_potential`` is True only when they were computed (formulation "Q4" needs it).
+    Mode coordinates s are in √kg·m, so that T = ½ ṡᵀ μ ṡ and V = ½ sᵀ Λ s (J) to second order.
     """
 
     mass: float
@@ -73,7 +81,17 @@ class ReducedModel:
     weights: np.ndarray
     Phi: np.ndarray
     G: np.ndarray
+    V3: np.ndarray | None = None
+    V4: np.ndarray | None = None
+    manifold_potential: bool = False
     provenance: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        n = len(self.frequencies_hz)
+        if self.V3 is None:
+            object.__setattr__(self, "V3", np.zeros((n, n, n)))
+        if self.V4 is None:
+            object.__setattr__(self, "V4", np.zeros((n, n, n, n)))
 
     @property
     def n_modes(self) -> int:
@@ -116,7 +134,7 @@ class ReducedModel:
             self.weights,
             z((0, n, 3)),
             z((0, 0, n, 3)),
-            dict(self.provenance),
+            provenance=dict(self.provenance),
         )
 
     def select(self, modes: np.ndarray) -> ReducedModel:
@@ -146,6 +164,9 @@ class ReducedModel:
             self.weights,
             self.Phi[i],
             self.G[ii],
+            self.V3[np.ix_(i, i, i)],
+            self.V4[np.ix_(i, i, i, i)],
+            self.manifold_potential,
             dict(self.provenance),
         )
 
@@ -205,6 +226,79 @@ def quadratic_modes(structure: Structure, x: np.ndarray, shapes: np.ndarray, pro
     return g
 
 
+def has_polynomial_potential(structure: Structure) -> bool:
+    """True if the internal force is an exact polynomial of degree ≤ 3 in the DOFs (membrane,
+    bar, cable, constant pressure); False with a gas-law pressure (``p V^κ = const``)."""
+    return not any(isinstance(e, PressureSet) and e.gas_law_exponent for e in structure.elements)
+
+
+def symmetrise(t: np.ndarray) -> np.ndarray:
+    """Average of ``t`` ``(N, …, N)`` over all permutations of its axes (fully symmetric part)."""
+    perms = list(itertools.permutations(range(t.ndim)))
+    return sum(np.transpose(t, p) for p in perms) / math.factorial(t.ndim)
+
+
+def pair_forces(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """``B_x(u^m, u^n)`` ``(N, N, n, 3)`` (N per unit² of the shapes), symmetric in (m, n), for
+    shapes ``(N, n, 3)`` about state ``x`` ``(n, 3)`` (m)."""
+    n_modes = shapes.shape[0]
+    out = np.zeros((n_modes, n_modes) + shapes.shape[1:])
+    for m in range(n_modes):
+        for q in range(m, n_modes):
+            out[m, q] = out[q, m] = second_order_force(structure, x, shapes[m], shapes[q])
+    return out
+
+
+def cubic_force_tensor(structure, x, shapes, b=None, progress=None) -> np.ndarray:
+    """``E_mnpq = u^q · C(u^m, u^n, u^p)`` ``(N, N, N, N)`` (J per unit⁴ of the shapes).
+
+    ``C`` is the symmetric trilinear cubic term of ``f(x + U) = f(x) + KU + B(U,U) + C(U,U,U)``.
+    For a cubic f, ``D²f`` is affine in the state, so exactly (no truncation error)
+    ``C(u, v, w) = (B_{x+αw}(u, v) − B_x(u, v)) / (3α)`` for any α; α is chosen so that
+    ``α w`` spans the body (round-off). ``b``: ``pair_forces(structure, x, shapes)`` if known."""
+    n_modes = shapes.shape[0]
+    phi = shapes.reshape(n_modes, -1)
+    b = pair_forces(structure, x, shapes) if b is None else b
+    size = float(np.ptp(x[structure.translational], axis=0).max(initial=0.0)) or 1.0
+    e = np.zeros((n_modes,) * 4)
+    for p in range(n_modes):
+        alpha = size / max(float(np.abs(shapes[p]).max()), 1e-300)
+        bp = pair_forces(structure, x + alpha * shapes[p], shapes)
+        e[:, :, p, :] = np.einsum("mni,qi->mnq", (bp - b).reshape(n_modes, n_modes, -1), phi)
+        e[:, :, p, :] /= 3.0 * alpha
+        if progress:
+            progress("manifold potential", (p + 1) / n_modes)
+    return e
+
+
+def manifold_potential_tensors(
+    structure: Structure, x: np.ndarray, shapes: np.ndarray, g: np.ndarray, progress=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic and quartic coefficients ``(V3 (N,N,N), V4 (N,N,N,N))``, fully symmetric, of the
+    strain energy on the quadratic-mode manifold ``U(s) = a + b``, ``a = Φs``, ``b = Σ s_m s_n
+    g^{mn}``, about the equilibrium ``x`` (``f(x) = 0`` on the free DOFs).
+
+    With ``W(x+U) − W(x) = ½UᵀKU + ⅓UᵀB(U,U) + ¼UᵀC(U,U,U)`` (exact for a cubic force)::
+
+        cubic:   aᵀK b + ⅓ aᵀB(a,a)
+        quartic: ½ bᵀK b + bᵀB(a,a) + ¼ aᵀC(a,a,a)
+
+    (the terms of U·B(U,U) with one b combine as ⅓(bᵀB(a,a) + 2aᵀB(a,b)) = bᵀB(a,a) since
+    ``wᵀB(u,v)`` is the symmetric form ½D³W). K g is not replaced by −B: for a free body the
+    quadratic modes include inertia relief. Units: J per (√kg·m)³ and (√kg·m)⁴."""
+    n_modes = shapes.shape[0]
+    k = tangent_stiffness(structure, x)
+    phi = shapes.reshape(n_modes, -1)
+    gf = g.reshape(n_modes, n_modes, -1)
+    kg = (k @ gf.reshape(n_modes * n_modes, -1).T).T.reshape(gf.shape)
+    b = pair_forces(structure, x, shapes)
+    bf = b.reshape(n_modes, n_modes, -1)
+    t3 = np.einsum("pi,mni->mnp", phi, kg) + np.einsum("pi,mni->mnp", phi, bf) / 3.0
+    e = cubic_force_tensor(structure, x, shapes, b, progress)
+    t4 = 0.5 * np.einsum("mni,pqi->mnpq", gf, kg) + np.einsum("mni,pqi->mnpq", gf, bf) + 0.25 * e
+    return symmetrise(t3), symmetrise(t4)
+
+
 def reduce(
     structure: Structure,
     x: np.ndarray,
@@ -239,6 +333,11 @@ def reduce(
         lam += coef * np.outer(phi.T @ vec, phi.T @ vec)
     omega = 2.0 * np.pi * np.asarray(frequencies_hz)
     zeta = np.broadcast_to(np.asarray(damping_ratio, float), omega.shape).copy()
+    polynomial = has_polynomial_potential(structure)
+    if polynomial:
+        v3, v4 = manifold_potential_tensors(structure, x, shapes, g, progress)
+    else:  # gas law: the potential is not a polynomial; Q4 refuses such a model
+        v3, v4 = None, None
     return ReducedModel(
         mass=total_mass(structure),
         free=structure.is_free,
@@ -262,5 +361,8 @@ def reduce(
         weights=w,
         Phi=shapes.copy(),
         G=g,
+        V3=v3,
+        V4=v4,
+        manifold_potential=polynomial,
         provenance=dict(provenance or {}),
     )

@@ -66,8 +66,13 @@ def damping_ratio_of(case: Case) -> float:
 
 def reduced_key(case: Case, n_modes: int) -> str:
     """Content key of the reduced model of ``case`` with ``n_modes`` modes (includes the
-    package version)."""
-    return artifact.content_key(case.to_toml() + f"\n# reduced.modes = {int(n_modes)}\n")
+    package version and the artifact format version, so that files of another format are not
+    cache hits)."""
+    return artifact.content_key(
+        case.to_toml()
+        + f"\n# reduced.modes = {int(n_modes)}\n"
+        + f"# artifact.format_version = {artifact.FORMAT_VERSION}\n"
+    )
 
 
 def cache_path(case: Case, n_modes: int) -> Path:
