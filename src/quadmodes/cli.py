@@ -758,7 +758,7 @@ def compare_command(
     ] = None,
     formulations: Annotated[
         str, typer.Option(help="comma-separated, from rigid, L, P, Q, Q4")
-    ] = "rigid,L,P,Q",
+    ] = "rigid,L,P,Q,Q4",
     output_dir: Annotated[
         Path | None, typer.Option("-o", "--output", help="folder (default: out/compare-<case>)")
     ] = None,

@@ -183,7 +183,7 @@ def check_full_order_kane() -> list[Row]:
 
 
 def comparison_rows(payload: dict, tolerance: float = 0.05) -> list[Row]:
-    """Rows from a ``quadmodes compare --json`` payload: Q against full order within
+    """Rows from a ``quadmodes compare --json`` payload: Q and Q4 against full order within
     ``tolerance`` on the modal envelope and the cone angle; the rest reported."""
     case, window = payload["case"], payload["window_s"]
     rows = []
@@ -191,7 +191,7 @@ def comparison_rows(payload: dict, tolerance: float = 0.05) -> list[Row]:
     for name, row in payload["formulations"].items():
         for metric in ("envelope_error", "cone_angle_error", "cone_angle_change_error",
                        "spin_rate_error"):
-            asserted = name == "Q" and metric in ("envelope_error", "cone_angle_error")
+            asserted = name in ("Q", "Q4") and metric in ("envelope_error", "cone_angle_error")
             value = row[metric] if row[metric] is not None else float("nan")
             rows.append(
                 Row(f"{case} {name}: {metric.replace('_', ' ')}", value, 0.0, tolerance,
@@ -205,7 +205,7 @@ def comparison_rows(payload: dict, tolerance: float = 0.05) -> list[Row]:
 
 
 def check_compare_coarse(window: float = 1.0) -> list[Row]:
-    """``quadmodes compare paper-41hz-coarse --window 1 s``: rigid, L, P, Q vs full order."""
+    """``quadmodes compare paper-41hz-coarse --window 1 s``: rigid, L, P, Q, Q4 vs full order."""
     from quadmodes.compare import compare
     from quadmodes.config import load_run_case
 
