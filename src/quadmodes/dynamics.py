@@ -409,6 +409,37 @@ def potential_hessian(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     return sys.Lam + 2.0 * h3 + 3.0 * h4
 
 
+def potential_barrier(
+    sys: ReducedSystem, n_directions: int = 4000, seed: int = 0
+) -> tuple[float, np.ndarray]:
+    """Lowest barrier of the "Q4" potential: ``(V_b (J), s_b (N,))``.
+
+    Along a ray ``s = r d`` (d scaled so that ½ dᵀΛd = ½) ``V(r) = r²/2 + c3 r³ + c4 r⁴``; where
+    the quartic turns V down, its first maximum (the smaller positive root of
+    ``4c4 r² + 3c3 r + 1 = 0``) is the energy a motion needs to escape along d. ``V_b`` is the
+    smallest such maximum over ``n_directions`` random directions (a sampled estimate from above;
+    ``inf`` when V rises along every sampled ray, e.g. for Q), ``s_b`` the point where it is
+    reached. Why: V4 truncates the manifold energy and can be negative definite, so V is unbounded
+    below; a state whose modal energy exceeds V_b may run off to where Q4 has no meaning."""
+    n = sys.n_modes
+    if not sys.quartic or n == 0:
+        return math.inf, np.zeros(n)
+    d = np.random.default_rng(seed).standard_normal((n_directions, n))
+    d /= np.sqrt(np.einsum("km,mn,kn->k", d, sys.Lam, d))[:, None]
+    c3 = np.einsum("mnp,km,kn,kp->k", sys.V3, d, d, d)
+    c4 = np.einsum("mnpq,km,kn,kp,kq->k", sys.V4, d, d, d, d)
+    a, b = 4.0 * c4, 3.0 * c3
+    disc = b * b - 4.0 * a  # roots of a r² + b r + 1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+        roots = np.stack([(-b - sq) / (2 * a), (-b + sq) / (2 * a)], 1)
+    roots = np.where((roots > 0.0) & np.isfinite(roots), roots, np.inf)
+    r = roots.min(axis=1)
+    v = np.where(np.isfinite(r), 0.5 * r * r + c3 * r**3 + c4 * r**4, np.inf)
+    k = int(np.argmin(v))
+    return float(v[k]), (r[k] * d[k] if np.isfinite(v[k]) else np.zeros(n))
+
+
 def energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
     """Total mechanical energy E = T + V (…) J of the rotational + elastic motion.
 

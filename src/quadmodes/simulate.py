@@ -278,15 +278,29 @@ class Validity:
     spin_rate: float
     min_eigenvalue: float
     lost_at: float | None
+    modal_energy: float = 0.0
+    barrier_energy: float = math.inf
+
+    @property
+    def beyond_barrier(self) -> bool:
+        """Q4 only: the initial modal energy exceeds the quartic potential's lowest barrier."""
+        return self.modal_energy > self.barrier_energy
 
     @property
     def valid(self) -> bool:
-        return self.lost_at is None
+        return self.lost_at is None and not self.beyond_barrier
 
     def message(self) -> str:
         """One line for a warning ("" when valid)."""
         if self.valid:
             return ""
+        if self.lost_at is None:
+            return (
+                f"formulation {self.formulation} is outside its validity: the initial modal energy "
+                f"{self.modal_energy:.4g} J exceeds the lowest barrier {self.barrier_energy:.4g} J "
+                "of its truncated quartic potential, so the motion may leave the range where Q4 "
+                "means anything; use Q, or a smaller initial deformation"
+            )
         return (
             f"formulation {self.formulation} is outside its validity: the rotating-frame "
             f"stiffness Λ − ωᵀJ2ω is not positive definite above a spin rate of "
@@ -302,6 +316,9 @@ class Validity:
             "rotating_stiffness_min_eigenvalue_units": "s-2",
             "spin_rate_rad_s": float(self.spin_rate),
             "lost_at_spin_rate_rad_s": None if self.lost_at is None else float(self.lost_at),
+            "initial_modal_energy_J": float(self.modal_energy),
+            "potential_barrier_J": None if math.isinf(self.barrier_energy)
+            else float(self.barrier_energy),
             "message": self.message(),
         }
 
@@ -423,6 +440,12 @@ def prepare(
     init = initial_state(system, model, run)
     omega0 = dyn.split_state(system, init.y0)[1]
     validity = rotating_validity(system, omega0, run.reduced.formulation)
+    if system.quartic:
+        _, _, s0, sd0 = dyn.split_state(system, init.y0)
+        e_modal = float(0.5 * sd0 @ system.mu @ sd0 + dyn.potential_energy(system, init.y0))
+        validity = dataclasses.replace(
+            validity, modal_energy=e_modal, barrier_energy=dyn.potential_barrier(system)[0]
+        )
     return RunSetup(run, model_case, model, system, init, validity)
 
 

@@ -1,0 +1,43 @@
+"""Validity of the Q4 formulation: the truncated quartic potential has a lowest barrier, and a
+run that starts with more modal energy than that is reported as outside Q4's validity."""
+
+import numpy as np
+import pytest
+
+from quadmodes import dynamics as dyn
+from quadmodes import simulate
+from quadmodes.config import load_run_case
+
+
+def _setup(name, formulation="Q4"):
+    return simulate.prepare(simulate.apply_overrides(load_run_case(name), formulation=formulation))
+
+
+@pytest.fixture(scope="module")
+def slow_q4():
+    return _setup("paper-0.5hz")
+
+
+def test_barrier_is_a_maximum_along_its_ray(slow_q4):
+    sys = slow_q4.system
+    v_b, s_b = dyn.potential_barrier(sys)
+    assert 0.0 < v_b < np.inf
+    v = lambda s: float(dyn.potential_energy(sys, dyn.pack_state(sys, s=s)))  # noqa: E731
+    assert v(s_b) == pytest.approx(v_b, rel=1e-10)
+    # first maximum along the ray: below it V rises, beyond it V falls
+    assert v(0.98 * s_b) < v_b and v(1.02 * s_b) < v_b
+    assert dyn.potential_gradient(sys, s_b) @ s_b == pytest.approx(0.0, abs=1e-9 * v_b)
+    # Q (quadratic potential) has no barrier
+    assert dyn.potential_barrier(_setup("paper-0.5hz", "Q").system)[0] == np.inf
+
+
+def test_initial_bending_beyond_the_barrier_is_reported(slow_q4):
+    val = slow_q4.validity
+    assert val.beyond_barrier and not val.valid
+    assert "barrier" in val.message() and "use Q" in val.message()
+    assert val.as_dict()["valid"] is False
+
+
+def test_spinning_case_from_rest_is_within_q4_validity():
+    val = _setup("paper-41hz").validity
+    assert val.modal_energy == 0.0 and val.valid and val.message() == ""
