@@ -112,3 +112,32 @@ def test_compare_refuses_a_window_too_long_without_yes(runner, tmp_path):
     assert result.exit_code == 2
     assert "estimated" in result.output and "--yes" in result.output
     assert not out.exists()
+
+
+def test_rotating_command_reproduces_modal_frequencies_at_rest(runner, tmp_path):
+    """At zero spin the full-order linearisation is the modal analysis: Q and L errors ~ 0."""
+    out = tmp_path / "rot.md"
+    result = runner.invoke(app, ["rotating", "--spins", "0", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    rows = [r for r in out.read_text().splitlines() if r.startswith("| 0 |") and "nutation" not in r]
+    assert len(rows) == 5
+    for r in rows:
+        cells = [c.strip() for c in r.strip("|").split("|")]
+        full, q = float(cells[2]), float(cells[3])
+        assert q == pytest.approx(full, rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    "args, field",
+    [
+        (["--spins", "a,b"], "--spins"),
+        (["--spins", "-5"], "--spins"),
+        (["--formulations", "X"], "--formulations"),
+        (["kane-beam", "--spins", "1"], "free body"),
+    ],
+)
+def test_rotating_bad_input(runner, tmp_path, args, field):
+    out = tmp_path / "rot.md"
+    result = runner.invoke(app, ["rotating", *args, "-o", str(out)])
+    assert result.exit_code == 2 and field in result.output
+    assert not out.exists()

@@ -53,7 +53,7 @@ def capsule_undamped(small_reduced_model):
 # ------------------------------------------------------------------ Newton Jacobians
 
 
-@pytest.mark.parametrize("formulation", ["Q", "P", "L"])
+@pytest.mark.parametrize("formulation", ["Q", "P", "L", "Q4"])
 @pytest.mark.parametrize("stepper", [it._Midpoint, it._BackwardEuler])
 def test_step_jacobian_matches_finite_differences(small_reduced_model, formulation, stepper):
     sys = dy.reduced_system(small_reduced_model, formulation)

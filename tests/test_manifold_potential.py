@@ -170,23 +170,6 @@ def test_q4_refuses_model_without_tensors(small_reduced_model):
 # ------------------------------------------------------------------ integrators
 
 
-@pytest.mark.parametrize("stepper", [it._Midpoint, it._BackwardEuler])
-def test_step_jacobian_q4(small_reduced_model, stepper):
-    sys = dy.reduced_system(small_reduced_model, "Q4")
-    rng = np.random.default_rng(1)
-    st = stepper(sys, 1e-3)
-    x0 = np.r_[3.0, -2.0, 80.0, 0.3 * rng.normal(size=5)]
-    st.begin(x0, 2e-3 * rng.normal(size=5))
-    x = x0 + np.r_[rng.normal(size=3), 0.1 * rng.normal(size=5)]
-    _, jac = st.residual(x, jac=True)
-    fd = np.empty_like(jac)
-    for j in range(len(x)):
-        e = np.zeros_like(x)
-        e[j] = 1e-6
-        fd[:, j] = (st.residual(x + e) - st.residual(x - e)) / 2e-6
-    assert np.abs(jac - fd).max() <= 1e-8 * np.abs(jac).max()
-
-
 def _anharmonic_model():
     """Two modes on a rigid body with no inertial coupling and a stiff quartic potential."""
     n = 2

@@ -3,7 +3,6 @@ and the wall-time estimate printed before a long run."""
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -13,7 +12,7 @@ import numpy as np
 from quadmodes import pipeline
 from quadmodes.config import RunCase, load_case, load_run_case
 from quadmodes.fe.model import Structure, centre_of_mass
-from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
+from quadmodes.fullorder.integrator import FullOrderSolution, _n_steps, integrate_full_order
 from quadmodes.fullorder.kinematics import (
     HubDrive,
     centrifugal_stretch,
@@ -100,6 +99,7 @@ def full_order_for_run(
     model: ReducedModel | None = None,
     stretch: bool = True,
     progress: Progress | None = None,
+    setup: FullOrderSetup | None = None,
     **options,
 ) -> FullOrderSolution:
     """Full-order transient of run case ``run`` (name or :class:`RunCase`) over ``[0, window]``
@@ -108,8 +108,10 @@ def full_order_for_run(
 
     Samples are taken at the run's sampling interval (``dt × save_every`` of the run) unless
     ``save_every`` is given. ``stretch``: see :func:`setup_for_run`. ``progress(stage, fraction)`` with stage "full order". Other
-    keyword ``options`` go to :func:`integrate_full_order` (newton_tol, checkpoint, ...)."""
-    st = setup_for_run(run, model, stretch)
+    keyword ``options`` go to :func:`integrate_full_order` (newton_tol, checkpoint, ...).
+    ``setup``: a :func:`setup_for_run` result already built for ``run`` (skips the inflation and
+    the initial-state mapping)."""
+    st = setup if setup is not None else setup_for_run(run, model, stretch)
     run = st.run
     if dt is None:
         dt = KANE_DT if st.hub is not None else float(run.integration.dt)
@@ -142,7 +144,7 @@ def estimate_wall_time(
     dropped)."""
     for key in ("checkpoint", "resume", "progress", "checkpoint_every"):
         options.pop(key, None)
-    n_steps = max(1, math.ceil((t_span[1] - t_span[0]) / dt - 1e-9))
+    n_steps = _n_steps(t_span, dt)[0]
     t0 = float(t_span[0])
     start = time.perf_counter()
     integrate_full_order(structure, x_ref, x0, v0, (t0, t0 + dt), dt, **options)
@@ -163,9 +165,12 @@ def estimate_wall_time(
     }
 
 
-def estimate_for_run(run: RunCase | str, *, dt: float | None = None, window=None, n_probe=8) -> dict:
+def estimate_for_run(
+    run: RunCase | str, *, dt: float | None = None, window=None, n_probe=8,
+    setup: FullOrderSetup | None = None,
+) -> dict:  # fmt: skip
     """:func:`estimate_wall_time` of :func:`full_order_for_run` (same arguments)."""
-    st = setup_for_run(run)
+    st = setup if setup is not None else setup_for_run(run)
     if dt is None:
         dt = KANE_DT if st.hub is not None else float(st.run.integration.dt)
     window = st.duration if window is None else float(window)
