@@ -40,12 +40,12 @@ import numpy as np
 import scipy
 import scipy.sparse.linalg as spla
 
-import quadmodes.modes as qmodes
-import quadmodes.prestress as qprestress
-from quadmodes import pipeline
-from quadmodes.config import Case, load_case
+import quadmodes.structure.modes as qmodes
+import quadmodes.structure.prestress as qprestress
+from quadmodes.case.schema import Case, load_case
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import Structure, internal_force, tangent_stiffness, with_load_factor
+from quadmodes.structure import pipeline
 
 T0 = time.perf_counter()
 
@@ -287,7 +287,7 @@ class _TimedLU:
 @contextlib.contextmanager
 def instrumented(acc: Accumulator, history: list[float] | None = None) -> Iterator[None]:
     """Temporarily wrap splu (factorisation; its solves), eigsh, and the assembly functions as
-    seen by quadmodes.prestress and quadmodes.modes, accumulating (seconds, calls) in ``acc``.
+    seen by quadmodes.structure.prestress and quadmodes.structure.modes, accumulating (seconds, calls) in ``acc``.
     With ``history``, the norm over free DOFs of every internal-force evaluation (Newton iterates
     and line-search trials) is appended to it, outside the timed region. Names that no longer
     exist are skipped, so the benchmark survives refactoring."""
@@ -495,7 +495,7 @@ def build_tables(results: Sequence[BuildResult], n_modes: int) -> list[Table]:
         notes=[
             "Measured by timing wrappers around scipy.sparse.linalg.splu (factorisation and the "
             "SuperLU.solve calls), scipy.sparse.linalg.eigsh and the tangent_stiffness / "
-            "internal_force used by quadmodes.prestress and quadmodes.modes. 'other' is the rest "
+            "internal_force used by quadmodes.structure.prestress and quadmodes.structure.modes. 'other' is the rest "
             "of the stage: sparse slicing [free][:, free], bordered-matrix construction, mass "
             "matrix, rigid-body projections, line-search bookkeeping, stress report. In the "
             "modes stage the eigsh column includes the shift-invert solves and ARPACK's own work. "

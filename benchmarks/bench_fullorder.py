@@ -28,9 +28,9 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from quadmodes import simulate  # noqa: E402
-from quadmodes.config import case_to_toml, load_case, load_run_case  # noqa: E402
+from quadmodes.case.schema import case_to_toml, load_case, load_run_case  # noqa: E402
 from quadmodes.fullorder import estimate_for_run  # noqa: E402
+from quadmodes.runs import simulate  # noqa: E402
 
 
 def run_for_mesh(edge_in: float, folder: Path):

@@ -4,9 +4,9 @@ Three parts:
 
 1. Integration throughput (steps/s) of the paper model's reduced model (N = 5 modes, from the
    reduced-model cache; built once if missing) for ``midpoint`` with each backend (``numpy``:
-   the Python steppers; ``numba``: the compiled kernel of :mod:`quadmodes.midpoint_kernel`),
+   the Python steppers; ``numba``: the compiled kernel of :mod:`quadmodes.rom.midpoint_kernel`),
    ``backward-euler`` and ``adaptive``, from the paper-41hz initial state (41 Hz spin, 6 deg
-   cone), formulation Q, one :func:`quadmodes.integrators.integrate` call per row over
+   cone), formulation Q, one :func:`quadmodes.rom.integrators.integrate` call per row over
    ``--window`` seconds (``--numba-window`` for the compiled kernel, which is ~30× faster), best
    of ``--repeat`` calls. Compilation is excluded (the kernel is warmed up first).
 2. The numba kernel's first-call cost, in fresh processes: with an empty cache directory
@@ -40,9 +40,10 @@ from pathlib import Path
 
 import numpy as np
 
-from quadmodes import integrators, simulate
-from quadmodes.config import load_run_case
-from quadmodes.results import write_outputs
+from quadmodes.case.schema import load_run_case
+from quadmodes.rom import integrators
+from quadmodes.runs import simulate
+from quadmodes.runs.results import write_outputs
 
 CASE = "paper-41hz"
 #: (method, backend) rows of the throughput table.
@@ -110,7 +111,7 @@ def compile_times() -> dict | None:
         return None
     code = (
         "import time; t = time.perf_counter(); import numba; i = time.perf_counter() - t; "
-        "from quadmodes import midpoint_kernel as k; print(i, k.warm_up())"
+        "from quadmodes.rom import midpoint_kernel as k; print(i, k.warm_up())"
     )
     out = {}
     with tempfile.TemporaryDirectory() as tmp:

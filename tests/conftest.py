@@ -2,9 +2,9 @@
 
 import pytest
 
-from quadmodes.config import case_from_toml
-from quadmodes.pipeline import build_modal_model
-from quadmodes.reduced import reduce
+from quadmodes.case.schema import case_from_toml
+from quadmodes.rom.reduced import reduce
+from quadmodes.structure.pipeline import build_modal_model
 
 SMALL_CAPSULE = """
 name = "small-capsule"
@@ -45,6 +45,6 @@ def small_modal_model():
 
 @pytest.fixture(scope="session")
 def small_reduced_model(small_modal_model):
-    """:class:`quadmodes.reduced.ReducedModel` of the small capsule, N = 5, ζ = 2 %."""
+    """:class:`quadmodes.rom.reduced.ReducedModel` of the small capsule, N = 5, ζ = 2 %."""
     m = small_modal_model
     return reduce(m.structure, m.x, m.modes.frequencies_hz, m.modes.shapes, m.labels, 0.02)

@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from quadmodes import dynamics as dy
-from quadmodes.campbell import (
+from quadmodes.analysis.campbell import (
     campbell,
     campbell_main,
     plot_campbell,
     relative_equilibrium,
     write_campbell,
 )
-from quadmodes.spinup import KANE_REFERENCE_CHORDWISE, kane_model
+from quadmodes.rom import dynamics as dy
+from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE, kane_model
 
 OMEGA_1 = 3.516 * np.sqrt(7e10 * 2e-7 / (3000 * 4e-4 * 10.0**4))  # 3.798 rad/s
 

@@ -20,12 +20,12 @@ import pytest
 from typer.testing import CliRunner
 
 from quadmodes import __version__
-from quadmodes.cli import app
-from quadmodes.config import builtin_case_names, case_from_toml, load_case
+from quadmodes.case.schema import builtin_case_names, case_from_toml, load_case
+from quadmodes.cli.app import app
 from quadmodes.mesh.io import write_surface
 from quadmodes.mesh.revolution import sphere_surface
 from quadmodes.mesh.surface import TriangleSurface
-from quadmodes.prestress import ConvergenceError
+from quadmodes.structure.prestress import ConvergenceError
 
 BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi
@@ -321,7 +321,7 @@ def test_newton_failure(runner, tmp_path, monkeypatch):
             "iterations);\nuse more inflation steps, a finer mesh, or check the pressure"
         )
 
-    monkeypatch.setattr("quadmodes.pipeline.inflate", failing_inflate)
+    monkeypatch.setattr("quadmodes.structure.pipeline.inflate", failing_inflate)
     path = _write_case(tmp_path, _sphere_toml())
     out_dir = tmp_path / "runs" / "first" / "out"  # parents do not exist yet
     result = runner.invoke(app, ["modes", str(path), "-o", str(out_dir)])
@@ -337,7 +337,7 @@ def test_failed_run_keeps_existing_output_folder(runner, tmp_path, monkeypatch):
     def failing_inflate(*args, **kwargs):
         raise ConvergenceError("inflation: Newton did not converge")
 
-    monkeypatch.setattr("quadmodes.pipeline.inflate", failing_inflate)
+    monkeypatch.setattr("quadmodes.structure.pipeline.inflate", failing_inflate)
     path = _write_case(tmp_path, _sphere_toml())
     result = runner.invoke(app, ["modes", str(path), "-o", str(out_dir)])
     assert result.exit_code == 2

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from quadmodes import compare as cm
-from quadmodes.cli import app
-from quadmodes.config import load_run_case
+from quadmodes.analysis import compare as cm
+from quadmodes.case.schema import load_run_case
+from quadmodes.cli.app import app
 
 
 @pytest.fixture(scope="module")
@@ -25,8 +25,8 @@ def runner() -> CliRunner:
 
 def _reduced_as_reference(run, dt):
     """The Q reduced run dressed as a full-order solution (identity check of the metrics)."""
-    from quadmodes import dynamics as dyn
-    from quadmodes import simulate
+    from quadmodes.rom import dynamics as dyn
+    from quadmodes.runs import simulate
 
     res = simulate.simulate(cm.window_run(run, run.integration.duration, "Q"))
     d = res.diagnostics

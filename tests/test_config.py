@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from quadmodes.config import (
+from quadmodes.case.schema import (
     Case,
     CaseError,
     builtin_case_names,
@@ -13,7 +13,7 @@ from quadmodes.config import (
     case_to_toml,
     load_case,
 )
-from quadmodes.units import QuantityError, format_quantity, parse_quantity
+from quadmodes.case.units import QuantityError, format_quantity, parse_quantity
 
 BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
 

@@ -8,8 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from quadmodes import dynamics as dyn
-from quadmodes import integrators
 from quadmodes.fe.model import centre_of_mass
 from quadmodes.fullorder import (
     FullOrderNewtonError,
@@ -17,8 +15,10 @@ from quadmodes.fullorder import (
     integrate_full_order,
     kane_full_order,
 )
-from quadmodes.simulate import largest_nodal_displacement
-from quadmodes.spinup import KANE_REFERENCE_PEAKS
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import integrators
+from quadmodes.runs.simulate import largest_nodal_displacement
+from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
 BENDING = 2  # first bending mode of the small capsule (148 Hz)
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.special import ellipj
 
-from quadmodes import diagnostics as dg
-from quadmodes import dynamics as dy
-from quadmodes import integrators as it
-from quadmodes.reduced import ReducedModel
+from quadmodes.rom import diagnostics as dg
+from quadmodes.rom import dynamics as dy
+from quadmodes.rom import integrators as it
+from quadmodes.rom.reduced import ReducedModel
 
 
 def hand_model(J0, lam=(), zeta=0.0):
@@ -255,7 +255,7 @@ def test_adaptive_error_decreases_with_rtol(capsule, order_case):
 
 def one_step_eigenvalue(method, f_hz, zeta, dt):
     """(ζ_eff, f_num) of the one-step map of a single damped mode, through the stepping code."""
-    from quadmodes.validation_dynamics import one_step_damping
+    from quadmodes.validation.dynamics_checks import one_step_damping
 
     return one_step_damping(method, f_hz, zeta, dt)
 

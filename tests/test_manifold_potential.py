@@ -7,13 +7,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from quadmodes import artifact
-from quadmodes import campbell as cb
-from quadmodes import diagnostics as dg
-from quadmodes import dynamics as dy
-from quadmodes import integrators as it
+from quadmodes.analysis import campbell as cb
 from quadmodes.fe.model import internal_force, strain_energy
-from quadmodes.reduced import ReducedModel
+from quadmodes.rom import artifact
+from quadmodes.rom import diagnostics as dg
+from quadmodes.rom import dynamics as dy
+from quadmodes.rom import integrators as it
+from quadmodes.rom.reduced import ReducedModel
 
 
 def manifold_energy(structure, x0, model):
@@ -277,8 +277,8 @@ def test_artifact_round_trip_and_format_1(small_reduced_model, tmp_path):
 
 @pytest.fixture(scope="module")
 def paper_coarse():
-    from quadmodes import simulate
-    from quadmodes import spinning as sp
+    from quadmodes.analysis import rotating as sp
+    from quadmodes.runs import simulate
 
     case, structure, x0 = sp.case_state("paper-membrane-coarse")
     return structure, x0, simulate.reduced_model_for(case, 5)
@@ -286,7 +286,7 @@ def paper_coarse():
 
 def full_order_modal_coordinates(structure, x0, model, spin, axis):
     """Full-order relative equilibrium projected on the modes (quadratic modes subtracted)."""
-    from quadmodes import spinning as sp
+    from quadmodes.analysis import rotating as sp
 
     eq = sp.relative_equilibrium(structure, x0, spin, axis)
     d = eq.x - np.outer(model.translational, model.weights @ eq.x / model.weights.sum()) - model.X
@@ -324,9 +324,9 @@ def test_centrifugal_deflection_q4_vs_full_order(paper_coarse):
 def test_tensors_clamped_cable_beam():
     """Clamped ANCF cable (position and slope DOFs, f(x0) ≠ 0 only at the clamp): the quartic
     coefficient of the exact manifold energy is V4·dddd (the cubic one vanishes by symmetry)."""
-    from quadmodes.config import load_case
-    from quadmodes.pipeline import build_modal_model
-    from quadmodes.reduced import reduce
+    from quadmodes.case.schema import load_case
+    from quadmodes.rom.reduced import reduce
+    from quadmodes.structure.pipeline import build_modal_model
 
     mm = build_modal_model(load_case("kane-beam"))
     f = mm.modes
@@ -352,9 +352,9 @@ def test_gas_law_pressure_has_no_manifold_potential():
     sys.path.insert(0, str(Path(__file__).parent))
     from conftest import SMALL_CAPSULE
 
-    from quadmodes.config import case_from_toml
-    from quadmodes.pipeline import build_modal_model
-    from quadmodes.reduced import reduce
+    from quadmodes.case.schema import case_from_toml
+    from quadmodes.rom.reduced import reduce
+    from quadmodes.structure.pipeline import build_modal_model
 
     toml = SMALL_CAPSULE.replace('value = "0.3 psi"', 'value = "0.3 psi"\ngas_law_exponent = 1.4')
     mm = build_modal_model(case_from_toml(toml, source="gas"))

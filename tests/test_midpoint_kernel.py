@@ -15,11 +15,11 @@ pytest.importorskip("numba")
 
 from test_run import run_toml, workdir  # noqa: E402, F401  (fixture)
 
-from quadmodes import diagnostics as dg  # noqa: E402
-from quadmodes import dynamics as dy  # noqa: E402
-from quadmodes import integrators as it  # noqa: E402
-from quadmodes import simulate  # noqa: E402
-from quadmodes.config import run_case_from_toml  # noqa: E402
+from quadmodes.case.schema import run_case_from_toml  # noqa: E402
+from quadmodes.rom import diagnostics as dg  # noqa: E402
+from quadmodes.rom import dynamics as dy  # noqa: E402
+from quadmodes.rom import integrators as it  # noqa: E402
+from quadmodes.runs import simulate  # noqa: E402
 
 
 def spinner_state(sys, spin, cone_deg, s_amp=0.0):

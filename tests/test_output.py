@@ -1,4 +1,4 @@
-"""Tests for quadmodes.output (VTU/PVD writers and PNG plots) on a small closed surface."""
+"""Tests for quadmodes.io.output (VTU/PVD writers and PNG plots) on a small closed surface."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from quadmodes import output
+from quadmodes.io import output
 
 
 def _sphere(n_theta: int = 6, n_phi: int = 10, radius: float = 0.5):

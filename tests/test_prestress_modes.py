@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from quadmodes.config import load_case
+from quadmodes.case.schema import load_case
 from quadmodes.fe.build import MembraneSpec, build_membrane_structure
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import (
@@ -19,9 +19,9 @@ from quadmodes.fe.model import (
 )
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.mesh.revolution import capsule_surface, sphere_surface
-from quadmodes.modes import compute_modes
-from quadmodes.pipeline import build_modal_model
-from quadmodes.prestress import inflate
+from quadmodes.structure.modes import compute_modes
+from quadmodes.structure.pipeline import build_modal_model
+from quadmodes.structure.prestress import inflate
 
 # The seed's membrane: E = 0.05 Mpsi, nu = 0.3, t = 0.0045 in, rho = 0.0335 lb/in^3, 0.3 psi.
 E, NU, T, RHO, P = 344.7379e6, 0.3, 1.143e-4, 927.28, 2068.43
@@ -142,7 +142,7 @@ def test_paper_membrane_calibrated_frequencies():
 
 
 def test_gas_law_adds_volume_stiffness_only_to_volume_changing_modes():
-    from quadmodes.config import case_from_toml
+    from quadmodes.case.schema import case_from_toml
 
     base = """
 name = "gas-sphere"

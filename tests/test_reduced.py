@@ -5,10 +5,10 @@ and the NetCDF artifact."""
 import numpy as np
 import pytest
 
-from quadmodes.artifact import ArtifactError, load_reduced_model, save_reduced_model
 from quadmodes.fe.model import internal_force, mass_matrix, second_order_force, tangent_stiffness
-from quadmodes.modes import remove_rigid_part
-from quadmodes.prestress import _bordered_solver
+from quadmodes.rom.artifact import ArtifactError, load_reduced_model, save_reduced_model
+from quadmodes.structure.modes import remove_rigid_part
+from quadmodes.structure.prestress import _bordered_solver
 
 
 def test_frame_condition_arrays_vanish(small_reduced_model):
@@ -70,7 +70,7 @@ def test_quadratic_manifold_residual_is_third_order(small_modal_model, small_red
 
 def _project(s, x, f):
     """Pi^T f: remove the rigid-body (inertia-relief) part of a load."""
-    from quadmodes.modes import rigid_projector_basis
+    from quadmodes.structure.modes import rigid_projector_basis
 
     q = rigid_projector_basis(s, x)
     m = mass_matrix(s)

@@ -17,10 +17,7 @@ import pytest
 from conftest import SMALL_CAPSULE
 from typer.testing import CliRunner
 
-from quadmodes import artifact, integrators, pipeline, simulate
-from quadmodes import results as res
-from quadmodes.cli import app
-from quadmodes.config import (
+from quadmodes.case.schema import (
     CaseError,
     builtin_case_names,
     builtin_run_case_names,
@@ -28,6 +25,11 @@ from quadmodes.config import (
     load_run_case,
     run_case_from_toml,
 )
+from quadmodes.cli.app import app
+from quadmodes.rom import artifact, integrators
+from quadmodes.runs import results as res
+from quadmodes.runs import simulate
+from quadmodes.structure import pipeline
 
 PAPER_RUNS = ["paper-0.5hz", "paper-41hz"]
 SUMMARY_KEYS = {

@@ -17,17 +17,17 @@ from conftest import SMALL_CAPSULE
 from test_run import run_toml, workdir  # noqa: F401  (fixture)
 from typer.testing import CliRunner
 
-from quadmodes import dynamics as dyn
-from quadmodes import results as res
-from quadmodes import simulate
-from quadmodes.cli import app
-from quadmodes.config import (
+from quadmodes.case.schema import (
     CaseError,
     builtin_run_case_names,
     load_run_case,
     run_case_from_toml,
 )
-from quadmodes.spinup import KANE_REFERENCE_PEAKS
+from quadmodes.cli.app import app
+from quadmodes.rom import dynamics as dyn
+from quadmodes.runs import results as res
+from quadmodes.runs import simulate
+from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
 # ----------------------------------------------------------------------------- validity
 

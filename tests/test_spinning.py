@@ -1,4 +1,4 @@
-"""Full-order rotating-frame analysis (quadmodes.spinning): centrifugal relative equilibrium,
+"""Full-order rotating-frame analysis (quadmodes.analysis.rotating): centrifugal relative equilibrium,
 gyroscopic eigenproblem, and its comparison with the reduced model's Campbell frequencies on the
 coarse paper model; the clamped Kane beam against its published chordwise frequencies and the
 Southwell coefficient."""
@@ -6,12 +6,12 @@ Southwell coefficient."""
 import numpy as np
 import pytest
 
-from quadmodes import spinning as spn
-from quadmodes.campbell import campbell
+from quadmodes.analysis import rotating as spn
+from quadmodes.analysis.campbell import campbell
 from quadmodes.fe.build import build_beam_structure
 from quadmodes.fe.model import centre_of_mass, inertia_tensor
-from quadmodes.simulate import build_reduced_model
-from quadmodes.spinup import KANE_BEAM, KANE_REFERENCE_CHORDWISE
+from quadmodes.runs.simulate import build_reduced_model
+from quadmodes.runs.spinup import KANE_BEAM, KANE_REFERENCE_CHORDWISE
 
 SPINS_HZ = (0.0, 20.0, 41.0)
 

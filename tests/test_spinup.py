@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from quadmodes.dynamics import rotating_stiffness_is_positive
-from quadmodes.spinup import (
+from quadmodes.rom.dynamics import rotating_stiffness_is_positive
+from quadmodes.runs.spinup import (
     KANE_REFERENCE_PEAKS,
     kane_model,
     kane_rate,

@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from quadmodes.config import load_case
+from quadmodes.case.schema import load_case
 from quadmodes.fe.model import (
     centre_of_mass,
     inertia_tensor,
@@ -14,7 +14,7 @@ from quadmodes.fe.model import (
     total_mass,
 )
 from quadmodes.fe.rigid import point_mass_cluster
-from quadmodes.pipeline import reference_state, structure_for_case
+from quadmodes.structure.pipeline import reference_state, structure_for_case
 
 
 def test_point_mass_cluster_reproduces_mass_and_inertia():

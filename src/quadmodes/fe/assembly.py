@@ -57,15 +57,3 @@ def expand_scalar_matrix(ms: sp.spmatrix) -> sp.csr_matrix:
     return sp.kron(ms, sp.identity(3), format="csr")
 
 
-def skew(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrices ``[v]x`` of shape ``(..., 3, 3)`` with ``[v]x @ w = v × w``."""
-    v = np.asarray(v)
-    z = np.zeros(v.shape[:-1])
-    return np.stack(
-        [
-            np.stack([z, -v[..., 2], v[..., 1]], -1),
-            np.stack([v[..., 2], z, -v[..., 0]], -1),
-            np.stack([-v[..., 1], v[..., 0], z], -1),
-        ],
-        -2,
-    )

@@ -1,6 +1,6 @@
 """Assemble a :class:`~quadmodes.fe.model.Structure` from a surface mesh or a beam description.
 
-Inputs are plain SI values; :mod:`quadmodes.pipeline` maps a validated case onto them.
+Inputs are plain SI values; :mod:`quadmodes.structure.pipeline` maps a validated case onto them.
 """
 
 from __future__ import annotations

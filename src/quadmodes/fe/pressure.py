@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes.fe.assembly import assemble_vector, skew
+from quadmodes.fe.assembly import assemble_vector
+from quadmodes.rotations import skew
 
 _CYCLIC = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 

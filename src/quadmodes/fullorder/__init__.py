@@ -48,7 +48,7 @@ Choices (and why)
 * **Clamped, hub-driven bodies** (ANCF cable clamped at the hub): the clamped components, in
   the hub frame, are prescribed (``x_c(t) = p + R_hub(t) X_c``) and the Newton solve runs on the
   free components in the hub frame at t₁ (this is where the clamp reaction acts).
-* **Diagnostics** (same definitions as :mod:`quadmodes.diagnostics`): H about the CoM over all
+* **Diagnostics** (same definitions as :mod:`quadmodes.rom.diagnostics`): H about the CoM over all
   vector DOFs (slopes included, M-weighted like the ROM's 𝒞 forms); T without the CoM
   translation; V = strain energy (with pressure potential) − that of the reference; the exact
   deformed inertia about the CoM, its minor axis tracked by continuity; spin rate = the

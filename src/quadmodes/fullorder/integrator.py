@@ -13,7 +13,6 @@ Sherman–Morrison; the rank-N damping term is left out of A).
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -35,7 +34,8 @@ from quadmodes.fe.model import (
     tangent_stiffness,
 )
 from quadmodes.fullorder import kinematics as kin
-from quadmodes.reduced import ReducedModel, cross_form
+from quadmodes.io.atomic import atomic_path
+from quadmodes.rom.reduced import ReducedModel, cross_form
 
 #: Refactor when successive Newton corrections shrink by less than this factor.
 RHO_REFACTOR = 0.5
@@ -328,14 +328,8 @@ def extrapolate(
 
 def write_checkpoint(path: Path, data: dict) -> None:
     """Write ``data`` (arrays) to ``path`` (.npz) atomically: temporary file + ``os.replace``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-    with open(tmp, "wb") as fh:
+    with atomic_path(path, fsync=True) as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 def read_checkpoint(path: Path) -> dict:

@@ -14,37 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.reduced import ReducedModel, cross_form
+from quadmodes.rom.reduced import ReducedModel, cross_form
+from quadmodes.rotations import axis_rotation, polar_rotation, rotation_matrix
 
 # ---------------------------------------------------------------------------------------------
 # rotations
 # ---------------------------------------------------------------------------------------------
-
-
-def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix (3,3) by ``angle`` (rad) about the unit vector ``axis`` (3,) (Rodrigues)."""
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
-
-
-def quaternion_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix (3,3), body → inertial, of a quaternion (4,) scalar first (normalised)."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def polar_rotation(a: np.ndarray) -> np.ndarray:
-    """The proper rotation (3,3) nearest to ``a`` (3,3): ``R = U diag(1, 1, det) Vᵀ`` of the SVD."""
-    u, _, vt = np.linalg.svd(a)
-    d = np.sign(np.linalg.det(u @ vt)) or 1.0
-    return (u * np.array([1.0, 1.0, d])) @ vt
 
 
 @dataclass(frozen=True)
@@ -70,7 +45,7 @@ class HubDrive:
 
 
 def kane_angle(t: float, omega_s: float, t_ramp: float) -> tuple[float, float]:
-    """Hub angle θ (rad) and rate Ω (rad/s) of the Kane spin-up (:func:`quadmodes.spinup.kane_rate`
+    """Hub angle θ (rad) and rate Ω (rad/s) of the Kane spin-up (:func:`quadmodes.runs.spinup.kane_rate`
     integrated): θ = (Ωs/T)[t²/2 + (T/2π)²(cos(2πt/T) − 1)] for t ≤ T, then θ(T) + Ωs (t − T)."""
     if t <= t_ramp:
         a = 2.0 * np.pi / t_ramp
@@ -198,7 +173,7 @@ def initial_state_from_reduced(
     u = np.einsum("k,kia->ia", s, phi) + np.einsum("m,n,mnia->ia", s, s, g)
     ud = np.einsum("k,kia->ia", sd, phi) + 2.0 * np.einsum("m,n,mnia->ia", s, sd, g)
     r = np.asarray(model.X, float) + u
-    rot = quaternion_matrix(q)
+    rot = rotation_matrix(q)
     t = np.asarray(model.translational, float)
     p = np.zeros(3) if p is None else np.asarray(p, float)
     pd = np.zeros(3) if p_dot is None else np.asarray(p_dot, float)
@@ -258,7 +233,7 @@ def sample(
 
 def track(inertia: np.ndarray, previous: np.ndarray) -> np.ndarray:
     """The unit eigenvector (3,) of ``inertia`` (3,3) nearest ``previous`` (3,), sign continuous
-    (as :func:`quadmodes.diagnostics.track_axis`)."""
+    (as :func:`quadmodes.rom.diagnostics.track_axis`)."""
     _, vec = np.linalg.eigh(inertia)
     d = previous @ vec
     j = int(np.argmax(np.abs(d)))
@@ -304,7 +279,7 @@ def centrifugal_stretch(
         tangent_low_rank,
         tangent_stiffness,
     )
-    from quadmodes.prestress import _bordered_solver
+    from quadmodes.structure.prestress import _bordered_solver
 
     w = np.asarray(omega, float)
     lmat = np.outer(w, w) - (w @ w) * np.eye(3)  # ω × (ω × r) = L r

@@ -9,8 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from quadmodes import pipeline
-from quadmodes.config import RunCase, load_case, load_run_case
+from quadmodes.case.schema import RunCase, load_case, load_run_case
 from quadmodes.fe.model import Structure, centre_of_mass
 from quadmodes.fullorder.integrator import FullOrderSolution, _n_steps, integrate_full_order
 from quadmodes.fullorder.kinematics import (
@@ -18,9 +17,10 @@ from quadmodes.fullorder.kinematics import (
     centrifugal_stretch,
     initial_state_from_reduced,
     kane_hub,
-    quaternion_matrix,
 )
-from quadmodes.reduced import ReducedModel
+from quadmodes.rom.reduced import ReducedModel
+from quadmodes.rotations import rotation_matrix
+from quadmodes.structure import pipeline
 
 Progress = Callable[[str, float], None]
 
@@ -51,14 +51,14 @@ def setup_for_run(
     run: RunCase | str, model: ReducedModel | None = None, stretch: bool = True
 ) -> FullOrderSetup:
     """Structure, inflated reference, reduced model (from the cache) and initial state of a run
-    case exactly as ``quadmodes run`` builds them (:func:`quadmodes.simulate.prepare`), mapped to
+    case exactly as ``quadmodes run`` builds them (:func:`quadmodes.runs.simulate.prepare`), mapped to
     the full order by :func:`initial_state_from_reduced` (centre of mass at the reference's).
 
     ``stretch`` (free-body runs): add the quasi-static centrifugal displacement of the initial
     spin outside the retained modes (:func:`~quadmodes.fullorder.kinematics.centrifugal_stretch`),
     rotated with the body, and its rigid-rotation velocity ω × u_c; the retained modal
     coordinates are those of the reduced state."""
-    from quadmodes import simulate
+    from quadmodes.runs import simulate
 
     run = load_run_case(run) if isinstance(run, str) else run
     case = run.model_case()
@@ -79,7 +79,7 @@ def setup_for_run(
     notes = setup.initial.notes
     if stretch and np.any(y0[4:7]):
         u_c = centrifugal_stretch(structure, x_ref, y0[4:7], setup.model)
-        rot = quaternion_matrix(y0[:4])
+        rot = rotation_matrix(y0[:4])
         x0 = x0 + u_c @ rot.T
         v0 = v0 + np.cross(y0[4:7], u_c) @ rot.T
         notes = (*notes, "full order: centrifugal stretch outside the retained modes added")
@@ -227,8 +227,8 @@ def kane_full_order(
     (rad/s) in ``t_ramp`` (s) over ``duration`` (s; the published peaks are at 6.4–7 s) with
     step ``dt``; the beam of the built-in ``kane-beam`` case (``n_elements`` overrides its
     element count). Returns the in-plane tip peak (hub-frame y) — compare with
-    :data:`quadmodes.spinup.KANE_REFERENCE_PEAKS`."""
-    from quadmodes.spinup import kane_model
+    :data:`quadmodes.runs.spinup.KANE_REFERENCE_PEAKS`."""
+    from quadmodes.runs.spinup import kane_model
 
     case = load_case("kane-beam")
     if n_elements is not None:

@@ -1,6 +1,6 @@
 """The reduced-model artifact: one self-describing NetCDF file (xarray + h5netcdf).
 
-Every array of :class:`quadmodes.reduced.ReducedModel` is a variable with ``units`` and
+Every array of :class:`quadmodes.rom.reduced.ReducedModel` is a variable with ``units`` and
 ``description`` attributes; provenance (case TOML, package version, mesh size, content key) is
 kept in global attributes. Files are written atomically and checked on load.
 
@@ -20,7 +20,8 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
-from quadmodes.reduced import ReducedModel
+from quadmodes.io.atomic import atomic_path
+from quadmodes.rom.reduced import ReducedModel
 
 FORMAT = "quadmodes-reduced-model"
 FORMAT_VERSION = 2
@@ -98,13 +99,8 @@ def to_dataset(model: ReducedModel) -> xr.Dataset:
 def save_reduced_model(model: ReducedModel, path: str | os.PathLike) -> Path:
     """Write ``model`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.partial")
-    try:
+    with atomic_path(path) as tmp:
         to_dataset(model).to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 
 

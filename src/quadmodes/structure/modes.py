@@ -23,7 +23,7 @@ from quadmodes.fe.model import (
     tangent_low_rank,
     tangent_stiffness,
 )
-from quadmodes.prestress import _bordered_solver
+from quadmodes.structure.prestress import _bordered_solver
 
 
 @dataclass(frozen=True)

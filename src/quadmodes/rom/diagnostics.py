@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes import dynamics as dyn
-from quadmodes.integrators import Solution
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom.integrators import Solution
+from quadmodes.rotations import rotation_matrix
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,7 +115,7 @@ def diagnostics(sys: dyn.ReducedSystem, sol: Solution, spin_axis=None) -> Diagno
     spin axis for the tracking (default: the minor principal axis of J0)."""
     y = sol.y
     q, w, s, _ = dyn.split_state(sys, y)
-    r = dyn.rotation_matrix(q)
+    r = rotation_matrix(q)
     h = dyn.body_momentum(sys, y)
     big_h = np.einsum("kab,kb->ka", r, h)
     hn = np.linalg.norm(big_h, axis=-1)

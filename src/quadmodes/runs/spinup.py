@@ -11,7 +11,7 @@ the plane of rotation* is the hub-frame y component of the tip displacement and 
 
     μ s̈ + (Γ(ω) + C) ṡ + (Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω − A(s) ω̇
 
-is integrated with :func:`quadmodes.dynamics.prescribed_rhs` and scipy's DOP853. The tip
+is integrated with :func:`quadmodes.rom.dynamics.prescribed_rhs` and scipy's DOP853. The tip
 displacement is rebuilt from both terms of the quadratic-mode kinematics,
 ``U = Σ s_k u^k + Σ s_m s_n g^{mn}`` (the g term is the axial foreshortening of the bent beam).
 
@@ -36,11 +36,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
-from quadmodes.dynamics import prescribed_rhs, reduced_system
 from quadmodes.fe.build import build_beam_structure
-from quadmodes.labels import label_modes
-from quadmodes.modes import compute_modes
-from quadmodes.reduced import ReducedModel, reduce
+from quadmodes.rom.dynamics import prescribed_rhs, reduced_system
+from quadmodes.rom.reduced import ReducedModel, reduce
+from quadmodes.structure.labels import label_modes
+from quadmodes.structure.modes import compute_modes
 
 #: Kane–Ryan–Banerjee beam (references.md §3), SI.
 KANE_BEAM = {

@@ -1,7 +1,7 @@
 """The reduced formulations side by side with the full-order reference on one window.
 
 ``compare(run, window)`` integrates the run case with each reduced formulation (``rigid``,
-``L``, ``P``, ``Q``: :mod:`quadmodes.dynamics`) and the full-order finite-element transient
+``L``, ``P``, ``Q``: :mod:`quadmodes.rom.dynamics`) and the full-order finite-element transient
 (:mod:`quadmodes.fullorder`) from the same initial state over ``[0, window]``, reduces every
 model to the same few time series (:class:`Series`) and measures each formulation against the
 full order.
@@ -11,7 +11,7 @@ Error measures (all relative, dimensionless; the full order is the reference ``F
 * ``envelope_error``: the modal amplitude ``a(t) = ‖s(t)‖`` (all retained modes, √kg·m;
   for the full order the M-projection of its displacement in the best-fit body frame onto the
   same modes) reduced to its peak envelope (maximum over consecutive windows of one period of
-  the lowest retained mode, :func:`quadmodes.results.peak_envelope`);
+  the lowest retained mode, :func:`quadmodes.runs.results.peak_envelope`);
   ``max |env_R − env_F| / max env_F`` over the full order's envelope times. A model without
   elastic modes (rigid) scores 1.
 * ``cone_angle_error``: ``max |θ_R − θ_F| / max θ_F`` (θ the cone angle, theory.md §6).
@@ -40,8 +40,9 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
-from quadmodes import dynamics as dyn
-from quadmodes.results import peak_envelope
+from quadmodes.io.atomic import write_text
+from quadmodes.rom import dynamics as dyn
+from quadmodes.runs.results import peak_envelope
 
 #: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")
@@ -74,7 +75,7 @@ class Series:
 
 
 def series_from_run(name: str, result) -> Series:
-    """:class:`Series` of a reduced :class:`quadmodes.simulate.RunResult`."""
+    """:class:`Series` of a reduced :class:`quadmodes.runs.simulate.RunResult`."""
     d, sys = result.diagnostics, result.system
     _, _, s, _ = dyn.split_state(sys, result.solution.y)
     amp = np.linalg.norm(s, axis=1) if s.shape[1] else np.zeros(len(d.t))
@@ -233,7 +234,8 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     """Reduced runs of ``run`` per formulation: ``({name: RunResult}, reduce_wall_s)``.
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
-    from quadmodes import integrators, simulate
+    from quadmodes.rom import integrators
+    from quadmodes.runs import simulate
 
     kernel = integrators.numba_kernel()
     if kernel is not None:  # load the compiled kernel before any timing
@@ -366,7 +368,7 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
 
 def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]:
     """Overlay plots (modal amplitude with envelopes, cone angle, spin rate, |H|, energy)."""
-    from quadmodes.plots import _figure, _save
+    from quadmodes.io.plots import _figure, _save
 
     directory = Path(directory)
     series = [cmp.full, *cmp.reduced.values()]
@@ -420,13 +422,13 @@ def write_comparison(cmp: Comparison, directory: str | os.PathLike, plots: bool 
     import csv
     import json
 
-    from quadmodes.results import write_dataset
+    from quadmodes.runs.results import write_dataset
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     write_dataset(to_dataset(cmp), directory / "comparison.nc")
     payload = cmp.as_json()
-    (directory / "comparison.json").write_text(json.dumps(payload, indent=2) + "\n")
+    write_text(directory / "comparison.json", json.dumps(payload, indent=2) + "\n")
     rows = table_rows(cmp)
     with open(directory / "comparison.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))

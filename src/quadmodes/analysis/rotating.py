@@ -1,6 +1,6 @@
 """Full-order rotating-frame analysis: the centrifugal relative equilibrium of the finite-element
 model spinning at a constant rate, its linearised (gyroscopic) eigenproblem, and the comparison
-of those frequencies with the reduced model's (:mod:`quadmodes.campbell`).
+of those frequencies with the reduced model's (:mod:`quadmodes.analysis.campbell`).
 
 **Frame and equations.** The frame turns at the constant rate Ω about the unit axis ``e`` through
 the point ``a`` (the centre of mass for a free body, the hub point for a clamped one). With
@@ -19,7 +19,7 @@ so the centrifugal force is ``Ω² M_s (r P⊥)`` (N) on all rows, the relative 
 
     M q̈ + G q̇ + K q = 0,   G = 2Ω M Ê (skew),   K = K_T(x*) − Ω² M P̂ (centrifugal softening).
 
-These are the rotating-frame frequencies of :mod:`quadmodes.campbell`: eigenvalues λ, frequency
+These are the rotating-frame frequencies of :mod:`quadmodes.analysis.campbell`: eigenvalues λ, frequency
 |Im λ|, for a frame turning with the body at the relative equilibrium.
 
 **Free body: null directions.** At Ω ≠ 0 only two rigid motions leave the rotating-frame problem
@@ -30,7 +30,7 @@ are determined by the equations and must not be constrained (a constraint would 
 it is how the body finds the principal axis next to ``e``). The bordered Newton therefore uses the
 two mass-weighted conditions ``e·δc = 0`` and ``ψ_eᵀ M δx = 0``; both are orthogonal to the
 residual identically, so their multipliers stay at round-off. At Ω = 0 all six are null and all six
-are used, as in :mod:`quadmodes.prestress`.
+are used, as in :mod:`quadmodes.structure.prestress`.
 
 **Eigenproblem.** ``K`` is indefinite for a free spinning body (−Ω² m on transverse translations,
 Ω²(I_e − I_⊥) < 0 on tilts about a minor axis) and singular (rotation about ``e``), so the usual
@@ -57,7 +57,6 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import linear_sum_assignment
 
-from quadmodes.fe.assembly import skew
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
@@ -68,7 +67,8 @@ from quadmodes.fe.model import (
     tangent_stiffness,
 )
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
-from quadmodes.prestress import ConvergenceError, _bordered_solver
+from quadmodes.rotations import skew
+from quadmodes.structure.prestress import ConvergenceError, _bordered_solver
 
 Progress = Callable[[str, float], None]
 
@@ -693,8 +693,8 @@ def _rom_roots(result, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def case_state(case):
     """``(Case, structure for vibrations (gas law set), inflated state x (n, 3) m)`` of a case name,
     TOML path or Case (pipeline.structure_for_case, reference_state, with_gas_law)."""
-    from quadmodes.config import Case, load_case
-    from quadmodes.pipeline import reference_state, structure_for_case, with_gas_law
+    from quadmodes.case.schema import Case, load_case
+    from quadmodes.structure.pipeline import reference_state, structure_for_case, with_gas_law
 
     if not isinstance(case, Case):
         case = load_case(case)
@@ -714,7 +714,7 @@ def rotating_frequency_comparison(
     progress: Progress | None = None,
 ) -> ComparisonTable:
     """Rotating-frame frequencies of the full-order FE model about its spinning relative
-    equilibrium against :func:`quadmodes.campbell.campbell` of the reduced model, per spin rate
+    equilibrium against :func:`quadmodes.analysis.campbell.campbell` of the reduced model, per spin rate
     (Hz, swept in the given order) and branch.
 
     ``case``: name, TOML path or Case of a free membrane body. ``axis``: spin axis (3-vector) or
@@ -722,8 +722,8 @@ def rotating_frequency_comparison(
     a ReducedModel of this case (default ``simulate.reduced_model_for(case, n_modes)``, cached).
     Full-order roots are searched near every reduced root (``per_target`` per shift) and assigned
     to branches by the MAC of energy-weighted (δω, s, ṡ) vectors (:func:`match_branches`)."""
-    from quadmodes import campbell as cb
-    from quadmodes.simulate import reduced_model_for
+    from quadmodes.analysis import campbell as cb
+    from quadmodes.runs.simulate import reduced_model_for
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()

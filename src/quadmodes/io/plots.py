@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from quadmodes.io.atomic import atomic_path
+
 _DPI = 120
 
 
@@ -33,12 +35,8 @@ def _figure(figsize=(7.0, 4.0)):
 
 
 def _save(fig, path: Path) -> Path:
-    tmp = path.with_name(f".{path.stem}.partial.png")
-    try:
+    with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=_DPI)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 
 
@@ -115,7 +113,7 @@ def _plot_series(ax, ds, name: str, ylabel: str) -> None:
 
 
 def _plot_envelope(ax, ds) -> None:
-    from quadmodes.results import log_decrement, peak_envelope
+    from quadmodes.runs.results import log_decrement, peak_envelope
 
     if "bending_amplitude" not in ds:
         ax.text(0.5, 0.5, "no bending pair", ha="center", va="center", transform=ax.transAxes)

@@ -1,7 +1,7 @@
 """Validation suite, dynamics part: the reduced model and the full-order reference against
 published numbers (``../shared/references.md``) and against each other.
 
-Each check returns :class:`quadmodes.validation.Row` values; ``quadmodes validate`` runs them
+Each check returns :class:`quadmodes.validation.fe_checks.Row` values; ``quadmodes validate`` runs them
 (``--suite``) and writes the tables to docs/validation.md. ``FAST`` names the checks cheap enough
 for the test suite.
 """
@@ -13,9 +13,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from quadmodes import dynamics as dyn
-from quadmodes import integrators as integ
-from quadmodes.validation import Row
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import integrators as integ
+from quadmodes.validation.fe_checks import Row
 
 REF2 = "references §2 (one mode, ζ = 0.02, Δt = 2.5 ms)"
 REF3 = "references §3 (Kane et al. spin-up)"
@@ -23,7 +23,7 @@ REF3 = "references §3 (Kane et al. spin-up)"
 
 def _one_mode_system(f_hz: float, zeta: float) -> dyn.ReducedSystem:
     """A single damped mode on a rigid unit-inertia body (no coupling): the references §2 case."""
-    from quadmodes.reduced import ReducedModel
+    from quadmodes.rom.reduced import ReducedModel
 
     w = 2 * math.pi * f_hz
     z = np.zeros
@@ -66,7 +66,7 @@ def check_backward_euler() -> list[Row]:
 
 def check_kane_reduced() -> list[Row]:
     """Kane spin-up with formulation Q (20 ANCF elements, 4 in-plane modes): peaks and times."""
-    from quadmodes.spinup import KANE_REFERENCE_PEAKS, kane_model, kane_spinup
+    from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS, kane_model, kane_spinup
 
     model = kane_model(n_modes=4, n_elements=20)
     rows = []
@@ -88,8 +88,8 @@ def check_kane_reduced() -> list[Row]:
 
 def check_kane_campbell() -> list[Row]:
     """First chordwise rotating-frame frequency of the Kane beam at steady spin (Q)."""
-    from quadmodes.campbell import campbell
-    from quadmodes.spinup import KANE_REFERENCE_CHORDWISE, kane_model
+    from quadmodes.analysis.campbell import campbell
+    from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE, kane_model
 
     beam = kane_model(n_modes=4, out_of_plane=True)
     spins = sorted(KANE_REFERENCE_CHORDWISE)
@@ -103,9 +103,9 @@ def check_kane_campbell() -> list[Row]:
 
 
 def _paper_run(name: str, **overrides):
-    from quadmodes import simulate
-    from quadmodes.config import load_run_case
-    from quadmodes.results import summary, to_dataset
+    from quadmodes.case.schema import load_run_case
+    from quadmodes.runs import simulate
+    from quadmodes.runs.results import summary, to_dataset
 
     run = simulate.apply_overrides(load_run_case(name), **overrides)
     result = simulate.simulate(run)
@@ -129,8 +129,8 @@ def check_paper_slow_spin() -> list[Row]:
 def check_paper_fast_spin() -> list[Row]:
     """paper-41hz (Q, 120 s): |H|, coning growth and its Δt convergence (dt, dt/2, dt/4), and
     backward Euler at the seed's 2.5 ms beside it."""
-    from quadmodes import simulate
-    from quadmodes.config import load_run_case
+    from quadmodes.case.schema import load_run_case
+    from quadmodes.runs import simulate
 
     run = load_run_case("paper-41hz")
     setup = simulate.prepare(run)
@@ -168,7 +168,7 @@ def check_paper_fast_spin() -> list[Row]:
 def check_full_order_kane() -> list[Row]:
     """Full-order (ANCF, hub-driven, inertial frame) Kane spin-up peaks: checks references §3."""
     from quadmodes.fullorder import kane_full_order
-    from quadmodes.spinup import KANE_REFERENCE_PEAKS
+    from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
     rows = []
     for ws, (v_ref, t_ref) in KANE_REFERENCE_PEAKS.items():
@@ -206,8 +206,8 @@ def comparison_rows(payload: dict, tolerance: float = 0.05) -> list[Row]:
 
 def check_compare_coarse(window: float = 1.0) -> list[Row]:
     """``quadmodes compare paper-41hz-coarse --window 1 s``: rigid, L, P, Q, Q4 vs full order."""
-    from quadmodes.compare import compare
-    from quadmodes.config import load_run_case
+    from quadmodes.analysis.compare import compare
+    from quadmodes.case.schema import load_run_case
 
     cmp = compare(load_run_case("paper-41hz-coarse"), window, full_order_dt=2.5e-4)
     return comparison_rows(cmp.as_json())
@@ -216,7 +216,7 @@ def check_compare_coarse(window: float = 1.0) -> list[Row]:
 def rotating_frame_rows(
     table, n_modes: int, asserted: bool, tolerance: float = 0.02, near_zero_hz: float = 0.05
 ) -> list[Row]:
-    """Rows of a :class:`quadmodes.spinning.ComparisonTable`: Q against full order per branch
+    """Rows of a :class:`quadmodes.analysis.rotating.ComparisonTable`: Q against full order per branch
     (asserted within ``tolerance`` if ``asserted``; a branch below a tenth of the spin rate,
     where a relative error is ill-conditioned, within ``near_zero_hz`` absolute), L reported."""
     rows = []
@@ -240,7 +240,7 @@ def rotating_frame_rows(
 def check_rotating_frame() -> list[Row]:
     """Rotating-frame frequencies, full order vs reduced (Q, L), paper model at 0, 20, 41 Hz:
     with the seed's 5 modes (reported) and with 8 modes (asserted within 2 %)."""
-    from quadmodes.spinning import rotating_frequency_comparison
+    from quadmodes.analysis.rotating import rotating_frequency_comparison
 
     rows = []
     for n_modes, asserted in ((5, False), (8, True)):

@@ -10,7 +10,7 @@ From the prestressed structure and its modes (``u^k`` mass-normalised, force bas
 * the arrays of theory.md §3.2, all mass-weighted bilinear forms ``P(a, b) = aᵀ M_s b``.
 
 The result is a :class:`ReducedModel`, a frozen set of arrays with units, saved and loaded as a
-self-describing NetCDF file by :mod:`quadmodes.artifact`.
+self-describing NetCDF file by :mod:`quadmodes.rom.artifact`.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ from quadmodes.fe.model import (
     total_mass,
 )
 from quadmodes.fe.pressure import PressureSet
-from quadmodes.modes import remove_rigid_part
-from quadmodes.prestress import _bordered_solver
+from quadmodes.structure.modes import remove_rigid_part
+from quadmodes.structure.prestress import _bordered_solver
 
 
 @dataclass(frozen=True)

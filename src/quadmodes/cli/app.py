@@ -24,6 +24,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from quadmodes import __version__
+from quadmodes.io.atomic import write_text
 
 app = typer.Typer(
     no_args_is_help=True,
@@ -41,10 +42,10 @@ class UserError(Exception):
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    from quadmodes.calibrate import CalibrationError
-    from quadmodes.config import CaseError
-    from quadmodes.prestress import ConvergenceError
-    from quadmodes.units import QuantityError
+    from quadmodes.case.schema import CaseError
+    from quadmodes.case.units import QuantityError
+    from quadmodes.structure.calibrate import CalibrationError
+    from quadmodes.structure.prestress import ConvergenceError
 
     return (UserError, CaseError, QuantityError, ConvergenceError, CalibrationError, ValueError)
 
@@ -110,7 +111,7 @@ def _staged_output(directory: Path | None) -> Iterator[Path | None]:
 
 
 def _load(case: str):
-    from quadmodes.config import load_case
+    from quadmodes.case.schema import load_case
 
     return load_case(case)
 
@@ -124,7 +125,7 @@ def version() -> None:
 @app.command()
 def cases() -> None:
     """List the built-in cases."""
-    from quadmodes.config import builtin_case_names, builtin_run_case_names, load_run_case
+    from quadmodes.case.schema import builtin_case_names, builtin_run_case_names, load_run_case
 
     table = Table("name", "kind", "description")
     for name in builtin_case_names():
@@ -139,7 +140,7 @@ def cases() -> None:
 @app.command("show-case")
 def show_case(name: Annotated[str, typer.Argument(help="built-in case name or TOML file")]) -> None:
     """Print a case as TOML (copy it, edit it, pass the file to any command)."""
-    from quadmodes.config import builtin_case_names, builtin_case_text, builtin_run_case_names
+    from quadmodes.case.schema import builtin_case_names, builtin_case_text, builtin_run_case_names
 
     try:
         if name in builtin_case_names() or name in builtin_run_case_names(spinup=None):
@@ -151,8 +152,8 @@ def show_case(name: Annotated[str, typer.Argument(help="built-in case name or TO
 
 
 def _write_modal_outputs(model, directory: Path) -> None:
-    from quadmodes import output
-    from quadmodes.pipeline import modes_summary
+    from quadmodes.io import output
+    from quadmodes.structure.pipeline import modes_summary
 
     s, x = model.structure, model.x
     tri, lines, cell_data = None, None, {}
@@ -195,7 +196,7 @@ def _write_modal_outputs(model, directory: Path) -> None:
             lines=lines, index=k + 1,
         )
     output.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
-    (directory / "modes.json").write_text(json.dumps(modes_summary(model), indent=2))
+    write_text(directory / "modes.json", json.dumps(modes_summary(model), indent=2))
 
 
 @app.command()
@@ -207,7 +208,7 @@ def modes(
     ] = None,
 ) -> None:
     """Inflate the case, compute its modes, print a table (and write pictures and ParaView files)."""
-    from quadmodes.pipeline import build_modal_model, modes_summary
+    from quadmodes.structure.pipeline import build_modal_model, modes_summary
 
     try:
         c = _load(case)
@@ -264,7 +265,7 @@ def calibrate(
     ] = False,
 ) -> None:
     """Fit the end-body masses (and rear inertia) so the modes match the seed's frequencies."""
-    from quadmodes.calibrate import calibrate_end_masses
+    from quadmodes.structure.calibrate import calibrate_end_masses
 
     target_axial = None if no_axial else (axial or float(np.sqrt(rocking * bending)))
     try:
@@ -294,9 +295,7 @@ def calibrate(
     if output_file is None:
         sys.stdout.write(text)
     else:
-        tmp = output_file.with_name(f".{output_file.name}.partial")
-        tmp.write_text(text)
-        tmp.replace(output_file)
+        write_text(output_file, text)
         err.print(f"calibrated case written to {output_file}")
 
 
@@ -330,8 +329,8 @@ def validate(
 
     The whole suite (finite elements, reduced dynamics, full order) takes tens of minutes on two
     cores; --quick runs the subset the tests also run."""
-    from quadmodes import validation
-    from quadmodes import validation_dynamics as vdyn
+    from quadmodes.validation import dynamics_checks as vdyn
+    from quadmodes.validation import fe_checks as validation
 
     chosen = list(suite or VALIDATION_SUITES)
     bad = [s for s in chosen if s not in VALIDATION_SUITES]
@@ -369,9 +368,7 @@ def validate(
     if write is None:
         sys.stdout.write(text)
     else:
-        tmp = write.with_name(f".{write.name}.partial")
-        tmp.write_text(text)
-        tmp.replace(write)
+        write_text(write, text)
         err.print(f"written {write}")
     failed = [r.check for rows in results.values() for r in rows if not r.passed]
     if failed:
@@ -400,8 +397,9 @@ def reduce_command(
 
     Cached in $QUADMODES_CACHE or ~/.cache/quadmodes: later calls and `run` skip the FE work.
     """
-    from quadmodes import artifact, simulate
-    from quadmodes.config import load_run_case
+    from quadmodes.case.schema import load_run_case
+    from quadmodes.rom import artifact
+    from quadmodes.runs import simulate
 
     info: dict = {}
     try:
@@ -579,9 +577,9 @@ def run_command(
     Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
     results).
     """
-    from quadmodes import simulate
-    from quadmodes.config import load_run_case
-    from quadmodes.results import write_outputs, write_spinup_outputs
+    from quadmodes.case.schema import load_run_case
+    from quadmodes.runs import simulate
+    from quadmodes.runs.results import write_outputs, write_spinup_outputs
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     try:
@@ -687,8 +685,8 @@ def campbell(
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
     bodies spin about their minor principal axis, clamped bodies on a hub about z."""
-    from quadmodes.campbell import campbell_main
-    from quadmodes.units import parse_quantity
+    from quadmodes.analysis.campbell import campbell_main
+    from quadmodes.case.units import parse_quantity
 
     try:
         lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
@@ -777,11 +775,11 @@ def compare_command(
 
     The full-order run is estimated first and checkpointed as it goes: Ctrl-C stops it, and the
     same command with --resume continues from the checkpoint."""
-    from quadmodes import compare as cmp
-    from quadmodes import simulate
-    from quadmodes.config import load_run_case
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.case.schema import load_run_case
+    from quadmodes.case.units import parse_quantity
     from quadmodes.fullorder import estimate_for_run, full_order_for_run, setup_for_run
-    from quadmodes.units import parse_quantity
+    from quadmodes.runs import simulate
 
     try:
         run = load_run_case(case)
@@ -886,7 +884,7 @@ def rotating_command(
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
-    from quadmodes.spinning import rotating_frequency_comparison
+    from quadmodes.analysis.rotating import rotating_frequency_comparison
 
     try:
         try:
@@ -910,7 +908,5 @@ def rotating_command(
     text = table.to_text()
     out.print(text, markup=False, highlight=False, soft_wrap=True)
     if output is not None:
-        tmp = output.with_name(f".{output.name}.partial")
-        tmp.write_text(f"# {table.case}: rotating-frame frequencies, full order vs reduced\n\n{text}\n")
-        tmp.replace(output)
+        write_text(output, f"# {table.case}: rotating-frame frequencies, full order vs reduced\n\n{text}\n")
         err.print(f"written {output}")

@@ -15,16 +15,17 @@ Every writer first writes to a temporary file in the target directory and rename
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import tempfile
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from xml.sax.saxutils import escape
 
 import numpy as np
+
+from quadmodes.io.atomic import atomic_path
+
+_MAX_OVERVIEW_MODES = 12
 
 __all__ = [
     "default_scale",
@@ -37,32 +38,10 @@ __all__ = [
 ]
 
 _PNG_DPI = 120
-_UMASK = os.umask(0o022)  # read the process umask once (and restore it on the next line)
-os.umask(_UMASK)
-_MAX_OVERVIEW_MODES = 12
-
 
 # --------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------
-
-
-@contextlib.contextmanager
-def _atomic_path(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; rename it onto ``path`` on success."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        os.chmod(tmp_path, 0o666 & ~_UMASK)  # mkstemp creates 0600; use normal permissions
-        os.replace(tmp_path, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp_path.unlink()
-        raise
 
 
 def _as_points(points) -> np.ndarray:
@@ -194,7 +173,7 @@ def write_mesh_vtu(
     fdata = {k: np.atleast_1d(_numeric_array(k, v)) for k, v in (field_data or {}).items()}
 
     mesh = meshio.Mesh(pts, cells, point_data=pdata, cell_data=cdata)
-    with _atomic_path(path) as tmp:
+    with atomic_path(path) as tmp:
         meshio.write(tmp, mesh, file_format="vtu")
         if fdata:
             _insert_field_data(tmp, fdata)
@@ -254,7 +233,7 @@ def write_pvd(path, datasets: Sequence[tuple[float, str]]) -> Path:
         ET.SubElement(coll, "DataSet", timestep=repr(float(t)), group="", part="0", file=fname)
     ET.indent(root)
     tree = ET.ElementTree(root)
-    with _atomic_path(path) as tmp:
+    with atomic_path(path) as tmp:
         tree.write(tmp, encoding="utf-8", xml_declaration=True)
     return path
 
@@ -333,7 +312,7 @@ def write_modes_pvd(
             anim.append((float(j), fname))
         write_pvd(directory / f"{base}.pvd", anim)
 
-    with _atomic_path(directory / "modes.txt") as tmp:
+    with atomic_path(directory / "modes.txt") as tmp:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write("# mode\tfrequency_hz\tlabel\n")
             for k in range(n_modes):
@@ -358,7 +337,7 @@ def _new_figure(figsize):
 
 def _save_png(fig, path) -> Path:
     path = Path(path)
-    with _atomic_path(path) as tmp:
+    with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=_PNG_DPI)
     return path
 

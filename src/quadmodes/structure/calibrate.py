@@ -16,12 +16,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.config import Case
+from quadmodes.case.schema import Case
 from quadmodes.fe.model import Structure
 from quadmodes.fe.rigid import point_mass_cluster
-from quadmodes.labels import label_modes
-from quadmodes.modes import compute_modes
-from quadmodes.pipeline import reference_state, structure_for_case, with_gas_law
+from quadmodes.structure.labels import label_modes
+from quadmodes.structure.modes import compute_modes
+from quadmodes.structure.pipeline import reference_state, structure_for_case, with_gas_law
 
 Progress = Callable[[str, float], None]
 log = logging.getLogger(__name__)

@@ -1,4 +1,4 @@
-"""Compiled (numba) time loop of the Lie-group implicit midpoint of :mod:`quadmodes.integrators`.
+"""Compiled (numba) time loop of the Lie-group implicit midpoint of :mod:`quadmodes.rom.integrators`.
 
 The numpy midpoint (``integrators._Midpoint`` driven by ``integrators._fixed_run``) spends almost
 all of its time in Python and numpy call overhead: one step of the N = 5 system is a few thousand
@@ -8,7 +8,7 @@ and failure detection) in one compiled call: ≈1.2–1.5e5 steps/s for N = 5, 2
 (benchmarks/bench_rom.py, docs/performance.md).
 
 It solves exactly the same step equations with the same convergence test (see the docstring of
-:mod:`quadmodes.integrators`)::
+:mod:`quadmodes.rom.integrators`)::
 
     h(s₁, ω₁, ṡ₁) = exp(−Δt ω̂½) h₀
     p_s(s₁, ω₁, ṡ₁) − p_s(0) = Δt F_s(s½, ω½, ṡ½),   F_s = ∂T/∂s − Λs − Cṡ
@@ -20,7 +20,7 @@ factorisation of the Newton matrix (partial pivoting) instead of multiplying by 
 both are backward stable, and the converged steps differ at round-off level.
 
 Generic over the formulations (Q, P, L, rigid) through the mass tensors of
-:class:`~quadmodes.dynamics.ReducedSystem`: ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` with z = (1, s),
+:class:`~quadmodes.rom.dynamics.ReducedSystem`: ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` with z = (1, s),
 Mt (N+1, N+1, 3+N, 3+N). ``Mt`` (rotational rows from the formulation's arrays, modal rows from
 the energy arrays) gives the momenta; ``MtE`` (energy arrays) gives ∂T/∂s. For "P" they differ;
 for the others they are the same array. N = 0 (rigid) is the same code with empty loops.

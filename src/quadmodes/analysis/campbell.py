@@ -7,16 +7,16 @@ Two cases (see docs/kane-and-campbell.md):
 
       (λ² μ + λ (Γ(ω) [+ C]) + Λ − ωᵀJ2ω) φ = 0,    ω = Ω e,
 
-  solved through its companion matrix (:func:`quadmodes.dynamics.rotating_frame_matrices`). The
+  solved through its companion matrix (:func:`quadmodes.rom.dynamics.rotating_frame_matrices`). The
   steady centrifugal forcing ½ωᵀJ1ω only shifts the static equilibrium, which does not enter the
   linear (s-independent) coefficients.
 * **Free body spinning about a principal axis** (``model.free is True``): the relative
   equilibrium is ``ṡ = 0``, ``s = s*`` and ``ω = Ω e*``, where ``s*`` is the quasi-static
   centrifugal deformation, ``(Λ − ωᵀJ2ω) s* = ½ ωᵀJ1ω``, and ``e*`` the principal axis of the
   deformed inertia J̃(s*) next to the requested axis (``ω × J̃(s*)ω = 0``), found by a fixed-point
-  iteration. The full body-frame Q equations of :mod:`quadmodes.dynamics` (state ``z = (ω, s, ṡ)``,
+  iteration. The full body-frame Q equations of :mod:`quadmodes.rom.dynamics` (state ``z = (ω, s, ṡ)``,
   3 + 2N values; the attitude q does not enter them) are linearised about it by central differences
-  of :func:`quadmodes.dynamics.rhs`, so the three rotational perturbations and all rotation–
+  of :func:`quadmodes.rom.dynamics.rhs`, so the three rotational perturbations and all rotation–
   deformation couplings (A(s*), J̃(s*), the ω̇ coupling c + s*D) are included. Its 3 + 2N roots
   are a zero root (the neighbouring relative equilibrium at another spin rate), the nutation pair
   and the 2N elastic roots.
@@ -42,8 +42,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from quadmodes import dynamics as dy
-from quadmodes.reduced import ReducedModel
+from quadmodes.rom import dynamics as dy
+from quadmodes.rom.reduced import ReducedModel
 
 #: Two roots closer than this (relative to their magnitude) are degenerate.
 DEGENERATE_RTOL = 1e-7
@@ -599,21 +599,21 @@ def write_campbell(result: CampbellResult, directory, stem: str = "campbell") ->
 
 
 def model_for_case(case, progress=None) -> ReducedModel:
-    """Reduced model of a case (name, path or :class:`~quadmodes.config.Case`) with its modes and
+    """Reduced model of a case (name, path or :class:`~quadmodes.case.schema.Case`) with its modes and
     damping ratio; degenerate y/z pairs of a straight beam are split into pure planes."""
-    from quadmodes.config import Case, load_case
-    from quadmodes.pipeline import build_modal_model
-    from quadmodes.reduced import reduce
+    from quadmodes.case.schema import Case, load_case
+    from quadmodes.rom.reduced import reduce
+    from quadmodes.structure.pipeline import build_modal_model
 
     if not isinstance(case, Case):
         case = load_case(case)
     mm = build_modal_model(case, progress)
     shapes, labels = mm.modes.shapes, list(mm.labels)
     if case.kind == "beam":
-        from quadmodes.spinup import split_planes
+        from quadmodes.runs.spinup import split_planes
 
         shapes, _, _ = split_planes(mm.structure, mm.modes.frequencies_hz, shapes)
-        from quadmodes.labels import label_modes
+        from quadmodes.structure.labels import label_modes
 
         labels = label_modes(mm.structure, mm.x, shapes)
         zeta = case.beam.damping_ratio

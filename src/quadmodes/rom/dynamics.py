@@ -35,7 +35,7 @@ Formulations (``reduced_system(model, formulation)``):
 * ``"rigid"``: N = 0.
 * ``"Q4"``: Q kinetics with the manifold potential truncated at fourth order,
   ``V(s) = ½ sᵀΛs + V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q`` (tensors of
-  :func:`quadmodes.reduced.manifold_potential_tensors`): the modal force is ``−∂V/∂s =
+  :func:`quadmodes.rom.reduced.manifold_potential_tensors`): the modal force is ``−∂V/∂s =
   −Λs − 3 V3·ss − 4 V4·sss`` in place of ``−Λs``, its Jacobian ``−(Λ + 6 V3·s + 12 V4·ss)``.
   E (with this V) and H are conserved by the continuous equations.
 
@@ -56,7 +56,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from quadmodes.reduced import ReducedModel
+from quadmodes.rom.reduced import ReducedModel
+from quadmodes.rotations import quat_rate, rotation_matrix
 
 FORMULATIONS = ("Q", "P", "L", "rigid", "Q4")
 
@@ -280,38 +281,6 @@ def coning_omega(J: np.ndarray, spin: float, cone_angle: float, axis: int | None
     return spin * ea + w_perp * et
 
 
-def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product ``a ⊗ b`` of quaternions (..., 4), scalar first."""
-    a0, av = a[..., :1], a[..., 1:]
-    b0, bv = b[..., :1], b[..., 1:]
-    return np.concatenate(
-        [a0 * b0 - np.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + np.cross(av, bv)], -1
-    )
-
-
-def quat_exp(phi: np.ndarray) -> np.ndarray:
-    """Unit quaternion (4,) of the rotation vector ``phi`` (3,) rad: ``(cos |φ|/2, sin(|φ|/2) φ/|φ|)``."""
-    a = float(np.sqrt(phi @ phi))
-    half = 0.5 * a
-    k = 0.5 - a * a / 48.0 if a < 1e-4 else math.sin(half) / a
-    return np.concatenate([[math.cos(half)], k * phi])
-
-
-def rotation_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of quaternions q (..., 4) (normalised here), body→inertial."""
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    r = np.stack(
-        [
-            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
-        ],
-        -1,
-    )  # fmt: skip
-    return r.reshape(q.shape[:-1] + (3, 3))
-
-
 def hat(v: np.ndarray) -> np.ndarray:
     """Skew matrix (3,3) with ``hat(v) @ u = v × u``."""
     x, y, z = v
@@ -528,21 +497,6 @@ def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
     if force is not None:
         b[3:] += force
     return m, b
-
-
-def quat_rate(q: np.ndarray, w: np.ndarray, gain: float = 0.0) -> np.ndarray:
-    """q̇ = ½ q ⊗ (0, ω) + k (1 − |q|²) q  (4,) 1/s."""
-    q0, q1, q2, q3 = q
-    wx, wy, wz = w
-    corr = gain * (1.0 - (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3))
-    return np.array(
-        [
-            -0.5 * (q1 * wx + q2 * wy + q3 * wz) + corr * q0,
-            0.5 * (q0 * wx + q2 * wz - q3 * wy) + corr * q1,
-            0.5 * (q0 * wy + q3 * wx - q1 * wz) + corr * q2,
-            0.5 * (q0 * wz + q1 * wy - q2 * wx) + corr * q3,
-        ]
-    )
 
 
 def rhs(sys: ReducedSystem, t: float, y: np.ndarray) -> np.ndarray:

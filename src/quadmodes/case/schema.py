@@ -33,7 +33,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from .units import QuantityError, format_quantity, parse_quantity, si_unit
+from quadmodes.case.units import QuantityError, format_quantity, parse_quantity, si_unit
 
 __all__ = [
     "Beam",
@@ -570,7 +570,7 @@ class RunSpinup(_Section):
     """Hub-driven spin-up of a clamped beam (Kane, Ryan & Banerjee): the hub rate rises
     smoothly from 0 to ``omega_s`` (rad/s) in ``ramp_time`` (s) and is held until ``duration``
     (s); integrated with scipy's DOP853 (relative tolerance ``rtol``) by
-    :func:`quadmodes.spinup.kane_spinup`. Replaces ``[initial]`` and ``[integration]``."""
+    :func:`quadmodes.runs.spinup.kane_spinup`. Replaces ``[initial]`` and ``[integration]``."""
 
     omega_s: _quantity("angular_rate", "6 rad/s", _positive, "rad/s")
     ramp_time: _quantity("time", "15 s", _positive, "s") = 15.0
@@ -806,12 +806,12 @@ def case_from_toml(
 
 
 def _cases_dir() -> Any:
-    return resources.files("quadmodes").joinpath("cases")
+    return resources.files("quadmodes.case").joinpath("builtin")
 
 
 @functools.cache
 def _builtin_kinds() -> dict[str, str]:
-    """``{name: kind}`` of the TOML files shipped in ``quadmodes/cases``."""
+    """``{name: kind}`` of the TOML files shipped in ``quadmodes/case/builtin``."""
     kinds = {}
     for entry in _cases_dir().iterdir():
         if entry.name.endswith(".toml") and entry.is_file():
@@ -825,7 +825,7 @@ def _builtin_kinds() -> dict[str, str]:
 
 def builtin_case_names() -> list[str]:
     """Names of the built-in model cases (membrane and beam TOML files shipped in
-    ``quadmodes/cases``), sorted; run cases are listed by :func:`builtin_run_case_names`."""
+    ``quadmodes/case/builtin``), sorted; run cases are listed by :func:`builtin_run_case_names`."""
     return sorted(name for name, kind in _builtin_kinds().items() if kind != "run")
 
 

@@ -1,4 +1,4 @@
-"""Time integration of the reduced equations (:mod:`quadmodes.dynamics`): one interface.
+"""Time integration of the reduced equations (:mod:`quadmodes.rom.dynamics`): one interface.
 
 Contract
 --------
@@ -6,7 +6,7 @@ Contract
 save_every=1, t_eval=None, solver="DOP853", newton_tol=1e-13, max_newton=25,
 backend="auto") -> Solution``
 
-* ``system``: a :class:`~quadmodes.dynamics.ReducedSystem` (a ReducedModel is converted with
+* ``system``: a :class:`~quadmodes.rom.dynamics.ReducedSystem` (a ReducedModel is converted with
   formulation "Q"). ``y0`` (7+2N,) = ``[q, ω, s, ṡ]``; q is normalised first.
 * What a fixed-step method provides (a "stepper" object, driven by ``_fixed_run``):
   ``begin(ν₀, s₀)`` (per-step constants), ``residual(ν₁, jac=False)`` returning the residual
@@ -33,7 +33,7 @@ backend="auto") -> Solution``
   step residual for implicit methods), ``n_newton`` (Newton iterations), ``n_jac`` (Jacobian
   evaluations), ``wall_s``, ``backend`` ("numpy" or "numba"); Radau adds ``n_lu``.
 * Backend (``backend=``): ``"numpy"`` runs the steppers below from Python; ``"numba"`` runs the
-  whole midpoint loop in one compiled call (:mod:`quadmodes.midpoint_kernel`, the ``[jit]``
+  whole midpoint loop in one compiled call (:mod:`quadmodes.rom.midpoint_kernel`, the ``[jit]``
   extra; 20–30× faster for N = 5; same equations and convergence test, results equal to
   round-off); ``"auto"`` (default) uses numba for ``method="midpoint"`` when numba is
   importable, numpy otherwise (backward Euler and the adaptive solvers are numpy only).
@@ -71,7 +71,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import integrate as _ode
 
-from quadmodes import dynamics as dyn
+from quadmodes.rom import dynamics as dyn
 
 METHODS = ("midpoint", "backward-euler", "adaptive")
 BACKENDS = ("auto", "numpy", "numba")
@@ -165,7 +165,7 @@ _EYE3 = np.eye(3)
 class _Midpoint:
     """Residual and analytic Jacobian of one Lie-group midpoint step, unknowns x = ν₁ = (ω₁, ṡ₁).
 
-    With z = (1, s) and the mass tensor of :class:`~quadmodes.dynamics.ReducedSystem`,
+    With z = (1, s) and the mass tensor of :class:`~quadmodes.rom.dynamics.ReducedSystem`,
     momenta are ``𝕄(s)ν`` (one matrix product) and ``F_s = P(z, ν)·ν − Λs − Cṡ`` with
     ``P[k] = ½ ∂𝕄_E/∂s_k ν`` (T = ½νᵀ𝕄_Eν).
 
@@ -555,10 +555,10 @@ _KERNEL: list = []  # [module or None] once looked up: the import is tried once 
 
 
 def numba_kernel():
-    """:mod:`quadmodes.midpoint_kernel` if numba is importable, else None (looked up once)."""
+    """:mod:`quadmodes.rom.midpoint_kernel` if numba is importable, else None (looked up once)."""
     if not _KERNEL:
         try:
-            from quadmodes import midpoint_kernel
+            from quadmodes.rom import midpoint_kernel
         except ImportError:  # numba (the [jit] extra) not installed
             midpoint_kernel = None
         _KERNEL.append(midpoint_kernel)

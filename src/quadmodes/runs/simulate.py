@@ -28,12 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-from quadmodes import __version__, artifact, integrators, pipeline
-from quadmodes import dynamics as dyn
-from quadmodes import reduced as red
-from quadmodes.config import Case, CaseError, Modes, RunCase
-from quadmodes.diagnostics import Diagnostics, diagnostics
-from quadmodes.integrators import Solution
+from quadmodes import __version__
+from quadmodes.case.schema import Case, CaseError, Modes, RunCase
+from quadmodes.rom import artifact, integrators
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import reduced as red
+from quadmodes.rom.diagnostics import Diagnostics, diagnostics
+from quadmodes.rom.integrators import Solution
+from quadmodes.structure import pipeline
 
 Progress = Callable[[str, float], None]
 
@@ -99,7 +101,7 @@ def build_reduced_model(
     case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None
 ) -> red.ReducedModel:
     """Modal model of ``case`` (``pipeline.build_modal_model``), its lowest ``n_modes`` elastic
-    modes, and :func:`quadmodes.reduced.reduce` with the case's damping ratio and provenance.
+    modes, and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance.
 
     Raises :class:`CaseError` (field ``reduced.modes``) if the model has fewer modes or the cut
     splits a degenerate pair."""
@@ -226,7 +228,7 @@ class InitialState:
 def initial_state(system: dyn.ReducedSystem, model: red.ReducedModel, run: RunCase) -> InitialState:
     """Initial state of ``run``: modal displacement s0 in the first bending mode (largest nodal
     displacement = ``initial.bending_amplitude``), ṡ0 = 0, q0 = identity, and the body angular
-    velocity of :func:`quadmodes.dynamics.coning_omega` for J̃(s0): spin ``initial.spin_rate``
+    velocity of :func:`quadmodes.rom.dynamics.coning_omega` for J̃(s0): spin ``initial.spin_rate``
     about the minor principal axis of J̃(s0), cone angle ``initial.cone_angle`` between
     H = J̃(s0) ω and that axis."""
     n = system.n_modes
@@ -583,7 +585,7 @@ def apply_overrides(
     ``duration`` sets ``integration.duration`` or ``spinup.duration``."""
     import tomllib
 
-    from quadmodes.config import run_case_from_dict
+    from quadmodes.case.schema import run_case_from_dict
 
     if all(v is None for v in (method, dt, duration, formulation, save_every, spin_rate)):
         return run
@@ -623,7 +625,7 @@ def is_run_case(name_or_path: str) -> bool:
     """True if ``name_or_path`` is a built-in run case or a TOML file with ``kind = "run"``."""
     import tomllib
 
-    from quadmodes.config import builtin_run_case_names
+    from quadmodes.case.schema import builtin_run_case_names
 
     if name_or_path in builtin_run_case_names(None):
         return True
@@ -705,7 +707,7 @@ def dt_convergence(
 @dataclass(frozen=True, eq=False)
 class SpinupRun:
     """A hub-driven spin-up run: the run case, its (beam) model case, the
-    :class:`quadmodes.spinup.SpinupResult`, the :class:`Validity` of the formulation at the
+    :class:`quadmodes.runs.spinup.SpinupResult`, the :class:`Validity` of the formulation at the
     final hub rate (about the hub z axis), and the wall time (s)."""
 
     run: RunCase
@@ -724,9 +726,9 @@ class SpinupRun:
 
 
 def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedModel:
-    """Reduced model of a spin-up: :func:`quadmodes.spinup.kane_model` of the run's clamped beam
+    """Reduced model of a spin-up: :func:`quadmodes.runs.spinup.kane_model` of the run's clamped beam
     case with ``reduced.modes`` in-plane bending modes."""
-    from quadmodes.spinup import kane_model
+    from quadmodes.runs.spinup import kane_model
 
     case = model_case if model_case is not None else run.model_case()
     if case.kind != "beam" or case.beam.support != "clamped":
@@ -758,9 +760,9 @@ def simulate_spinup(
     run: RunCase, model: red.ReducedModel | None = None, *, model_case: Case | None = None
 ) -> SpinupRun:
     """Integrate the hub-driven spin-up of ``run`` (``[spinup]``) with
-    :func:`quadmodes.spinup.kane_spinup`; a diverged run is returned (status "diverged"), not
+    :func:`quadmodes.runs.spinup.kane_spinup`; a diverged run is returned (status "diverged"), not
     raised."""
-    from quadmodes.spinup import kane_spinup
+    from quadmodes.runs.spinup import kane_spinup
 
     if run.spinup is None:
         raise CaseError("not a spin-up run: it has no [spinup] table", field="spinup")

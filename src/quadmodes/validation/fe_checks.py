@@ -14,14 +14,14 @@ import numpy as np
 import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
-from quadmodes.config import Case, load_case
+from quadmodes.case.schema import Case, load_case
 from quadmodes.fe.build import MembraneSpec, build_membrane_structure
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import rigid_body_modes, second_order_force, tangent_stiffness
 from quadmodes.mesh.revolution import capsule_surface, sphere_surface
-from quadmodes.modes import compute_modes
-from quadmodes.pipeline import build_modal_model, structure_for_case
-from quadmodes.prestress import inflate
+from quadmodes.structure.modes import compute_modes
+from quadmodes.structure.pipeline import build_modal_model, structure_for_case
+from quadmodes.structure.prestress import inflate
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from quadmodes.config import Case
+from quadmodes.case.schema import Case
 from quadmodes.fe.build import (
     EndBodySpec,
     MembraneSpec,
@@ -17,7 +17,6 @@ from quadmodes.fe.build import (
 )
 from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor, total_mass
 from quadmodes.fe.pressure import PressureSet
-from quadmodes.labels import label_modes
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
     capsule_profile,
@@ -29,8 +28,9 @@ from quadmodes.mesh.revolution import (
     with_ring_at_radius,
 )
 from quadmodes.mesh.surface import TriangleSurface, check_closed_surface, min_angle_deg
-from quadmodes.modes import ModalResult, compute_modes
-from quadmodes.prestress import PrestressedState, inflate
+from quadmodes.structure.labels import label_modes
+from quadmodes.structure.modes import ModalResult, compute_modes
+from quadmodes.structure.prestress import PrestressedState, inflate
 
 Progress = Callable[[str, float], None]
 

@@ -28,6 +28,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
+from quadmodes.io.atomic import atomic_path, write_text
 
 FORMAT = "quadmodes-run-results"
 FORMAT_VERSION = 1
@@ -40,9 +41,9 @@ def _var(dims, value, units: str, description: str) -> xr.Variable:
 
 
 def to_dataset(result) -> xr.Dataset:
-    """The :class:`quadmodes.simulate.RunResult` as an xarray Dataset (SI units)."""
-    from quadmodes import dynamics as dyn
-    from quadmodes.simulate import largest_nodal_displacement
+    """The :class:`quadmodes.runs.simulate.RunResult` as an xarray Dataset (SI units)."""
+    from quadmodes.rom import dynamics as dyn
+    from quadmodes.runs.simulate import largest_nodal_displacement
 
     sol, d, sys = result.solution, result.diagnostics, result.system
     run, model = result.run, result.model
@@ -152,7 +153,7 @@ def to_dataset(result) -> xr.Dataset:
 
 
 def validity_attrs(validity) -> dict:
-    """results.nc attributes of a :class:`quadmodes.simulate.Validity` (empty if None):
+    """results.nc attributes of a :class:`quadmodes.runs.simulate.Validity` (empty if None):
     ``valid`` (1/0), ``rotating_stiffness_min_eigenvalue`` (s-2, at the run's spin),
     ``validity_spin_rate`` (rad/s) and ``validity_lost_at_spin_rate`` (rad/s; NaN if never)."""
     if validity is None:
@@ -194,18 +195,13 @@ def validity_summary(ds: xr.Dataset) -> dict:
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """Write ``ds`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.partial")
     encoding = {
         name: {"zlib": True, "complevel": 4, "shuffle": True}
         for name, var in ds.data_vars.items()
         if var.dtype.kind == "f" and var.size > 0
     }
-    try:
+    with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False, encoding=encoding)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 
 
@@ -368,9 +364,9 @@ def write_outputs(
     write_dataset(ds, directory / "results.nc")
     info = summary(ds)
     info.update(extra or {})
-    (directory / "summary.json").write_text(json.dumps(info, indent=2) + "\n")
+    write_text(directory / "summary.json", json.dumps(info, indent=2) + "\n")
     if plots:
-        from quadmodes.plots import write_plots
+        from quadmodes.io.plots import write_plots
 
         write_plots(ds, directory)
     return info
@@ -384,7 +380,7 @@ SPINUP_FORMAT = "quadmodes-spinup-results"
 
 
 def spinup_dataset(run) -> xr.Dataset:
-    """The :class:`quadmodes.simulate.SpinupRun` as an xarray Dataset (SI units): hub rate, tip
+    """The :class:`quadmodes.runs.simulate.SpinupRun` as an xarray Dataset (SI units): hub rate, tip
     displacement (hub frame: axial x, in-plane y, out-of-plane z), modal coordinates."""
     r = run.result
     model = r.model
@@ -506,22 +502,23 @@ def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     ax2.set_xlabel("time (s)")
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.partial.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+    finally:
+        plt.close(fig)
     return path
 
 
 def write_spinup_outputs(run, directory: str | os.PathLike, plots: bool = True) -> dict:
     """Write ``results.nc``, ``summary.json`` and (if ``plots``) ``tip_deflection.png`` of a
-    :class:`quadmodes.simulate.SpinupRun` into ``directory``; returns the summary."""
+    :class:`quadmodes.runs.simulate.SpinupRun` into ``directory``; returns the summary."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     ds = spinup_dataset(run)
     write_dataset(ds, directory / "results.nc")
     info = spinup_summary(ds)
-    (directory / "summary.json").write_text(json.dumps(info, indent=2) + "\n")
+    write_text(directory / "summary.json", json.dumps(info, indent=2) + "\n")
     if plots:
         plot_tip_deflection(ds, directory / "tip_deflection.png")
     return info

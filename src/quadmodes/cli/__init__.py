@@ -1,0 +1,5 @@
+"""The ``quadmodes`` command line."""
+
+from quadmodes.cli.app import app
+
+__all__ = ["app"]

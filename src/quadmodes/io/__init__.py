@@ -1,0 +1,1 @@
+"""Output files: ParaView VTU/PVD, PNG pictures and plots, and the atomic-write helper."""
