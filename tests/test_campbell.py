@@ -15,6 +15,7 @@ from quadmodes.analysis.campbell import (
     write_campbell,
 )
 from quadmodes.rom import dynamics as dy
+from quadmodes.rom import system as rsys
 from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE, kane_model
 
 OMEGA_1 = 3.516 * np.sqrt(7e10 * 2e-7 / (3000 * 4e-4 * 10.0**4))  # 3.798 rad/s
@@ -142,7 +143,7 @@ def test_free_body_branches(capsule):
     rigid_nutation = (lam[1:].mean() - lam[0]) / lam[1:].mean() * spins
     np.testing.assert_allclose(r.frequency[:, 0], rigid_nutation, rtol=0.01)
     # centrifugal deformation s* is small and the equilibrium is exact
-    sys = dy.reduced_system(capsule, "Q")
+    sys = rsys.reduced_system(capsule, "Q")
     _, s, residual = relative_equilibrium(sys, 300.0, r.axis)
     assert residual < 1e-10
     np.testing.assert_allclose(s, r.s_eq[-1])
@@ -153,7 +154,7 @@ def test_free_linearisation_matches_nonlinear_motion(capsule):
     nonlinear Q equations follow Re(ε v e^{λt}) for two periods."""
     spin = 300.0
     r = campbell(capsule, [spin])
-    sys = dy.with_damping(dy.reduced_system(capsule, "Q"), np.zeros((capsule.n_modes,) * 2))
+    sys = rsys.with_damping(rsys.reduced_system(capsule, "Q"), np.zeros((capsule.n_modes,) * 2))
     n = sys.n_modes
     z0 = np.concatenate([r.spin_axis[0] * spin, r.s_eq[0], np.zeros(n)])
     for b in (r.branch("nutation"), 1):

@@ -25,12 +25,12 @@ def runner() -> CliRunner:
 
 def _reduced_as_reference(run, dt):
     """The Q reduced run dressed as a full-order solution (identity check of the metrics)."""
-    from quadmodes.rom import dynamics as dyn
+    from quadmodes.rom import system as rsys
     from quadmodes.runs import simulate
 
     res = simulate.simulate(cm.window_run(run, run.integration.duration, "Q"))
     d = res.diagnostics
-    s = dyn.split_state(res.system, res.solution.y)[2]
+    s = rsys.split_state(res.system, res.solution.y)[2]
     return types.SimpleNamespace(
         t=d.t, modal_coordinates=s, cone_angle=d.cone_angle, spin_rate=d.spin_rate,
         H_norm=d.H_norm, E=d.E, E_d=d.E_d, stats={"wall_s": 1.0, "n_steps": 1}, status=0,

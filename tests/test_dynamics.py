@@ -7,6 +7,8 @@ import pytest
 
 from quadmodes import rotations as rot
 from quadmodes.rom import dynamics as dy
+from quadmodes.rom import rotating_frame as rf
+from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
 
 
@@ -56,7 +58,7 @@ def synthetic_model(n=3, seed=0):
 
 def random_state(sys, rng, spin=80.0, s_amp=2e-4, sd_amp=0.3):
     n = sys.n_modes
-    return dy.pack_state(
+    return rsys.pack_state(
         sys,
         rng.normal(size=4),
         np.array([3.0, -2.0, spin]) + rng.normal(size=3),
@@ -106,7 +108,7 @@ def euler_poincare_residuals(sys, y, eps=1e-6):
 @pytest.mark.parametrize("formulation", ["Q", "L", "rigid"])
 def test_euler_poincare_finite_difference_small_model(small_reduced_model, formulation):
     """rhs solves the Euler–Poincaré equations of the truncated Lagrangian (theory §4)."""
-    sys = dy.reduced_system(small_reduced_model, formulation)
+    sys = rsys.reduced_system(small_reduced_model, formulation)
     rng = np.random.default_rng(7)
     for _ in range(3):
         y = random_state(sys, rng)
@@ -119,7 +121,7 @@ def test_euler_poincare_finite_difference_small_model(small_reduced_model, formu
 @pytest.mark.parametrize("formulation", ["Q", "L"])
 def test_euler_poincare_finite_difference_all_terms(formulation):
     """Same check with generic arrays: c, Cxg, J2g, Cuu all non-zero (every b-term active)."""
-    sys = dy.reduced_system(synthetic_model(), formulation)
+    sys = rsys.reduced_system(synthetic_model(), formulation)
     rng = np.random.default_rng(3)
     for _ in range(3):
         y = random_state(sys, rng, spin=5.0, s_amp=0.05, sd_amp=2.0)
@@ -132,8 +134,8 @@ def test_euler_poincare_finite_difference_all_terms(formulation):
 def test_paper_variant_keeps_h_p_but_is_not_variational():
     """P: rotational row conserves h_P (ḣ_P + ω×h_P = 0), modal row as Q; h_P ≠ ∂L̃/∂ω."""
     model = synthetic_model()
-    p = dy.reduced_system(model, "P")
-    q = dy.reduced_system(model, "Q")
+    p = rsys.reduced_system(model, "P")
+    q = rsys.reduced_system(model, "Q")
     rng = np.random.default_rng(5)
     y = random_state(p, rng, spin=5.0, s_amp=0.05, sd_amp=2.0)
     rw, sw, rs, ss, rh = euler_poincare_residuals(p, y)
@@ -151,7 +153,7 @@ def test_energy_rate_equals_minus_dissipation(small_reduced_model):
     """Q: dE/dt = −ṡᵀCṡ exactly (FD along the flow); P: not."""
     rng = np.random.default_rng(11)
     for formulation, exact in (("Q", True), ("L", True), ("P", False)):
-        sys = dy.reduced_system(small_reduced_model, formulation)
+        sys = rsys.reduced_system(small_reduced_model, formulation)
         y = random_state(sys, rng, spin=300.0)
         yd = dy.rhs(sys, 0.0, y)
         eps = 1e-6
@@ -169,11 +171,11 @@ def test_mass_matrix_and_batched_invariants_agree(small_reduced_model):
     (For the capsule 𝕄(s) stays positive definite only for |s| ≲ 0.01 √kg·m: J2g is large and
     negative, see docs/derivation.md; amplitudes here are 2e-4.)"""
     for model, amp in ((small_reduced_model, 2e-4), (synthetic_model(), 0.01)):
-        sys = dy.reduced_system(model, "Q")
+        sys = rsys.reduced_system(model, "Q")
         rng = np.random.default_rng(2)
         ys = np.stack([random_state(sys, rng, spin=20.0, s_amp=amp) for _ in range(4)])
         for y in ys:
-            _, w, s, sd = dy.split_state(sys, y)
+            _, w, s, sd = rsys.split_state(sys, y)
             m = dy.mass_matrix(sys, s)
             np.testing.assert_allclose(m, m.T, rtol=0, atol=1e-14 * np.abs(m).max())
             assert np.linalg.eigvalsh(m).min() > 0
@@ -197,7 +199,7 @@ def test_mass_matrix_and_batched_invariants_agree(small_reduced_model):
 def test_rigid_limit_is_euler_equations():
     """N = 0: J0 ω̇ + ω × J0 ω = 0 and q̇ = ½ q ⊗ (0, ω)."""
     j0 = np.array([[2.0, 0.1, 0.0], [0.1, 3.0, 0.2], [0.0, 0.2, 5.0]])
-    sys = dy.reduced_system(hand_model(j0), "rigid")
+    sys = rsys.reduced_system(hand_model(j0), "rigid")
     assert sys.n_modes == 0 and sys.n_state == 7
     w = np.array([0.3, -1.2, 2.0])
     q = rot.quat_exp(np.array([0.2, 0.1, -0.4]))
@@ -207,7 +209,7 @@ def test_rigid_limit_is_euler_equations():
 
 
 def test_quaternion_drift_correction():
-    sys = dy.reduced_system(hand_model(np.eye(3)), "rigid")
+    sys = rsys.reduced_system(hand_model(np.eye(3)), "rigid")
     y = np.r_[1.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
     assert dy.rhs(sys, 0.0, y)[0] == pytest.approx(sys.quat_gain * (1 - 1.21) * 1.1)
 
@@ -215,11 +217,11 @@ def test_quaternion_drift_correction():
 def test_rotations_consistent():
     phi = np.array([0.3, -0.5, 0.9])
     r1 = rot.rotation_matrix(rot.quat_exp(phi))
-    np.testing.assert_allclose(r1, dy.so3_exp(phi), atol=1e-15)
+    np.testing.assert_allclose(r1, rot.so3_exp(phi), atol=1e-15)
     np.testing.assert_allclose(r1 @ r1.T, np.eye(3), atol=1e-15)
     d = 1e-7 * np.array([1.0, 2.0, -1.0])
-    lhs = dy.so3_exp(phi + d)
-    rhs = dy.so3_exp(dy.so3_left_jacobian(phi) @ d) @ dy.so3_exp(phi)
+    lhs = rot.so3_exp(phi + d)
+    rhs = rot.so3_exp(rot.so3_left_jacobian(phi) @ d) @ rot.so3_exp(phi)
     np.testing.assert_allclose(lhs, rhs, atol=1e-13)
 
 
@@ -227,7 +229,7 @@ def test_prescribed_rotation_matches_free_modal_row(small_reduced_model):
     """The prescribed-rotation modal equation, fed ω and ω̇ of the free motion, gives the
     same s̈ as the free equations (both Q)."""
     for model in (small_reduced_model, synthetic_model()):
-        sys = dy.reduced_system(model, "Q")
+        sys = rsys.reduced_system(model, "Q")
         n = sys.n_modes
         y = random_state(sys, np.random.default_rng(4), spin=30.0, s_amp=1e-3)
         yd = dy.rhs(sys, 0.0, y)
@@ -240,16 +242,16 @@ def test_prescribed_rotation_matches_free_modal_row(small_reduced_model):
 def test_rotating_frame_matrices(small_reduced_model):
     """Γ antisymmetric, stiffness symmetric; Q stiffens (J2g), L only softens; Campbell at 0."""
     model = small_reduced_model
-    m, g, k = dy.rotating_frame_matrices(model, [0, 0, 0])
+    m, g, k = rf.rotating_frame_matrices(model, [0, 0, 0])
     np.testing.assert_allclose(k, model.Lam, rtol=1e-12)
     np.testing.assert_allclose(g, model.C, atol=1e-12)
-    lam0 = dy.rotating_eigenvalues(model, [0, 0, 0])
+    lam0 = rf.rotating_eigenvalues(model, [0, 0, 0])
     np.testing.assert_allclose(
         np.sort(np.abs(lam0.imag))[::2] / (2 * np.pi), np.sort(model.frequencies_hz), rtol=1e-6
     )
     omega = np.array([0.0, 0.0, 500.0])
-    _, gq, kq = dy.rotating_frame_matrices(model, omega, "Q")
-    _, gl, kl = dy.rotating_frame_matrices(model, omega, "L")
+    _, gq, kq = rf.rotating_frame_matrices(model, omega, "Q")
+    _, gl, kl = rf.rotating_frame_matrices(model, omega, "L")
     gam = gq - model.C
     np.testing.assert_allclose(gam, -gam.T, atol=1e-12 * np.abs(gam).max())
     np.testing.assert_allclose(kq, kq.T)
@@ -257,22 +259,22 @@ def test_rotating_frame_matrices(small_reduced_model):
     np.testing.assert_allclose(kl - kq, 0.5 * (j2g + j2g.T), rtol=1e-9, atol=1e-6)
     # spin stiffening: the lowest rotating stiffness is higher with Q than with L
     assert np.linalg.eigvalsh(kq).min() > np.linalg.eigvalsh(kl).min() * 1.5
-    assert dy.rotating_stiffness_is_positive(model, omega, "Q")
+    assert rf.rotating_stiffness_is_positive(model, omega, "Q")
     # linear modes: an in-plane mode (u along x, J2u = 𝒥(u,u) = diag(0,1,1)) softens as
     # ω0² − Ω² and loses stiffness once the spin Ω about z exceeds ω0 = 10 rad/s
     j2u = np.diag([0.0, 1.0, 1.0])[None, None]
     one = hand_model(np.eye(3), lam=[100.0], J2u=j2u)
-    assert dy.rotating_stiffness_is_positive(one, [0, 0, 9.0], "L")
-    assert not dy.rotating_stiffness_is_positive(one, [0, 0, 11.0], "L")
+    assert rf.rotating_stiffness_is_positive(one, [0, 0, 9.0], "L")
+    assert not rf.rotating_stiffness_is_positive(one, [0, 0, 11.0], "L")
 
 
 def test_unknown_formulation_rejected(small_reduced_model):
     with pytest.raises(ValueError, match="formulation"):
-        dy.reduced_system(small_reduced_model, "X")
+        rsys.reduced_system(small_reduced_model, "X")
 
 
 def test_damping_free_copy(small_reduced_model):
     m0 = dataclasses.replace(small_reduced_model, C=0 * small_reduced_model.C)
-    sys = dy.reduced_system(m0)
+    sys = rsys.reduced_system(m0)
     assert np.all(sys.C == 0) and sys.formulation == "Q"
-    assert np.all(dy.with_damping(sys, small_reduced_model.C).C == small_reduced_model.C)
+    assert np.all(rsys.with_damping(sys, small_reduced_model.C).C == small_reduced_model.C)

@@ -17,6 +17,7 @@ from quadmodes.fullorder import (
 )
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import integrators
+from quadmodes.rom import system as rsys
 from quadmodes.runs.simulate import largest_nodal_displacement
 from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
@@ -26,7 +27,7 @@ BENDING = 2  # first bending mode of the small capsule (148 Hz)
 def _reduced_state(model, spin_hz=0.0, cone_deg=0.0, mode=BENDING, amplitude=1e-4):
     """ROM state y0: spin about the minor axis, mode ``mode`` displaced so that its largest
     nodal displacement is ``amplitude`` (m)."""
-    system = dyn.reduced_system(model, "Q")
+    system = rsys.reduced_system(model, "Q")
     omega = (
         dyn.coning_omega(model.J0, 2 * np.pi * spin_hz, math.radians(cone_deg))
         if spin_hz
@@ -34,7 +35,7 @@ def _reduced_state(model, spin_hz=0.0, cone_deg=0.0, mode=BENDING, amplitude=1e-
     )
     s0 = np.zeros(model.n_modes)
     s0[mode] = amplitude / largest_nodal_displacement(model, mode)
-    return system, dyn.pack_state(system, omega=omega, s=s0)
+    return system, rsys.pack_state(system, omega=omega, s=s0)
 
 
 def _full_state(modal, model, y0):
@@ -124,7 +125,7 @@ def test_damped_energy_balance(ringing):
 
 def test_agrees_with_reduced_model_at_small_amplitude(small_reduced_model, ringing):
     sol, y0 = ringing
-    system = dyn.reduced_system(small_reduced_model, "Q")
+    system = rsys.reduced_system(small_reduced_model, "Q")
     rom = integrators.integrate(
         system, y0, (0.0, sol.t[-1]), "midpoint", dt=sol.dt, backend="numpy"
     )

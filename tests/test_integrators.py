@@ -9,6 +9,9 @@ from scipy.special import ellipj
 from quadmodes.rom import diagnostics as dg
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import integrators as it
+from quadmodes.rom import system as rsys
+from quadmodes.rom.backward_euler import BackwardEulerStep
+from quadmodes.rom.midpoint import MidpointStep
 from quadmodes.rom.reduced import ReducedModel
 
 
@@ -32,7 +35,7 @@ def spinner_state(sys, spin, cone_deg, s_amp=0.0):
     """Minor-axis spinner with cone angle (rigid J0 definition) and a modal disturbance."""
     w = dy.coning_omega(sys.J0, spin, np.radians(cone_deg))
     n = sys.n_modes
-    return dy.pack_state(sys, omega=w, s=s_amp * (-1.0) ** np.arange(n))
+    return rsys.pack_state(sys, omega=w, s=s_amp * (-1.0) ** np.arange(n))
 
 
 def rel_h_drift(sys, sol):
@@ -42,7 +45,7 @@ def rel_h_drift(sys, sol):
 
 @pytest.fixture(scope="module")
 def capsule(small_reduced_model):
-    return dy.reduced_system(small_reduced_model, "Q")
+    return rsys.reduced_system(small_reduced_model, "Q")
 
 
 @pytest.fixture(scope="module")
@@ -54,9 +57,9 @@ def capsule_undamped(small_reduced_model):
 
 
 @pytest.mark.parametrize("formulation", ["Q", "P", "L", "Q4"])
-@pytest.mark.parametrize("stepper", [it._Midpoint, it._BackwardEuler])
+@pytest.mark.parametrize("stepper", [MidpointStep, BackwardEulerStep])
 def test_step_jacobian_matches_finite_differences(small_reduced_model, formulation, stepper):
-    sys = dy.reduced_system(small_reduced_model, formulation)
+    sys = rsys.reduced_system(small_reduced_model, formulation)
     rng = np.random.default_rng(1)
     n = sys.n_modes
     st = stepper(sys, 1e-3)
@@ -78,10 +81,10 @@ def test_step_jacobian_matches_finite_differences(small_reduced_model, formulati
 def test_axisymmetric_rigid_body():
     """ω3 constant, ω1 + iω2 = ω⊥ e^{−int}, n = (I_t − I_a)ω3/I_t, cone angle constant."""
     i_t, i_a = 10.0, 4.0
-    sys = dy.reduced_system(hand_model(np.diag([i_t, i_t, i_a])), "rigid")
+    sys = rsys.reduced_system(hand_model(np.diag([i_t, i_t, i_a])), "rigid")
     w3 = 4 * np.pi
     w_perp = np.tan(np.radians(2.0)) * i_a * w3 / i_t
-    y0 = dy.pack_state(sys, omega=[w_perp, 0.0, w3])
+    y0 = rsys.pack_state(sys, omega=[w_perp, 0.0, w3])
     nut = (i_t - i_a) * w3 / i_t
 
     def error(sol):
@@ -128,9 +131,9 @@ def jacobi_solution(i1, i2, i3, w0, t):
 
 def test_triaxial_rigid_body_jacobi():
     i1, i2, i3 = 1.0, 2.0, 3.0
-    sys = dy.reduced_system(hand_model(np.diag([i1, i2, i3])), "rigid")
+    sys = rsys.reduced_system(hand_model(np.diag([i1, i2, i3])), "rigid")
     w0 = np.array([1.0, 0.0, 2.0])
-    y0 = dy.pack_state(sys, omega=w0)
+    y0 = rsys.pack_state(sys, omega=w0)
     ref = it.integrate(sys, y0, (0, 10.0), "adaptive", rtol=1e-12, atol=1e-14, dt=0.05)
     exact = jacobi_solution(i1, i2, i3, w0, ref.t)
     assert np.abs(ref.y[:, 4:7] - exact).max() <= 1e-8 * np.linalg.norm(w0)
@@ -148,7 +151,7 @@ def test_triaxial_rigid_body_jacobi():
 
 def test_midpoint_conserves_h_and_bounds_energy(capsule_undamped):
     """Damping off, 100 spin periods: |H| to 1e-10, energy error bounded (no drift)."""
-    sys = dy.reduced_system(capsule_undamped, "Q")
+    sys = rsys.reduced_system(capsule_undamped, "Q")
     spin = 100.0
     y0 = spinner_state(sys, spin, 5.0, s_amp=1e-4)
     sol = it.integrate(sys, y0, (0, 100 * 2 * np.pi / spin), "midpoint", dt=1e-3)
@@ -166,7 +169,7 @@ def test_midpoint_conserves_h_and_bounds_energy(capsule_undamped):
 def test_energy_balance_q_and_drift_p(capsule_undamped, small_reduced_model):
     """Adaptive, rtol 1e-10/1e-11: Q keeps E + E_d (damped) and E (undamped) to round-off;
     P keeps |H| but not E (drift orders of magnitude larger)."""
-    q = dy.reduced_system(small_reduced_model, "Q")
+    q = rsys.reduced_system(small_reduced_model, "Q")
     y0 = spinner_state(q, 300.0, 5.0, s_amp=1e-4)
     sol = it.integrate(q, y0, (0, 0.2), "adaptive", rtol=1e-10, atol=1e-14, dt=1e-3)
     d = dg.diagnostics(q, sol)
@@ -176,7 +179,7 @@ def test_energy_balance_q_and_drift_p(capsule_undamped, small_reduced_model):
     assert rel_h_drift(q, sol) <= 1e-10
     drift = {}
     for formulation in ("Q", "P"):
-        sys = dy.reduced_system(capsule_undamped, formulation)
+        sys = rsys.reduced_system(capsule_undamped, formulation)
         sol = it.integrate(sys, y0, (0, 0.2), "adaptive", rtol=1e-11, atol=1e-14, dt=1e-3)
         e = dy.energy(sys, sol.y)
         drift[formulation] = np.abs(e - e[0]).max() / e[0]
@@ -274,9 +277,9 @@ def test_numerical_damping_from_free_decay():
     """Same numbers from free-decay records: Prony fit s_{k+2} = a s_{k+1} + b s_k (exact for a
     linear two-state one-step map), eigenvalues z² = a z + b."""
     w = 2 * np.pi * 38.0
-    sys = dy.reduced_system(hand_model(np.eye(3), [w * w], 0.02))
+    sys = rsys.reduced_system(hand_model(np.eye(3), [w * w], 0.02))
     for method, zeta_ref, f_ref in (("backward-euler", 0.289, 33.9), ("midpoint", 0.0189, 36.92)):
-        sol = it.integrate(sys, dy.pack_state(sys, s=[1.0]), (0, 0.1), method, dt=2.5e-3)
+        sol = it.integrate(sys, rsys.pack_state(sys, s=[1.0]), (0, 0.1), method, dt=2.5e-3)
         s = sol.y[:, 7]
         (a, b), *_ = np.linalg.lstsq(np.stack([s[1:-1], s[:-2]], 1), s[2:], rcond=None)
         z = np.roots([1.0, -a, -b])[0]
@@ -290,7 +293,7 @@ def test_rigid_minor_axis_spinner_backward_euler_vs_midpoint():
     every 10 s (rate λ²Δt/2, λ = 7.54 rad/s) and loses |H| (≈ −6e-4 in 60 s); midpoint keeps
     2.000° and H."""
     i_t, i_a = 10.0, 4.0
-    sys = dy.reduced_system(hand_model(np.diag([i_t, i_t, i_a])), "rigid")
+    sys = rsys.reduced_system(hand_model(np.diag([i_t, i_t, i_a])), "rigid")
     y0 = spinner_state(sys, 4 * np.pi, 2.0)
     be = it.integrate(sys, y0, (0, 60.0), "backward-euler", dt=2.5e-3, save_every=400)
     d = dg.diagnostics(sys, be)

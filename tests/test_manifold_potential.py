@@ -13,6 +13,7 @@ from quadmodes.rom import artifact
 from quadmodes.rom import diagnostics as dg
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import integrators as it
+from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
 
 
@@ -114,12 +115,12 @@ def euler_poincare_residuals(sys, y, eps=1e-6):
 
 
 def test_euler_poincare_q4(small_reduced_model):
-    sys = dy.reduced_system(small_reduced_model, "Q4")
-    q = dy.reduced_system(small_reduced_model, "Q")
+    sys = rsys.reduced_system(small_reduced_model, "Q4")
+    q = rsys.reduced_system(small_reduced_model, "Q")
     assert sys.quartic and not q.quartic
     rng = np.random.default_rng(7)
     for _ in range(3):
-        y = dy.pack_state(
+        y = rsys.pack_state(
             sys, rng.normal(size=4), np.array([3.0, -2.0, 80.0]) + rng.normal(size=3),
             1e-3 * rng.normal(size=5), 0.3 * rng.normal(size=5),
         )  # fmt: skip
@@ -138,12 +139,12 @@ def test_euler_poincare_q4(small_reduced_model):
 
 
 def test_gradient_and_hessian_by_differences(small_reduced_model):
-    sys = dy.reduced_system(small_reduced_model, "Q4")
+    sys = rsys.reduced_system(small_reduced_model, "Q4")
     rng = np.random.default_rng(3)
     s = 2e-3 * rng.normal(size=5)
 
     def v(s):
-        return dy.potential_energy(sys, dy.pack_state(sys, s=s))
+        return dy.potential_energy(sys, rsys.pack_state(sys, s=s))
 
     h = 1e-7
     eye = np.eye(5)
@@ -163,8 +164,8 @@ def test_q4_refuses_model_without_tensors(small_reduced_model):
         small_reduced_model, V3=np.zeros((5, 5, 5)), V4=None, manifold_potential=False
     )
     with pytest.raises(ValueError, match="Q4 needs the manifold potential"):
-        dy.reduced_system(old, "Q4")
-    dy.reduced_system(old, "Q")  # the other formulations do not need it
+        rsys.reduced_system(old, "Q4")
+    rsys.reduced_system(old, "Q")  # the other formulations do not need it
 
 
 # ------------------------------------------------------------------ integrators
@@ -193,8 +194,8 @@ def test_midpoint_average_vector_field_conserves_anharmonic_energy():
     """Modes decoupled from the rotation: the midpoint with the Simpson (AVF) potential force is
     a discrete-gradient method, so E is conserved to the Newton tolerance although V is quartic;
     with Q the same run conserves its own (quadratic) energy."""
-    sys = dy.reduced_system(_anharmonic_model(), "Q4")
-    y0 = dy.pack_state(sys, omega=[0.0, 0.0, 1.0], s=[0.1, -0.05], sdot=[0.5, 1.0])
+    sys = rsys.reduced_system(_anharmonic_model(), "Q4")
+    y0 = rsys.pack_state(sys, omega=[0.0, 0.0, 1.0], s=[0.1, -0.05], sdot=[0.5, 1.0])
     sol = it.integrate(sys, y0, (0.0, 2.0), "midpoint", dt=5e-3, backend="numpy")
     assert sol.status == 0
     e = dy.energy(sys, sol.y)
@@ -212,9 +213,9 @@ def test_midpoint_q4_capsule_conserves_h_bounds_energy(small_reduced_model):
     spin = 100.0
     out = {}
     for formulation in ("Q", "Q4"):
-        sys = dy.reduced_system(model, formulation)
+        sys = rsys.reduced_system(model, formulation)
         w = dy.coning_omega(sys.J0, spin, np.radians(5.0))
-        y0 = dy.pack_state(sys, omega=w, s=3e-4 * (-1.0) ** np.arange(5))
+        y0 = rsys.pack_state(sys, omega=w, s=3e-4 * (-1.0) ** np.arange(5))
         sol = it.integrate(
             sys, y0, (0, 20 * 2 * np.pi / spin), "midpoint", dt=1e-3, backend="numpy"
         )
@@ -234,9 +235,9 @@ def test_compiled_kernel_q4_matches_numpy(small_reduced_model):
     (damped, 0.2 s at 300 rad/s)."""
     if it.numba_kernel() is None:
         pytest.skip("numba not installed")
-    sys = dy.reduced_system(small_reduced_model, "Q4")
+    sys = rsys.reduced_system(small_reduced_model, "Q4")
     w = dy.coning_omega(sys.J0, 300.0, np.radians(5.0))
-    y0 = dy.pack_state(sys, omega=w, s=3e-4 * (-1.0) ** np.arange(5))
+    y0 = rsys.pack_state(sys, omega=w, s=3e-4 * (-1.0) ** np.arange(5))
     sols = {
         b: it.integrate(sys, y0, (0, 0.2), "midpoint", dt=1e-3, backend=b)
         for b in ("numpy", "numba")
@@ -269,7 +270,7 @@ def test_artifact_round_trip_and_format_1(small_reduced_model, tmp_path):
     assert not v1.V3.any() and v1.V4.shape == (5, 5, 5, 5) and not v1.V4.any()
     np.testing.assert_array_equal(v1.Lam, m.Lam)
     with pytest.raises(ValueError, match="Q4"):
-        dy.reduced_system(v1, "Q4")
+        rsys.reduced_system(v1, "Q4")
 
 
 # ------------------------------------------------------------------ physics
@@ -311,7 +312,7 @@ def test_centrifugal_deflection_q4_vs_full_order(paper_coarse):
         spin = 2 * np.pi * f_hz
         s_fo = full_order_modal_coordinates(structure, x0, model, spin, axis)
         for formulation in ("Q", "Q4"):
-            sys = dy.reduced_system(model, formulation)
+            sys = rsys.reduced_system(model, formulation)
             _, s, residual = cb.relative_equilibrium(sys, spin, axis)
             assert residual < 1e-8
             errors[formulation, f_hz] = s[k] / s_fo[k] - 1.0
@@ -362,5 +363,5 @@ def test_gas_law_pressure_has_no_manifold_potential():
     m = reduce(mm.structure, mm.x, f.frequencies_hz[:2], f.shapes[:2], mm.labels[:2], 0.0)
     assert not m.manifold_potential and not m.V4.any()
     with pytest.raises(ValueError, match="gas-law"):
-        dy.reduced_system(m, "Q4")
-    dy.reduced_system(m, "Q")
+        rsys.reduced_system(m, "Q4")
+    rsys.reduced_system(m, "Q")

@@ -19,13 +19,14 @@ from quadmodes.case.schema import run_case_from_toml  # noqa: E402
 from quadmodes.rom import diagnostics as dg  # noqa: E402
 from quadmodes.rom import dynamics as dy  # noqa: E402
 from quadmodes.rom import integrators as it  # noqa: E402
+from quadmodes.rom import system as rsys  # noqa: E402
 from quadmodes.runs import simulate  # noqa: E402
 
 
 def spinner_state(sys, spin, cone_deg, s_amp=0.0):
     """Minor-axis spinner (rad/s, cone angle of the rigid J0) with a modal disturbance."""
     w = dy.coning_omega(sys.J0, spin, np.radians(cone_deg))
-    return dy.pack_state(sys, omega=w, s=s_amp * (-1.0) ** np.arange(sys.n_modes))
+    return rsys.pack_state(sys, omega=w, s=s_amp * (-1.0) ** np.arange(sys.n_modes))
 
 
 def both(sys, y0, t1, dt, **kw):
@@ -44,7 +45,7 @@ def rel_state_diff(a, b):
 
 @pytest.fixture(scope="module")
 def capsule(small_reduced_model):
-    return dy.reduced_system(small_reduced_model, "Q")
+    return rsys.reduced_system(small_reduced_model, "Q")
 
 
 # ------------------------------------------------------------------ agreement with numpy
@@ -55,7 +56,7 @@ def test_numba_reproduces_numpy_midpoint(small_reduced_model, formulation):
     """2000 steps (19 turns at 300 rad/s), damped, with a modal disturbance: the
     same samples, states equal to 1e-10 relative (measured ≈1e-12), same dissipated energy and
     the same work counters (the same Newton iterations were taken)."""
-    sys = dy.reduced_system(small_reduced_model, formulation)
+    sys = rsys.reduced_system(small_reduced_model, formulation)
     y0 = spinner_state(sys, 300.0, 5.0, s_amp=1e-4)
     a, b = both(sys, y0, 0.4, 2e-4, save_every=10)
     assert a.status == b.status == 0

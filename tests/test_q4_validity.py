@@ -6,6 +6,7 @@ import pytest
 
 from quadmodes.case.schema import load_run_case
 from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate
 
 
@@ -22,7 +23,7 @@ def test_barrier_is_a_maximum_along_its_ray(slow_q4):
     sys = slow_q4.system
     v_b, s_b = dyn.potential_barrier(sys)
     assert 0.0 < v_b < np.inf
-    v = lambda s: float(dyn.potential_energy(sys, dyn.pack_state(sys, s=s)))  # noqa: E731
+    v = lambda s: float(dyn.potential_energy(sys, rsys.pack_state(sys, s=s)))  # noqa: E731
     assert v(s_b) == pytest.approx(v_b, rel=1e-10)
     # first maximum along the ray: below it V rises, beyond it V falls
     assert v(0.98 * s_b) < v_b and v(1.02 * s_b) < v_b

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from quadmodes.rom.dynamics import rotating_stiffness_is_positive
+from quadmodes.rom.rotating_frame import rotating_stiffness_is_positive
 from quadmodes.runs.spinup import (
     KANE_REFERENCE_PEAKS,
     kane_model,

@@ -43,6 +43,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from quadmodes.rom import dynamics as dy
+from quadmodes.rom import rotating_frame as rf
+from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
 
 #: Two roots closer than this (relative to their magnitude) are degenerate.
@@ -141,7 +143,7 @@ def _abs_sym(k: np.ndarray) -> np.ndarray:
 
 
 def relative_equilibrium(
-    sys: dy.ReducedSystem, spin: float, axis: np.ndarray, iterations: int = 50, tol: float = 1e-13
+    sys: rsys.ReducedSystem, spin: float, axis: np.ndarray, iterations: int = 50, tol: float = 1e-13
 ):
     """Relative equilibrium of the free body spinning at ``spin`` (rad/s) near ``axis``.
 
@@ -156,7 +158,7 @@ def relative_equilibrium(
     for _ in range(iterations):
         w_old, s_old = w, s
         if n:
-            k = dy.rotating_frame_matrices(sys, w)[2]
+            k = rf.rotating_frame_matrices(sys, w)[2]
             f = 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
             s = _static_solve(sys, k, f, s) if sys.quartic else np.linalg.solve(k, f)
         jt = dy.inertia_tensor(sys, s, "rot")
@@ -167,14 +169,14 @@ def relative_equilibrium(
         ds = np.linalg.norm(s - s_old) / max(np.linalg.norm(s), 1e-300) if n else 0.0
         if np.linalg.norm(w - w_old) <= tol * max(abs(spin), 1e-300) and ds <= tol:
             break
-    y = dy.pack_state(sys, omega=w, s=s)
+    y = rsys.pack_state(sys, omega=w, s=s)
     d = dy.rhs(sys, 0.0, y)
     scale = max(abs(spin), 1e-12) ** 2
     return w, s, float(np.max(np.abs(d[4:]), initial=0.0) / scale)
 
 
 def _static_solve(
-    sys: dy.ReducedSystem,
+    sys: rsys.ReducedSystem,
     k: np.ndarray,
     f: np.ndarray,
     s: np.ndarray,
@@ -197,7 +199,7 @@ def _static_solve(
     raise ValueError("relative equilibrium (Q4): Newton on the modal statics did not converge")
 
 
-def _free_jacobian(sys: dy.ReducedSystem, w: np.ndarray, s: np.ndarray, mass: float, length):
+def _free_jacobian(sys: rsys.ReducedSystem, w: np.ndarray, s: np.ndarray, mass: float, length):
     """Central-difference Jacobian (3+2N, 3+2N) of the body-frame equations in z = (ω, s, ṡ)."""
     n = sys.n_modes
     z0 = np.concatenate([w, s, np.zeros(n)])
@@ -220,16 +222,16 @@ def _free_jacobian(sys: dy.ReducedSystem, w: np.ndarray, s: np.ndarray, mass: fl
     return jac
 
 
-def _linearise(sys: dy.ReducedSystem, model: ReducedModel, spin: float, axis: np.ndarray, damped):
+def _linearise(sys: rsys.ReducedSystem, model: ReducedModel, spin: float, axis: np.ndarray, damped):
     """Roots λ, state eigenvectors (columns), energy weight W, min stiffness eig, s*, axis."""
     n = sys.n_modes
     if sys.free:
         w, s, _ = relative_equilibrium(sys, spin, axis)
-        sys_l = sys if damped else dy.with_damping(sys, np.zeros((n, n)))
+        sys_l = sys if damped else rsys.with_damping(sys, np.zeros((n, n)))
         length = float(np.sqrt(np.trace(model.J0) / max(model.mass, 1e-300)))
         jac = _free_jacobian(sys_l, w, s, model.mass, length)
         mm = dy.mass_matrix(sys, s)
-        k = dy.rotating_frame_matrices(sys, w)[2] if n else np.zeros((0, 0))
+        k = rf.rotating_frame_matrices(sys, w)[2] if n else np.zeros((0, 0))
         if sys.quartic and n:  # stiffness of the full potential at s*
             k = k + dy.potential_hessian(sys, s) - sys.Lam
         # energy weight on z = (δω, δs, δṡ): ½ νᵀ𝕄ν with ν = (δω, δṡ), plus ½ δsᵀ|K|δs
@@ -241,7 +243,7 @@ def _linearise(sys: dy.ReducedSystem, model: ReducedModel, spin: float, axis: np
     else:
         w = spin * _unit(axis)
         s = np.zeros(n)
-        mu, g, k = dy.rotating_frame_matrices(sys, w)
+        mu, g, k = rf.rotating_frame_matrices(sys, w)
         if not damped:
             g = g - sys.C
         minv = np.linalg.inv(mu)
@@ -373,7 +375,7 @@ def campbell(
         e = principal_axis(model, int(axis))
     else:
         e = _unit(axis)
-    sys = dy.reduced_system(model, formulation)
+    sys = rsys.reduced_system(model, formulation)
     n = sys.n_modes
     count = n + (1 if sys.free else 0)
     if count == 0:

@@ -41,7 +41,7 @@ import xarray as xr
 
 from quadmodes import __version__
 from quadmodes.io.atomic import write_text
-from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import system as rsys
 from quadmodes.runs.results import peak_envelope
 
 #: Formulations compared by default, in table order.
@@ -77,7 +77,7 @@ class Series:
 def series_from_run(name: str, result) -> Series:
     """:class:`Series` of a reduced :class:`quadmodes.runs.simulate.RunResult`."""
     d, sys = result.diagnostics, result.system
-    _, _, s, _ = dyn.split_state(sys, result.solution.y)
+    _, _, s, _ = rsys.split_state(sys, result.solution.y)
     amp = np.linalg.norm(s, axis=1) if s.shape[1] else np.zeros(len(d.t))
     return Series(
         name=name,

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from quadmodes.rom import dynamics as dyn
-from quadmodes.rom.integrators import Solution
+from quadmodes.rom import system as rsys
+from quadmodes.rom.solution import Solution
 from quadmodes.rotations import rotation_matrix
 
 
@@ -55,7 +56,7 @@ class Diagnostics:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
-def nominal_spin_axis(sys: dyn.ReducedSystem, which: str = "minor") -> np.ndarray:
+def nominal_spin_axis(sys: rsys.ReducedSystem, which: str = "minor") -> np.ndarray:
     """Principal axis (3,) of J0 ("minor", "intermediate" or "major"), sign: largest component
     positive."""
     lam, vec = np.linalg.eigh(sys.J0)
@@ -80,7 +81,7 @@ def track_axis(vectors: np.ndarray, start: np.ndarray) -> np.ndarray:
     return out
 
 
-def principal_axis(sys: dyn.ReducedSystem, s: np.ndarray, spin_axis=None):
+def principal_axis(sys: rsys.ReducedSystem, s: np.ndarray, spin_axis=None):
     """Tracked principal axis of J̃(s) for s (k,N): returns (v_a (k,3), I_a (k,), I_t (k,),
     J̃ (k,3,3)). ``spin_axis`` (3,) body frame; default the minor axis of J0."""
     jt = dyn.inertia_tensor(sys, s, "rot")
@@ -99,7 +100,7 @@ def cone_angle(h: np.ndarray, axis: np.ndarray) -> np.ndarray:
     return np.arctan2(cr, np.abs(np.sum(h * axis, -1)))
 
 
-def dissipated_energy(sys: dyn.ReducedSystem, sol: Solution) -> np.ndarray:
+def dissipated_energy(sys: rsys.ReducedSystem, sol: Solution) -> np.ndarray:
     """E_d (k,) J: the integrator's own discrete value if it provided one, else the cumulative
     trapezoid of ṡᵀCṡ over the samples."""
     if sol.dissipated is not None and len(sol.dissipated) == len(sol.t):
@@ -110,11 +111,11 @@ def dissipated_energy(sys: dyn.ReducedSystem, sol: Solution) -> np.ndarray:
     return out
 
 
-def diagnostics(sys: dyn.ReducedSystem, sol: Solution, spin_axis=None) -> Diagnostics:
+def diagnostics(sys: rsys.ReducedSystem, sol: Solution, spin_axis=None) -> Diagnostics:
     """All diagnostics of ``sol`` (see :class:`Diagnostics`); ``spin_axis`` (3,): nominal body
     spin axis for the tracking (default: the minor principal axis of J0)."""
     y = sol.y
-    q, w, s, _ = dyn.split_state(sys, y)
+    q, w, s, _ = rsys.split_state(sys, y)
     r = rotation_matrix(q)
     h = dyn.body_momentum(sys, y)
     big_h = np.einsum("kab,kb->ka", r, h)

@@ -1,6 +1,7 @@
 """Compiled (numba) time loop of the Lie-group implicit midpoint of :mod:`quadmodes.rom.integrators`.
 
-The numpy midpoint (``integrators._Midpoint`` driven by ``integrators._fixed_run``) spends almost
+The numpy midpoint (:class:`~quadmodes.rom.midpoint.MidpointStep` driven by
+:func:`~quadmodes.rom.fixed_step.run_fixed`) spends almost
 all of its time in Python and numpy call overhead: one step of the N = 5 system is a few thousand
 floating-point operations on arrays of 8 and 64 numbers. This module runs the *whole* fixed-step
 loop (predictor, analytic Jacobian, chord Newton, the ω projection, dissipated energy, sampling
@@ -20,21 +21,30 @@ factorisation of the Newton matrix (partial pivoting) instead of multiplying by 
 both are backward stable, and the converged steps differ at round-off level.
 
 Generic over the formulations (Q, P, L, rigid) through the mass tensors of
-:class:`~quadmodes.rom.dynamics.ReducedSystem`: ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` with z = (1, s),
+:class:`~quadmodes.rom.system.ReducedSystem`: ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` with z = (1, s),
 Mt (N+1, N+1, 3+N, 3+N). ``Mt`` (rotational rows from the formulation's arrays, modal rows from
 the energy arrays) gives the momenta; ``MtE`` (energy arrays) gives ∂T/∂s. For "P" they differ;
 for the others they are the same array. N = 0 (rigid) is the same code with empty loops.
 Formulation "Q4" adds the cubic/quartic potential through ``v3g = 3 V3`` (N, N²) and
 ``v4g = 4 V4`` (N, N³) (the ``ReducedSystem._V3g/_V4g`` layout; other formulations pass
-(N, 0) arrays and skip it), with the average-vector-field force of ``integrators._Midpoint``.
-The kernel takes the tensors flattened as ((N+1)², (3+N)²) (the ``ReducedSystem._Mt`` layout)
+(N, 0) arrays and skip it), with the average-vector-field force of :class:`~quadmodes.rom.midpoint.MidpointStep`.
+The kernel takes the tensors flattened as ((N+1)², (3+N)²) (the ``FlatTensors.Mt`` layout)
 so that its inner loops run over contiguous blocks and vectorise.
 
 Units: SI. ω (rad/s), s (√kg·m), ṡ (√kg·m/s), h (kg m²/s), energies (J), Δt (s).
 
 Every function is ``@njit(cache=True)``: the machine code is written next to this file
 (``__pycache__``; or under ``$NUMBA_CACHE_DIR``) at the first call, so the compile cost (≈10 s)
-is paid once per machine and later processes load it in well under a second.
+is paid once per machine and later processes load it in well under a second. The rotation
+helpers are the scalar leaves of :mod:`quadmodes.rotations` (written once for both backends),
+compiled here with the same options. Numba checks only this file's time stamp before loading the
+cached loop (the leaves are compiled into it): after editing those leaves, touch this file or
+clear the cache (``*.nbi``/``*.nbc`` in ``__pycache__`` or ``$NUMBA_CACHE_DIR``), or the old
+machine code is loaded. For the same reason the kernel stays in this one file.
+
+Layout: the scalar rotation leaves; products with the mass tensor and the quartic potential;
+dense LU; one step (:func:`_residual`, :func:`_jacobian`, :func:`_linearise`, :func:`_chord`,
+:func:`_advance`); the loop :func:`run_midpoint`; the Python wrapper :func:`fixed_run`.
 """
 
 from __future__ import annotations
@@ -45,6 +55,10 @@ import time
 import numba as nb
 import numpy as np
 
+from quadmodes import rotations as rot
+from quadmodes.rom.fixed_step import failure_message, newton_weights
+from quadmodes.rom.solution import work_counters
+
 # fastmath is off on purpose: the kernel must reproduce the numpy backend to round-off, and the
 # Newton test relies on IEEE semantics for NaN/inf (a diverging iterate must be seen).
 _jit = nb.njit(cache=True, nogil=True, fastmath=False)
@@ -54,29 +68,27 @@ OK, NOT_CONVERGED, SINGULAR = 0, 1, 2
 
 
 # ---------------------------------------------------------------------------------------------
-# small linear algebra on 3-vectors and the mass tensor
+# rotations: the scalar leaves of quadmodes.rotations, compiled, on (3,) and (4,) arrays
 # ---------------------------------------------------------------------------------------------
+
+_half_angle_coefficients = _jit(rot.half_angle_coefficients)
+_rodrigues_coefficients = _jit(rot.rodrigues_coefficients)
+_left_jacobian_coefficients = _jit(rot.left_jacobian_coefficients)
+_rodrigues_rotate = _jit(rot.rodrigues_rotate)
+_quat_times_exp = _jit(rot.quat_times_exp)
 
 
 @_jit
 def _rotate(theta, v, out):
-    """``out = exp(θ̂) v`` (Rodrigues); θ (3,) rad, v (3,), out (3,). Returns False if |θ|² is
-    not finite (the numpy backend raises a math domain error there; a diverged iterate)."""
+    """``out = exp(θ̂) v`` (Rodrigues); θ (3,) rad, v (3,), out (3,) (may alias θ). Returns False
+    if |θ|² is not finite (the numpy backend raises a math domain error there; a diverged
+    iterate)."""
     tx, ty, tz = theta[0], theta[1], theta[2]
-    hx, hy, hz = v[0], v[1], v[2]
     a2 = tx * tx + ty * ty + tz * tz
     if not math.isfinite(a2):
         return False
-    if a2 < 1e-12:  # series: avoids 0/0 and the cancellation in 1 − cos
-        sa, ca = 1.0 - a2 / 6.0, 0.5 - a2 / 24.0
-    else:
-        a = math.sqrt(a2)
-        sa, ca = math.sin(a) / a, (1.0 - math.cos(a)) / a2
-    cx, cy, cz = ty * hz - tz * hy, tz * hx - tx * hz, tx * hy - ty * hx  # θ × v
-    ex, ey, ez = ty * cz - tz * cy, tz * cx - tx * cz, tx * cy - ty * cx  # θ × (θ × v)
-    out[0] = hx + sa * cx + ca * ex
-    out[1] = hy + sa * cy + ca * ey
-    out[2] = hz + sa * cz + ca * ez
+    sa, ca = _rodrigues_coefficients(a2)
+    out[0], out[1], out[2] = _rodrigues_rotate(sa, ca, tx, ty, tz, v[0], v[1], v[2])
     return True
 
 
@@ -86,11 +98,7 @@ def _left_jacobian(theta, out):
     ``exp((θ+δ)^) = exp((J_l δ)^) exp(θ̂) + O(δ²)``, ``J_l = I + c θ̂ + d θ̂²``."""
     x, y, z = theta[0], theta[1], theta[2]
     a2 = x * x + y * y + z * z
-    if a2 < 1e-12:
-        c, d = 0.5 - a2 / 24.0, 1.0 / 6.0 - a2 / 120.0
-    else:
-        a = math.sqrt(a2)
-        c, d = (1.0 - math.cos(a)) / a2, (a - math.sin(a)) / (a2 * a)
+    c, d = _left_jacobian_coefficients(a2)
     # θ̂² = θθᵀ − |θ|² I
     out[0, 0] = 1.0 + d * (x * x - a2)
     out[1, 1] = 1.0 + d * (y * y - a2)
@@ -107,24 +115,19 @@ def _left_jacobian(theta, out):
 def _quat_step(q, phi):
     """``q ← q ⊗ exp(φ/2)``, normalised, in place; q (4,) scalar first, φ (3,) rad."""
     px, py, pz = phi[0], phi[1], phi[2]
-    a = math.sqrt(px * px + py * py + pz * pz)
-    half = 0.5 * a
-    k = 0.5 - a * a / 48.0 if a < 1e-4 else math.sin(half) / a
-    c = math.cos(half)
-    bx, by, bz = k * px, k * py, k * pz
-    a0, ax, ay, az = q[0], q[1], q[2], q[3]
-    r0 = a0 * c - ax * bx - ay * by - az * bz
-    r1 = a0 * bx + c * ax + ay * bz - az * by
-    r2 = a0 * by + c * ay + az * bx - ax * bz
-    r3 = a0 * bz + c * az + ax * by - ay * bx
-    nrm = 1.0 / math.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3)
-    q[0], q[1], q[2], q[3] = r0 * nrm, r1 * nrm, r2 * nrm, r3 * nrm
+    c, k = _half_angle_coefficients(math.sqrt(px * px + py * py + pz * pz))
+    q[0], q[1], q[2], q[3] = _quat_times_exp(q[0], q[1], q[2], q[3], c, k, px, py, pz)
+
+
+# ---------------------------------------------------------------------------------------------
+# products with the mass tensor, and the quartic potential
+# ---------------------------------------------------------------------------------------------
 
 
 @_jit
 def _mass_matrix(mt, z, out):
     """``out = 𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` (3+N, 3+N); mt ((N+1)², (3+N)²) the flattened mass
-    tensor (``ReducedSystem._Mt`` layout), z (N+1,) = (1, s).
+    tensor (``FlatTensors.Mt`` layout), z (N+1,) = (1, s).
 
     Mt is symmetric in (i, j), so only i ≤ j is visited (off-diagonal pairs counted twice). The
     inner loop runs over the (3+N)² contiguous entries of a block: independent multiply-adds
@@ -180,6 +183,40 @@ def _second_derivative(mte, v, vv, out):
                 acc += row[e] * vv[e]
             out[k, j] = acc
             out[j, k] = acc
+
+
+@_jit
+def _nl_force(v3g, v4g, z, out):
+    """``out = 3 V3·ss + 4 V4·sss`` (N,) at s = z[1:] (z = (1, s)); v3g (N, N²), v4g (N, N³)."""
+    n = out.shape[0]
+    for k in range(n):
+        acc = 0.0
+        for m in range(n):
+            sm = z[m + 1]
+            for q in range(n):
+                smq = sm * z[q + 1]
+                acc += v3g[k, m * n + q] * smq
+                base = (m * n + q) * n
+                for p in range(n):
+                    acc += v4g[k, base + p] * smq * z[p + 1]
+        out[k] = acc
+
+
+@_jit
+def _nl_hessian(v3g, v4g, z, out):
+    """``out = 6 V3·s + 12 V4·ss`` (N, N) at s = z[1:]: the Hessian of the cubic/quartic
+    potential (V3, V4 symmetric)."""
+    n = out.shape[0]
+    for k in range(n):
+        for m in range(n):
+            acc = 0.0
+            for q in range(n):
+                sq = z[q + 1]
+                acc += 2.0 * v3g[k, m * n + q] * sq
+                base = (m * n + q) * n
+                for p in range(n):
+                    acc += 3.0 * v4g[k, base + p] * sq * z[p + 1]
+            out[k, m] = acc
 
 
 # ---------------------------------------------------------------------------------------------
@@ -264,50 +301,29 @@ def _begin(m0, dt, x0, s0, h0, p0, sb1, sbm):
 
 
 @_jit
-def _nl_force(v3g, v4g, z, out):
-    """``out = 3 V3·ss + 4 V4·sss`` (N,) at s = z[1:] (z = (1, s)); v3g (N, N²), v4g (N, N³)."""
-    n = out.shape[0]
-    for k in range(n):
-        acc = 0.0
-        for m in range(n):
-            sm = z[m + 1]
-            for q in range(n):
-                smq = sm * z[q + 1]
-                acc += v3g[k, m * n + q] * smq
-                base = (m * n + q) * n
-                for p in range(n):
-                    acc += v4g[k, base + p] * smq * z[p + 1]
-        out[k] = acc
+def _work_arrays(n):
+    """Work arrays of :func:`_residual` and :func:`_jacobian` for N = n modes (m3 = 3 + n):
+    ``(z1, zm (n+1,), m1 (m3, m3), numid (m3,), theta, rh0 (3,), pm, p1 (n, m3), w2 (n, n),
+    jl (3, 3), y (m3²,), nm, n1 (n,), hm, h1 (n, n))``."""
+    m3 = n + 3
+    return (np.empty(n + 1), np.empty(n + 1), np.empty((m3, m3)), np.empty(m3), np.empty(3),
+            np.empty(3), np.empty((n, m3)), np.empty((n, m3)), np.empty((n, n)),
+            np.empty((3, 3)), np.empty(m3 * m3), np.empty(n), np.empty(n), np.empty((n, n)),
+            np.empty((n, n)))  # fmt: skip
 
 
 @_jit
-def _nl_hessian(v3g, v4g, z, out):
-    """``out = 6 V3·s + 12 V4·ss`` (N, N) at s = z[1:]: the Hessian of the cubic/quartic
-    potential (V3, V4 symmetric)."""
-    n = out.shape[0]
-    for k in range(n):
-        for m in range(n):
-            acc = 0.0
-            for q in range(n):
-                sq = z[q + 1]
-                acc += 2.0 * v3g[k, m * n + q] * sq
-                base = (m * n + q) * n
-                for p in range(n):
-                    acc += 3.0 * v4g[k, base + p] * sq * z[p + 1]
-            out[k, m] = acc
+def _residual(x, arrays, dt, consts, wk, r):
+    """Residual r (3+N,) of the step equations at ν₁ = x (3+N,). Returns False if the iterate
+    is non-finite. Mirrors :meth:`quadmodes.rom.midpoint.MidpointStep.residual`.
 
-
-@_jit
-def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm, v3g, v4g, n0, qwk):
-    """Residual r (3+N,) of the step equations at ν₁ = x (3+N,) and, if ``jac``, its Jacobian
-    ``jm`` (3+N, 3+N) with respect to x. Returns False if the iterate is non-finite.
-
-    ``wk`` is a tuple of work arrays ``(z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y)``
-    (``y`` (3+N)²); on return ``m1`` = 𝕄(s₁). Mirrors ``integrators._Midpoint.residual``.
-    Q4 (``v3g.shape[1] > 0``): n0 (N,) = 3V3·s₀s₀ + 4V4·s₀s₀s₀ of the step, ``qwk`` =
-    ``(nm, n1, hm, h1)`` work arrays ((N,), (N,), (N,N), (N,N))."""
-    z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y = wk
-    nm, n1, hm, h1 = qwk
+    ``arrays`` = (Mt, MtE, Λ, C, 3V3, 4V4) of :func:`_arrays`; ``consts`` = (ν₀, h₀, p₀, sb1,
+    sbm, n0) of the step (n0 (N,) = 3V3·s₀s₀ + 4V4·s₀s₀s₀ for Q4, ``v3g.shape[1] > 0``); ``wk``
+    of :func:`_work_arrays`: on return it holds z₁, z½, 𝕄(s₁), ν½, θ = −Δt ω½, exp(θ̂) h₀ and
+    P_E(z½, ν½) for :func:`_jacobian`."""
+    mt, mte, lam, cmat, v3g, v4g = arrays
+    x0, h0, p0, sb1, sbm, n0 = consts
+    z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y, nm, n1, hm, h1 = wk
     quartic = v3g.shape[1] > 0
     n = lam.shape[0]
     m3 = n + 3
@@ -345,8 +361,18 @@ def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm, v
         if quartic:
             f -= (n0[k] + 4.0 * nm[k] + n1[k]) / 6.0
         r[3 + k] -= p0[k] + dt * f
-    if not jac:
-        return True
+    return True
+
+
+@_jit
+def _jacobian(x, arrays, dt, wk, jm):
+    """Jacobian ``jm`` (3+N, 3+N) of the residual with respect to ν₁ = x, from the intermediates
+    that :func:`_residual` left in ``wk`` at the same x."""
+    mt, mte, lam, cmat, v3g, v4g = arrays
+    z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y, nm, n1, hm, h1 = wk
+    n = lam.shape[0]
+    m3 = n + 3
+    hdt = 0.5 * dt
     for a in range(m3):
         for b in range(m3):
             jm[a, b] = m1[a, b]
@@ -373,14 +399,64 @@ def _residual(x, jac, mt, mte, lam, cmat, dt, x0, h0, p0, sb1, sbm, wk, r, jm, v
             jm[3 + k, a] -= dt * pm[k, a]
         for j in range(n):
             jm[3 + k, 3 + j] += hdt * cmat[k, j] - qdt2 * (w2[k, j] - lam[k, j])
-    if quartic:  # ∂s½/∂ṡ₁ = ¼Δt, ∂s₁/∂ṡ₁ = ½Δt
+    if v3g.shape[1] > 0:  # Q4; ∂s½/∂ṡ₁ = ¼Δt, ∂s₁/∂ṡ₁ = ½Δt
         _nl_hessian(v3g, v4g, zm, hm)
         _nl_hessian(v3g, v4g, z1, h1)
         dt2 = dt * dt
         for k in range(n):
             for j in range(n):
                 jm[3 + k, 3 + j] += dt2 * (hm[k, j] / 6.0 + h1[k, j] / 12.0)
-    return True
+
+
+@_jit
+def _linearise(m, z, x_prev, s, xg, arrays, dt, consts, wk, r, jm, piv):
+    """Start a step: per-step constants (``consts``, from ν₀ = consts[0], s₀ = s, 𝕄(s₀) = m and
+    z = (1, s₀)), the predictor ``xg = 2ν₀ − ν_prev``, the residual r there and the LU factors
+    of its Jacobian in ``jm``, ``piv``. Returns False for a non-finite predictor or a singular
+    Jacobian."""
+    x, h0, p0, sb1, sbm, n0 = consts
+    _begin(m, dt, x, s, h0, p0, sb1, sbm)
+    v3g, v4g = arrays[4], arrays[5]
+    if v3g.shape[1] > 0:
+        _nl_force(v3g, v4g, z, n0)  # z = (1, s₀)
+    for a in range(x.shape[0]):
+        xg[a] = 2.0 * x[a] - x_prev[a]
+    # analytic Jacobian once per step, at the predictor; chord iterations after that
+    if not _residual(xg, arrays, dt, consts, wk, r):
+        return False
+    _jacobian(xg, arrays, dt, wk, jm)
+    return _lu_factor(jm, piv)
+
+
+@_jit
+def _chord(xg, arrays, dt, consts, wk, r, jm, piv, dx, wt, scale, newton_tol, max_newton):
+    """Chord iterations ``xg ← xg − J⁻¹ r(xg)`` with the LU factors (jm, piv) of
+    :func:`_linearise`; the convergence test of :func:`quadmodes.rom.fixed_step.chord_newton`.
+    Returns (OK / NOT_CONVERGED / SINGULAR, iterations, last relative update)."""
+    err_prev = math.inf
+    err = math.inf
+    its = 0
+    for it in range(1, max_newton + 1):
+        its = it
+        _lu_solve(jm, piv, r, dx)
+        for a in range(xg.shape[0]):
+            xg[a] -= dx[a]
+        err = _weighted_max(dx, wt) / scale
+        if not math.isfinite(err):
+            return NOT_CONVERGED, its, err
+        if err <= newton_tol:
+            return OK, its, err
+        if err_prev < math.inf:
+            rho = err / err_prev
+            # remaining error ≈ ρ/(1−ρ)·update for a linearly contracting chord iteration
+            if rho < 0.5 and err * rho <= (1.0 - rho) * newton_tol:
+                return OK, its, err
+            if rho >= 1.0 and err <= 1e3 * newton_tol:
+                return OK, its, err  # stagnation at round-off
+        err_prev = err
+        if not _residual(xg, arrays, dt, consts, wk, r):
+            return SINGULAR, its, err
+    return NOT_CONVERGED, its, err
 
 
 @_jit
@@ -485,6 +561,7 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     """
     n = lam.shape[0]
     m3 = n + 3
+    arrays = (mt, mte, lam, cmat, v3g, v4g)
     # state: q, s, ν = (ω, ṡ) and the previous ν for the linear-extrapolation predictor
     q = y0[0:4].copy()
     s = y0[7 : 7 + n].copy()
@@ -492,91 +569,41 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     x[:3] = y0[4:7]
     x[3:] = y0[7 + n : 7 + 2 * n]
     x_prev = x.copy()
-    xg = np.empty(m3)
     # per-step constants and work arrays, allocated once (no allocation inside the loop)
-    h0, p0, sb1, sbm = np.empty(3), np.empty(n), np.empty(n), np.empty(n)
-    r, dx = np.empty(m3), np.empty(m3)
+    consts = (x, np.empty(3), np.empty(n), np.empty(n), np.empty(n), np.zeros(n))
+    wk = _work_arrays(n)
+    xg, r, dx = np.empty(m3), np.empty(m3), np.empty(m3)
     jm, piv = np.empty((m3, m3)), np.empty(m3, np.int64)
-    wk = (np.empty(n + 1), np.empty(n + 1), np.empty((m3, m3)), np.empty(m3), np.empty(3),
-          np.empty(3), np.empty((n, m3)), np.empty((n, m3)), np.empty((n, n)),
-          np.empty((3, 3)), np.empty(m3 * m3))  # fmt: skip
     z, m = np.empty(n + 1), np.empty((m3, m3))  # 𝕄(s) of the current state (kept across steps)
-    n0 = np.zeros(n)
-    qwk = (np.empty(n), np.empty(n), np.empty((n, n)), np.empty((n, n)))
-    quartic = v3g.shape[1] > 0
     phi, tgt, lu3, piv3 = np.empty(3), np.empty(3), np.empty((3, 3)), np.empty(3, np.int64)
     z[0] = 1.0
     z[1:] = s
     _mass_matrix(mt, z, m)
-
     _store(out, ed_out, 0, q, x, s, 0.0)
     k_save = 1
     next_save = save_idx[1] if save_idx.shape[0] > 1 else -1
     e_d = 0.0
-    n_newton = n_jac = n_res = 0
-    status = OK
-    fail_step = fail_its = 0
+    n_newton = n_jac = 0
+    status = fail_step = fail_its = done = 0
     fail_err = 0.0
-    done = 0
     for i in range(1, n_steps + 1):
-        _begin(m, dt, x, s, h0, p0, sb1, sbm)
-        if quartic:
-            _nl_force(v3g, v4g, z, n0)  # z = (1, s₀)
-        for a in range(m3):
-            xg[a] = 2.0 * x[a] - x_prev[a]
-        scale = _state_scale(x, xg, s, wt, lam)
-        # analytic Jacobian once per step, at the predictor; chord iterations after that
-        if not _residual(
-            xg, True, mt, mte, lam, cmat, dt, x, h0, p0, sb1, sbm, wk, r, jm, v3g, v4g, n0, qwk
-        ):
-            status, fail_step = SINGULAR, i
-            break
-        if not _lu_factor(jm, piv):
+        if not _linearise(m, z, x_prev, s, xg, arrays, dt, consts, wk, r, jm, piv):
             status, fail_step = SINGULAR, i
             break
         n_jac += 1
-        ok = False
-        err_prev = math.inf
-        err = math.inf
-        its = 0
-        finite = True
-        for it in range(1, max_newton + 1):
-            its = it
-            _lu_solve(jm, piv, r, dx)
-            for a in range(m3):
-                xg[a] -= dx[a]
-            err = _weighted_max(dx, wt) / scale
-            if not math.isfinite(err):
-                break
-            if err <= newton_tol:
-                ok = True
-                break
-            if err_prev < math.inf:
-                rho = err / err_prev
-                # remaining error ≈ ρ/(1−ρ)·update for a linearly contracting chord iteration
-                if rho < 0.5 and err * rho <= (1.0 - rho) * newton_tol:
-                    ok = True
-                    break
-                if rho >= 1.0 and err <= 1e3 * newton_tol:
-                    ok = True  # stagnation at round-off
-                    break
-            err_prev = err
-            if not _residual(
-                xg, False, mt, mte, lam, cmat, dt, x, h0, p0, sb1, sbm, wk, r, jm, v3g, v4g, n0,
-                qwk,
-            ):
-                finite = False
-                break
-        if not finite:
+        scale = _state_scale(x, xg, s, wt, lam)
+        code, its, err = _chord(
+            xg, arrays, dt, consts, wk, r, jm, piv, dx, wt, scale, newton_tol, max_newton
+        )
+        if code == SINGULAR:
             status, fail_step = SINGULAR, i
             break
         n_newton += its
-        n_res += its
-        if not ok:
+        if code == NOT_CONVERGED:
             status, fail_step, fail_its, fail_err = NOT_CONVERGED, i, its, err
             break
-        ded = _advance(mt, cmat, dt, x, xg, h0, sb1, s, phi, z, m, lu3, piv3, tgt)
-        e_d += ded
+        h0, sb1 = consts[1], consts[3]
+        e_d += _advance(mt, cmat, dt, x, xg, h0, sb1, s, phi, z, m, lu3, piv3, tgt)
         _quat_step(q, phi)
         for a in range(m3):
             x_prev[a] = x[a]
@@ -586,19 +613,15 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
             _store(out, ed_out, k_save, q, x, s, e_d)
             k_save += 1
             next_save = save_idx[k_save] if k_save < save_idx.shape[0] else -1
-    # last accepted state (the failure path returns it after the samples)
-    last[0:4] = q
-    last[4:7] = x[:3]
-    last[7 : 7 + n] = s
-    last[7 + n :] = x[3:]
+    _store(last.reshape(1, last.shape[0]), finfo[1:], 0, q, x, s, e_d)  # last accepted state
     info[0], info[1], info[2] = status, fail_step, fail_its
-    info[3], info[4], info[5], info[6] = n_newton, n_jac, n_res, done
-    finfo[0], finfo[1] = fail_err, e_d
+    info[3], info[4], info[5], info[6] = n_newton, n_jac, n_newton, done
+    finfo[0] = fail_err
     return k_save
 
 
 # ---------------------------------------------------------------------------------------------
-# Python wrapper (the contract of integrators._fixed_run)
+# Python wrapper (the contract of quadmodes.rom.fixed_step.run_fixed)
 # ---------------------------------------------------------------------------------------------
 
 
@@ -608,22 +631,22 @@ def _arrays(sys):
     (3+N)²); Λ, C (N,N); weights √diag(J0, μ) (3+N,) of the Newton convergence test; 3V3
     (N, N²) and 4V4 (N, N³) for "Q4", else (N, 0) arrays."""
     f = np.ascontiguousarray
-    wt = np.concatenate([np.sqrt(np.diag(sys.J0)), np.sqrt(np.diag(sys.mu))])
     n = sys.n_modes
     quartic = getattr(sys, "quartic", False)
+    flat = sys.flat
     return (
-        f(sys._Mt, dtype=np.float64),
-        f(sys._MtE, dtype=np.float64),
+        f(flat.Mt, dtype=np.float64),
+        f(flat.MtE, dtype=np.float64),
         f(sys.Lam, dtype=np.float64),
         f(sys.C, dtype=np.float64),
-        f(wt),
-        f(sys._V3g, dtype=np.float64) if quartic else np.zeros((n, 0)),
-        f(sys._V4g, dtype=np.float64) if quartic else np.zeros((n, 0)),
+        f(newton_weights(sys)),
+        f(flat.V3g, dtype=np.float64) if quartic else np.zeros((n, 0)),
+        f(flat.V4g, dtype=np.float64) if quartic else np.zeros((n, 0)),
     )
 
 
 def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="midpoint"):
-    """Compiled equivalent of ``integrators._fixed_run(_Midpoint(sys, dt), ...)``.
+    """Compiled equivalent of ``fixed_step.run_fixed(MidpointStep(sys, dt), ...)``.
 
     sys: ReducedSystem; y0 (7+2N,) with q normalised; n_steps; dt (s); save_idx: increasing step
     indices to sample, starting at 0; newton_tol; max_newton; t0 (s, for messages). Returns
@@ -645,19 +668,12 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="
     out, ed_out = out[:k_save], ed_out[:k_save]
     if status:
         t_fail = t0 + step * dt
-        if status == NOT_CONVERGED:
-            msg = (
-                f"{name}: Newton did not converge at step {step} (t = {t_fail:.6g} s) "
-                f"after {its} iterations (relative update {finfo[0]:.2e})"
-            )
-        else:
-            msg = (
-                f"{name}: Newton failed at step {step} (t = {t_fail:.6g} s): singular or "
-                "non-finite iterate; reduce dt"
-            )
+        msg = failure_message(
+            name, step, t_fail, its if status == NOT_CONVERGED else None, finfo[0]
+        )
         out = np.vstack([out, last])  # keep what was saved plus the last accepted state
         ed_out = np.append(ed_out, finfo[1])
-    stats = {"n_steps": done, "n_rhs": n_res, "n_newton": n_newton, "n_jac": n_jac}
+    stats = work_counters(done, n_res, n_newton, n_jac)
     return out, ed_out, done, stats, (1 if status else 0), msg
 
 

@@ -42,12 +42,12 @@ def _var(dims, value, units: str, description: str) -> xr.Variable:
 
 def to_dataset(result) -> xr.Dataset:
     """The :class:`quadmodes.runs.simulate.RunResult` as an xarray Dataset (SI units)."""
-    from quadmodes.rom import dynamics as dyn
+    from quadmodes.rom import system as rsys
     from quadmodes.runs.simulate import largest_nodal_displacement
 
     sol, d, sys = result.solution, result.diagnostics, result.system
     run, model = result.run, result.model
-    q, w, s, sd = dyn.split_state(sys, sol.y)
+    q, w, s, sd = rsys.split_state(sys, sol.y)
     n = sys.n_modes
     labels = list(model.labels[:n]) if n else []
     freqs = np.asarray(model.frequencies_hz[:n], float)

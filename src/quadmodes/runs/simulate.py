@@ -33,8 +33,10 @@ from quadmodes.case.schema import Case, CaseError, Modes, RunCase
 from quadmodes.rom import artifact, integrators
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import reduced as red
+from quadmodes.rom import rotating_frame as rf
+from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import Diagnostics, diagnostics
-from quadmodes.rom.integrators import Solution
+from quadmodes.rom.solution import Solution
 from quadmodes.structure import pipeline
 
 Progress = Callable[[str, float], None]
@@ -225,7 +227,7 @@ class InitialState:
     notes: tuple[str, ...] = ()
 
 
-def initial_state(system: dyn.ReducedSystem, model: red.ReducedModel, run: RunCase) -> InitialState:
+def initial_state(system: rsys.ReducedSystem, model: red.ReducedModel, run: RunCase) -> InitialState:
     """Initial state of ``run``: modal displacement s0 in the first bending mode (largest nodal
     displacement = ``initial.bending_amplitude``), ṡ0 = 0, q0 = identity, and the body angular
     velocity of :func:`quadmodes.rom.dynamics.coning_omega` for J̃(s0): spin ``initial.spin_rate``
@@ -254,7 +256,7 @@ def initial_state(system: dyn.ReducedSystem, model: red.ReducedModel, run: RunCa
     omega = dyn.coning_omega(jt, run.initial.spin_rate, run.initial.cone_angle)
     lam, vec = np.linalg.eigh(jt)
     axis = vec[:, 0] * np.sign(vec[np.argmax(np.abs(vec[:, 0])), 0])
-    y0 = dyn.pack_state(system, omega=omega, s=s0)
+    y0 = rsys.pack_state(system, omega=omega, s=s0)
     return InitialState(y0, axis, jt, pair, tuple(notes))
 
 
@@ -325,13 +327,13 @@ class Validity:
         }
 
 
-def _min_stiffness(system: dyn.ReducedSystem, omega: np.ndarray) -> float:
-    k = dyn.rotating_frame_matrices(system, omega)[2]
+def _min_stiffness(system: rsys.ReducedSystem, omega: np.ndarray) -> float:
+    k = rf.rotating_frame_matrices(system, omega)[2]
     return float(np.linalg.eigvalsh(k).min()) if k.shape[0] else math.inf
 
 
 def rotating_validity(
-    system: dyn.ReducedSystem, omega, formulation: str, n_scan: int = VALIDITY_SCAN
+    system: rsys.ReducedSystem, omega, formulation: str, n_scan: int = VALIDITY_SCAN
 ) -> Validity:
     """:class:`Validity` of ``system`` (its formulation's J2) spinning at ``omega`` (3,) rad/s:
     the smallest eigenvalue of Λ − ωᵀJ2ω on a scan of ``n_scan`` spin rates α·ω (0 < α ≤ 1),
@@ -372,7 +374,7 @@ class RunResult:
     run: RunCase
     model_case: Case
     model: red.ReducedModel
-    system: dyn.ReducedSystem
+    system: rsys.ReducedSystem
     initial: InitialState
     solution: Solution
     diagnostics: Diagnostics
@@ -402,7 +404,7 @@ class RunSetup:
     run: RunCase
     model_case: Case
     model: red.ReducedModel
-    system: dyn.ReducedSystem
+    system: rsys.ReducedSystem
     initial: InitialState
     validity: Validity | None = None
 
@@ -438,12 +440,12 @@ def prepare(
             )
         if model.n_modes > run.reduced.modes:
             model = model.select(np.arange(run.reduced.modes))
-    system = dyn.reduced_system(model, run.reduced.formulation)
+    system = rsys.reduced_system(model, run.reduced.formulation)
     init = initial_state(system, model, run)
-    omega0 = dyn.split_state(system, init.y0)[1]
+    omega0 = rsys.split_state(system, init.y0)[1]
     validity = rotating_validity(system, omega0, run.reduced.formulation)
     if system.quartic:
-        _, _, s0, sd0 = dyn.split_state(system, init.y0)
+        _, _, s0, sd0 = rsys.split_state(system, init.y0)
         e_modal = float(0.5 * sd0 @ system.mu @ sd0 + dyn.potential_energy(system, init.y0))
         validity = dataclasses.replace(
             validity, modal_energy=e_modal, barrier_energy=dyn.potential_barrier(system)[0]
@@ -770,7 +772,7 @@ def simulate_spinup(
     if model is None:
         model = spinup_model(run, model_case)
     sp = run.spinup
-    system = dyn.reduced_system(model, run.reduced.formulation)
+    system = rsys.reduced_system(model, run.reduced.formulation)
     validity = rotating_validity(system, np.array([0.0, 0.0, sp.omega_s]), run.reduced.formulation)
     start = time.perf_counter()
     result = kane_spinup(

@@ -37,8 +37,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from quadmodes.fe.build import build_beam_structure
-from quadmodes.rom.dynamics import prescribed_rhs, reduced_system
+from quadmodes.rom.dynamics import prescribed_rhs
 from quadmodes.rom.reduced import ReducedModel, reduce
+from quadmodes.rom.system import reduced_system
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import compute_modes
 

@@ -13,15 +13,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import integrators as integ
+from quadmodes.rom import system as rsys
 from quadmodes.validation.fe_checks import Row
 
 REF2 = "references §2 (one mode, ζ = 0.02, Δt = 2.5 ms)"
 REF3 = "references §3 (Kane et al. spin-up)"
 
 
-def _one_mode_system(f_hz: float, zeta: float) -> dyn.ReducedSystem:
+def _one_mode_system(f_hz: float, zeta: float) -> rsys.ReducedSystem:
     """A single damped mode on a rigid unit-inertia body (no coupling): the references §2 case."""
     from quadmodes.rom.reduced import ReducedModel
 
@@ -35,7 +35,7 @@ def _one_mode_system(f_hz: float, zeta: float) -> dyn.ReducedSystem:
         X=z((1, 3)), translational=np.ones(1, bool), weights=np.ones(1), Phi=z((1, 1, 3)),
         G=z((1, 1, 1, 3)),
     )
-    return dyn.reduced_system(model, "Q")
+    return rsys.reduced_system(model, "Q")
 
 
 def one_step_damping(method: str, f_hz: float, zeta: float, dt: float) -> tuple[float, float]:
@@ -45,7 +45,7 @@ def one_step_damping(method: str, f_hz: float, zeta: float, dt: float) -> tuple[
     sys = _one_mode_system(f_hz, zeta)
     cols = []
     for s0, sd0 in ((1.0, 0.0), (0.0, w)):
-        sol = integ.integrate(sys, dyn.pack_state(sys, s=[s0], sdot=[sd0]), (0, dt), method, dt=dt)
+        sol = integ.integrate(sys, rsys.pack_state(sys, s=[s0], sdot=[sd0]), (0, dt), method, dt=dt)
         cols.append(sol.y[-1, 7:9] / [1.0, w])
     z = np.linalg.eigvals(np.array(cols).T)[0]
     lam = np.log(z) / dt
