@@ -206,3 +206,14 @@ def test_dt_convergence_of_cone_angle_growth(workdir, small_reduced_model, monke
     changes = np.abs(np.diff(growth))
     assert changes[1] < 0.02 * growth[2]
     assert changes[0] / changes[1] == pytest.approx(4.0, rel=0.5)
+
+
+def test_kernel_is_checked_against_the_rotation_leaves_it_compiles():
+    """numba reloads the cached loop as long as midpoint_kernel.py is unchanged, even if a leaf
+    of quadmodes.rotations compiled into it has changed: after editing a leaf, update
+    LEAVES_DIGEST (which also invalidates the cache)."""
+    from quadmodes.rom import midpoint_kernel as k
+
+    assert k.leaves_digest() == k.LEAVES_DIGEST, (
+        f"a rotation leaf changed: set LEAVES_DIGEST = {k.leaves_digest()!r} in midpoint_kernel.py"
+    )

@@ -40,7 +40,8 @@ helpers are the scalar leaves of :mod:`quadmodes.rotations` (written once for bo
 compiled here with the same options. Numba checks only this file's time stamp before loading the
 cached loop (the leaves are compiled into it): after editing those leaves, touch this file or
 clear the cache (``*.nbi``/``*.nbc`` in ``__pycache__`` or ``$NUMBA_CACHE_DIR``), or the old
-machine code is loaded. For the same reason the kernel stays in this one file.
+machine code is loaded; ``LEAVES_DIGEST`` below and its test make sure this file is edited
+then. For the same reason the kernel stays in this one file.
 
 Layout: the scalar rotation leaves; products with the mass tensor and the quartic potential;
 dense LU; one step (:func:`_residual`, :func:`_jacobian`, :func:`_linearise`, :func:`_chord`,
@@ -49,6 +50,8 @@ dense LU; one step (:func:`_residual`, :func:`_jacobian`, :func:`_linearise`, :f
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
 import time
 
@@ -71,11 +74,31 @@ OK, NOT_CONVERGED, SINGULAR = 0, 1, 2
 # rotations: the scalar leaves of quadmodes.rotations, compiled, on (3,) and (4,) arrays
 # ---------------------------------------------------------------------------------------------
 
-_half_angle_coefficients = _jit(rot.half_angle_coefficients)
-_rodrigues_coefficients = _jit(rot.rodrigues_coefficients)
-_left_jacobian_coefficients = _jit(rot.left_jacobian_coefficients)
-_rodrigues_rotate = _jit(rot.rodrigues_rotate)
-_quat_times_exp = _jit(rot.quat_times_exp)
+#: The leaves of :mod:`quadmodes.rotations` compiled into the loop.
+LEAVES = (
+    rot.half_angle_coefficients,
+    rot.rodrigues_coefficients,
+    rot.left_jacobian_coefficients,
+    rot.rodrigues_rotate,
+    rot.quat_times_exp,
+)
+#: :func:`leaves_digest` of the leaves this file was last checked against. A test compares the
+#: two: editing a leaf then forces an edit here, which makes numba recompile the cached loop.
+LEAVES_DIGEST = "12678275153a93c0"
+
+(
+    _half_angle_coefficients,
+    _rodrigues_coefficients,
+    _left_jacobian_coefficients,
+    _rodrigues_rotate,
+    _quat_times_exp,
+) = (_jit(f) for f in LEAVES)
+
+
+def leaves_digest() -> str:
+    """First 16 hex digits of the SHA-256 of the source of :data:`LEAVES`."""
+    text = "".join(inspect.getsource(f) for f in LEAVES)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
 @_jit
