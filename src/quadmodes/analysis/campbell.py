@@ -7,7 +7,7 @@ Two cases (see docs/kane-and-campbell.md):
 
       (λ² μ + λ (Γ(ω) [+ C]) + Λ − ωᵀJ2ω) φ = 0,    ω = Ω e,
 
-  solved through its companion matrix (:func:`quadmodes.rom.dynamics.rotating_frame_matrices`). The
+  solved through its companion matrix (:func:`quadmodes.rom.rotating_frame.rotating_frame_matrices`). The
   steady centrifugal forcing ½ωᵀJ1ω only shifts the static equilibrium, which does not enter the
   linear (s-independent) coefficients.
 * **Free body spinning about a principal axis** (``model.free is True``): the relative

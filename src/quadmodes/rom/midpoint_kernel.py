@@ -498,7 +498,7 @@ def _weighted_max(dx, wt):
 @_jit
 def _state_scale(x, xg, s, wt, lam):
     """Energy-like scale (√J) of the Newton unknowns for the relative convergence test:
-    max|ν₀ w| + max|ν_pred w| + √|sᵀΛs| (w = √diag(J0, μ)); as ``integrators._state_scale``."""
+    max|ν₀ w| + max|ν_pred w| + √|sᵀΛs| (w = √diag(J0, μ)); as ``fixed_step.state_scale``."""
     n = s.shape[0]
     v = 0.0
     for k in range(n):
