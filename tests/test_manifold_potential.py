@@ -324,7 +324,7 @@ def test_centrifugal_deflection_q4_vs_full_order(paper_coarse):
 def test_tensors_clamped_cable_beam():
     """Clamped ANCF cable (position and slope DOFs, f(x0) ≠ 0 only at the clamp): the quartic
     coefficient of the exact manifold energy is V4·dddd (the cubic one vanishes by symmetry)."""
-    from quadmodes.case.schema import load_case
+    from quadmodes.case import load_case
     from quadmodes.rom.reduced import reduce
     from quadmodes.structure.pipeline import build_modal_model
 
@@ -352,7 +352,7 @@ def test_gas_law_pressure_has_no_manifold_potential():
     sys.path.insert(0, str(Path(__file__).parent))
     from conftest import SMALL_CAPSULE
 
-    from quadmodes.case.schema import case_from_toml
+    from quadmodes.case import case_from_toml
     from quadmodes.rom.reduced import reduce
     from quadmodes.structure.pipeline import build_modal_model
 

@@ -17,7 +17,7 @@ import pytest
 from conftest import SMALL_CAPSULE
 from typer.testing import CliRunner
 
-from quadmodes.case.schema import (
+from quadmodes.case import (
     CaseError,
     builtin_case_names,
     builtin_run_case_names,

@@ -601,7 +601,7 @@ def write_campbell(result: CampbellResult, directory, stem: str = "campbell") ->
 def model_for_case(case, progress=None) -> ReducedModel:
     """Reduced model of a case (name, path or :class:`~quadmodes.case.schema.Case`) with its modes and
     damping ratio; degenerate y/z pairs of a straight beam are split into pure planes."""
-    from quadmodes.case.schema import Case, load_case
+    from quadmodes.case import Case, load_case
     from quadmodes.rom.reduced import reduce
     from quadmodes.structure.pipeline import build_modal_model
 

@@ -693,7 +693,7 @@ def _rom_roots(result, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def case_state(case):
     """``(Case, structure for vibrations (gas law set), inflated state x (n, 3) m)`` of a case name,
     TOML path or Case (pipeline.structure_for_case, reference_state, with_gas_law)."""
-    from quadmodes.case.schema import Case, load_case
+    from quadmodes.case import Case, load_case
     from quadmodes.structure.pipeline import reference_state, structure_for_case, with_gas_law
 
     if not isinstance(case, Case):

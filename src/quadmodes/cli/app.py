@@ -42,8 +42,7 @@ class UserError(Exception):
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    from quadmodes.case.schema import CaseError
-    from quadmodes.case.units import QuantityError
+    from quadmodes.case import CaseError, QuantityError
     from quadmodes.structure.calibrate import CalibrationError
     from quadmodes.structure.prestress import ConvergenceError
 
@@ -111,7 +110,7 @@ def _staged_output(directory: Path | None) -> Iterator[Path | None]:
 
 
 def _load(case: str):
-    from quadmodes.case.schema import load_case
+    from quadmodes.case import load_case
 
     return load_case(case)
 
@@ -125,7 +124,7 @@ def version() -> None:
 @app.command()
 def cases() -> None:
     """List the built-in cases."""
-    from quadmodes.case.schema import builtin_case_names, builtin_run_case_names, load_run_case
+    from quadmodes.case import builtin_case_names, builtin_run_case_names, load_run_case
 
     table = Table("name", "kind", "description")
     for name in builtin_case_names():
@@ -140,7 +139,7 @@ def cases() -> None:
 @app.command("show-case")
 def show_case(name: Annotated[str, typer.Argument(help="built-in case name or TOML file")]) -> None:
     """Print a case as TOML (copy it, edit it, pass the file to any command)."""
-    from quadmodes.case.schema import builtin_case_names, builtin_case_text, builtin_run_case_names
+    from quadmodes.case import builtin_case_names, builtin_case_text, builtin_run_case_names
 
     try:
         if name in builtin_case_names() or name in builtin_run_case_names(spinup=None):
@@ -397,7 +396,7 @@ def reduce_command(
 
     Cached in $QUADMODES_CACHE or ~/.cache/quadmodes: later calls and `run` skip the FE work.
     """
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
     from quadmodes.rom import artifact
     from quadmodes.runs import simulate
 
@@ -577,7 +576,7 @@ def run_command(
     Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
     results).
     """
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
     from quadmodes.runs.results import write_outputs, write_spinup_outputs
 
@@ -686,7 +685,7 @@ def campbell(
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
     bodies spin about their minor principal axis, clamped bodies on a hub about z."""
     from quadmodes.analysis.campbell import campbell_main
-    from quadmodes.case.units import parse_quantity
+    from quadmodes.case import parse_quantity
 
     try:
         lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
@@ -776,8 +775,7 @@ def compare_command(
     The full-order run is estimated first and checkpointed as it goes: Ctrl-C stops it, and the
     same command with --resume continues from the checkpoint."""
     from quadmodes.analysis import compare as cmp
-    from quadmodes.case.schema import load_run_case
-    from quadmodes.case.units import parse_quantity
+    from quadmodes.case import load_run_case, parse_quantity
     from quadmodes.fullorder import estimate_for_run, full_order_for_run, setup_for_run
     from quadmodes.runs import simulate
 

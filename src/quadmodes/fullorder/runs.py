@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from quadmodes.case.schema import RunCase, load_case, load_run_case
+from quadmodes.case import RunCase, load_case, load_run_case
 from quadmodes.fe.model import Structure, centre_of_mass
 from quadmodes.fullorder.integrator import FullOrderSolution, _n_steps, integrate_full_order
 from quadmodes.fullorder.kinematics import (

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from quadmodes import __version__
-from quadmodes.case.schema import Case, CaseError, Modes, RunCase
+from quadmodes.case import Case, CaseError, Modes, RunCase
 from quadmodes.rom import artifact, integrators
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import reduced as red
@@ -585,7 +585,7 @@ def apply_overrides(
     ``duration`` sets ``integration.duration`` or ``spinup.duration``."""
     import tomllib
 
-    from quadmodes.case.schema import run_case_from_dict
+    from quadmodes.case import run_case_from_dict
 
     if all(v is None for v in (method, dt, duration, formulation, save_every, spin_rate)):
         return run
@@ -625,7 +625,7 @@ def is_run_case(name_or_path: str) -> bool:
     """True if ``name_or_path`` is a built-in run case or a TOML file with ``kind = "run"``."""
     import tomllib
 
-    from quadmodes.case.schema import builtin_run_case_names
+    from quadmodes.case import builtin_run_case_names
 
     if name_or_path in builtin_run_case_names(None):
         return True

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.case.schema import Case
+from quadmodes.case import Case
 from quadmodes.fe.model import Structure
 from quadmodes.fe.rigid import point_mass_cluster
 from quadmodes.structure.labels import label_modes

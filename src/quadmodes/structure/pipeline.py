@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from quadmodes.case.schema import Case
+from quadmodes.case import Case
 from quadmodes.fe.build import (
     EndBodySpec,
     MembraneSpec,

@@ -103,7 +103,7 @@ def check_kane_campbell() -> list[Row]:
 
 
 def _paper_run(name: str, **overrides):
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
     from quadmodes.runs.results import summary, to_dataset
 
@@ -129,7 +129,7 @@ def check_paper_slow_spin() -> list[Row]:
 def check_paper_fast_spin() -> list[Row]:
     """paper-41hz (Q, 120 s): |H|, coning growth and its Δt convergence (dt, dt/2, dt/4), and
     backward Euler at the seed's 2.5 ms beside it."""
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
 
     run = load_run_case("paper-41hz")
@@ -207,7 +207,7 @@ def comparison_rows(payload: dict, tolerance: float = 0.05) -> list[Row]:
 def check_compare_coarse(window: float = 1.0) -> list[Row]:
     """``quadmodes compare paper-41hz-coarse --window 1 s``: rigid, L, P, Q, Q4 vs full order."""
     from quadmodes.analysis.compare import compare
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
 
     cmp = compare(load_run_case("paper-41hz-coarse"), window, full_order_dt=2.5e-4)
     return comparison_rows(cmp.as_json())

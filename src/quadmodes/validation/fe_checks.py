@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
-from quadmodes.case.schema import Case, load_case
+from quadmodes.case import Case, load_case
 from quadmodes.fe.build import MembraneSpec, build_membrane_structure
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import rigid_body_modes, second_order_force, tangent_stiffness
