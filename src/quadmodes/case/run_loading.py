@@ -31,7 +31,7 @@ def run_case_from_dict(
         raise CaseError(
             f'kind = "{kind}": a model case, not a run case; a run case has kind = "run", '
             'model = "<this case>", [initial] and [integration] tables '
-            "(see src/quadmodes/cases/paper-41hz.toml)",
+            "(see `quadmodes show-case paper-41hz`)",
             source=source,
             field="kind",
         )
