@@ -13,8 +13,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import (
@@ -27,6 +25,7 @@ from quadmodes.fe.model import (
     with_load_factor,
 )
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
+from quadmodes.structure.bordered import bordered_solver
 
 Progress = Callable[[str, float], None]
 log = logging.getLogger(__name__)
@@ -67,36 +66,6 @@ class PrestressedState:
         return state
 
 
-def _bordered_solver(k: sp.spmatrix, constraint: np.ndarray | None, low_rank) -> Callable:
-    """Factorise ``[[K + Σ c v vᵀ, C], [Cᵀ, 0]]`` and return ``rhs (3n,) -> solution (3n,)``."""
-    n = k.shape[0]
-    if constraint is None:
-        a = k.tocsc()
-    else:
-        c = sp.csc_matrix(constraint)
-        a = sp.bmat([[k, c], [c.T, None]], format="csc")
-    lu = spla.splu(a, permc_spec="COLAMD")
-    m = a.shape[0]
-
-    def base(rhs: np.ndarray) -> np.ndarray:
-        full = np.zeros(m)
-        full[:n] = rhs
-        return lu.solve(full)[:n]
-
-    if not low_rank:
-        return base
-    # Sherman–Morrison for the rank-one gas-law terms.
-    vecs = [(coef, vec, base(vec)) for coef, vec in low_rank]
-
-    def solve(rhs: np.ndarray) -> np.ndarray:
-        y = base(rhs)
-        for coef, vec, kv in vecs:
-            y = y - kv * (coef * (vec @ y) / (1.0 + coef * (vec @ kv)))
-        return y
-
-    return solve
-
-
 def _reduced(structure: Structure, vec: np.ndarray) -> np.ndarray:
     return vec.ravel()[structure.free_dofs]
 
@@ -135,7 +104,7 @@ def solve_static(
         if it == 1 or len(history) < 2 or history[-1] > 0.1 * history[-2]:
             k = tangent_stiffness(structure, x)[free][:, free]
             constraint = msub @ rigid_body_modes(structure, x)[free] if structure.is_free else None
-            solve = _bordered_solver(k, constraint, tangent_low_rank(structure, x))
+            solve = bordered_solver(k, constraint, tangent_low_rank(structure, x))
             factorisations += 1
         dx_free = -solve(r)
         dx = np.zeros(3 * structure.n)
