@@ -1,9 +1,9 @@
 """Bordered sparse solves shared by the statics, modal, reduction and rotating-frame stages.
 
 ``[[K + Σ c v vᵀ, C], [Cᵀ, 0]] [u; λ] = [r; 0]``: a sparse matrix ``K`` with optional linear
-constraints ``Cᵀ u = 0`` (e.g. the mass-weighted rigid-motion frame conditions ``Ψᵀ M u = 0`` of a
-free body, with multipliers ``λ``) and optional rank-one terms (the gas-law pressure stiffness),
-applied by Sherman–Morrison on top of one sparse LU factorisation.
+constraints ``Cᵀ u = 0`` (e.g. the mass-weighted rigid-motion frame conditions ``Ψᵀ M u = 0``
+of a free body, with multipliers ``λ``) and optional rank-one terms (the gas-law pressure
+stiffness), applied by Sherman–Morrison on top of one sparse LU factorisation.
 """
 
 from __future__ import annotations

@@ -305,8 +305,11 @@ def start_below_bending(
     return log_p
 
 
-def reference_shapes(start: Trial, targets: CalibrationTargets, count: int) -> dict[str, np.ndarray]:
-    """Family -> ``(k, n, 3)`` shapes of the starting model's first modes with the family's label."""
+def reference_shapes(
+    start: Trial, targets: CalibrationTargets, count: int
+) -> dict[str, np.ndarray]:
+    """Family -> ``(k, n, 3)`` shapes of the first modes of the starting model (``count``
+    solved) that carry the family's label."""
     reference = {}
     for fam, count_f in targets.family_sizes.items():
         label = targets.start_label(fam)

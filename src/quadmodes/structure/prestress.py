@@ -70,6 +70,34 @@ def _reduced(structure: Structure, vec: np.ndarray) -> np.ndarray:
     return vec.ravel()[structure.free_dofs]
 
 
+def backtracking_step(
+    residual: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    dx: np.ndarray,
+    r: np.ndarray,
+    rel: float,
+    accept_below: float,
+    halvings: int = 12,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Backtracking line search on the residual norm: ``(x + t dx, residual there, t)`` for the
+    first ``t = 1, ½, ¼, …`` (at most ``halvings`` tries; the last one is taken if none passes)
+    that lowers ‖r‖ by the Armijo factor ``1 − 1e-4 t``; the full step is taken outright once the
+    relative residual ``rel`` is below ``accept_below`` (round-off level).
+
+    residual: ``(n, 3) -> (m,)`` residual on the free DOFs (N). x, dx: ``(n, 3)`` state and
+    Newton increment (m). r: ``(m,)`` residual at ``x``.
+    """
+    step = 1.0
+    for k in range(halvings):
+        if k:
+            step *= 0.5
+        trial = x + step * dx
+        r_trial = residual(trial)
+        if np.linalg.norm(r_trial) < (1.0 - 1e-4 * step) * np.linalg.norm(r) or rel < accept_below:
+            break
+    return trial, r_trial, step
+
+
 def solve_static(
     structure: Structure,
     x_start: np.ndarray,
@@ -83,12 +111,16 @@ def solve_static(
     """
     x = x_start.copy()
     free = structure.free_dofs
+
+    def residual(y: np.ndarray) -> np.ndarray:
+        return _reduced(structure, internal_force(structure, y))
+
     msub = mass_matrix(structure)[free][:, free] if structure.is_free else None
     pressure_sets = [e for e in structure.elements if isinstance(e, PressureSet)]
     scale = 0.0
     for ps in pressure_sets:
         scale += np.linalg.norm(ps.force(x))
-    r = _reduced(structure, internal_force(structure, x))
+    r = residual(x)
     scale = max(scale, np.linalg.norm(r), 1e-300)
     rel = np.linalg.norm(r) / scale
     history = [rel]
@@ -111,14 +143,7 @@ def solve_static(
         dx[free] = dx_free
         dx = dx.reshape(-1, 3)
         # Backtracking on the residual norm (the tangent can be indefinite early in inflation).
-        step = 1.0
-        for _ in range(12):
-            trial = x + step * dx
-            r_trial = _reduced(structure, internal_force(structure, trial))
-            if np.linalg.norm(r_trial) < (1.0 - 1e-4 * step) * np.linalg.norm(r) or rel < 1e-6:
-                break
-            step *= 0.5
-        x, r = trial, r_trial
+        x, r, step = backtracking_step(residual, x, dx, r, rel, 1e-6)
         rel = np.linalg.norm(r) / scale
         history.append(rel)
         log.debug(
