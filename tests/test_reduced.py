@@ -7,8 +7,8 @@ import pytest
 
 from quadmodes.fe.model import internal_force, mass_matrix, second_order_force, tangent_stiffness
 from quadmodes.rom.artifact import ArtifactError, load_reduced_model, save_reduced_model
+from quadmodes.structure.bordered import bordered_solver as _bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
-from quadmodes.structure.prestress import _bordered_solver
 
 
 def test_frame_condition_arrays_vanish(small_reduced_model):

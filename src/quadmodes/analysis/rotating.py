@@ -68,7 +68,8 @@ from quadmodes.fe.model import (
 )
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
 from quadmodes.rotations import skew
-from quadmodes.structure.prestress import ConvergenceError, _bordered_solver
+from quadmodes.structure.bordered import bordered_solver as _bordered_solver
+from quadmodes.structure.prestress import ConvergenceError
 
 Progress = Callable[[str, float], None]
 

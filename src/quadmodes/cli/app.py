@@ -330,6 +330,7 @@ def validate(
     cores; --quick runs the subset the tests also run."""
     from quadmodes.validation import dynamics_checks as vdyn
     from quadmodes.validation import fe_checks as validation
+    from quadmodes.validation.report import Row, validation_markdown
 
     chosen = list(suite or VALIDATION_SUITES)
     bad = [s for s in chosen if s not in VALIDATION_SUITES]
@@ -357,13 +358,13 @@ def validate(
             except (*_user_errors(), ImportError, RuntimeError) as exc:
                 err.print(f"[bold red]check {escape(name)} failed to run:[/] {escape(str(exc))}")
                 results[k].append(
-                    validation.Row(f"{name}: ran to completion", 0.0, 1.0, 0.0, absolute=True,
-                                   source=" ".join(str(exc).split())[:200])
+                    Row(f"{name}: ran to completion", 0.0, 1.0, 0.0, absolute=True,
+                        source=" ".join(str(exc).split())[:200])
                 )
         progress("validation", 1.0)
         conv = validation.mesh_convergence() if convergence and "fe" in chosen and not quick else []
     sections = {titles[k]: results[k] for k in chosen if k != "fe"}
-    text = validation.validation_markdown(results.get("fe", []), conv, sections)
+    text = validation_markdown(results.get("fe", []), conv, sections)
     if write is None:
         sys.stdout.write(text)
     else:

@@ -279,7 +279,7 @@ def centrifugal_stretch(
         tangent_low_rank,
         tangent_stiffness,
     )
-    from quadmodes.structure.prestress import _bordered_solver
+    from quadmodes.structure.bordered import bordered_solver as _bordered_solver
 
     w = np.asarray(omega, float)
     lmat = np.outer(w, w) - (w @ w) * np.eye(3)  # ω × (ω × r) = L r

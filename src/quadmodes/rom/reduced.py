@@ -33,8 +33,8 @@ from quadmodes.fe.model import (
     total_mass,
 )
 from quadmodes.fe.pressure import PressureSet
+from quadmodes.structure.bordered import bordered_solver as _bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
-from quadmodes.structure.prestress import _bordered_solver
 
 
 @dataclass(frozen=True)

@@ -1,21 +1,20 @@
 """Validation suite, dynamics part: the reduced model and the full-order reference against
 published numbers (``../shared/references.md``) and against each other.
 
-Each check returns :class:`quadmodes.validation.fe_checks.Row` values; ``quadmodes validate`` runs them
-(``--suite``) and writes the tables to docs/validation.md. ``FAST`` names the checks cheap enough
-for the test suite.
+Each check returns :class:`quadmodes.validation.report.Row` values; ``quadmodes validate`` runs
+them (``--suite``) and writes the tables to docs/validation.md. ``FAST`` names the checks cheap
+enough for the test suite.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import integrators as integ
-from quadmodes.validation.fe_checks import Row
+from quadmodes.validation.report import Check, Row
 
 REF2 = "references §2 (one mode, ζ = 0.02, Δt = 2.5 ms)"
 REF3 = "references §3 (Kane et al. spin-up)"
@@ -249,7 +248,7 @@ def check_rotating_frame() -> list[Row]:
     return rows
 
 
-ROM_CHECKS: dict[str, Callable[[], list[Row]]] = {
+ROM_CHECKS: dict[str, Check] = {
     "backward-euler": check_backward_euler,
     "kane-reduced": check_kane_reduced,
     "kane-campbell": check_kane_campbell,
@@ -257,7 +256,7 @@ ROM_CHECKS: dict[str, Callable[[], list[Row]]] = {
     "paper-41hz": check_paper_fast_spin,
 }
 
-FULL_ORDER_CHECKS: dict[str, Callable[[], list[Row]]] = {
+FULL_ORDER_CHECKS: dict[str, Check] = {
     "kane-full-order": check_full_order_kane,
     "compare-41hz-coarse": check_compare_coarse,
     "rotating-frame": check_rotating_frame,
