@@ -68,7 +68,7 @@ from quadmodes.fe.model import (
 )
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
 from quadmodes.rotations import skew
-from quadmodes.structure.bordered import bordered_solver as _bordered_solver
+from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.prestress import ConvergenceError
 
 Progress = Callable[[str, float], None]
@@ -217,7 +217,7 @@ def _newton(structure, x, spin, e, centre, constraint, rtol, max_iterations):
             return x, rel, it - 1
         k = rotating_stiffness(structure, x, spin, e)[free][:, free]
         low = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
-        solve = _bordered_solver(k, cf, low)
+        solve = bordered_solver(k, cf, low)
         dx = np.zeros(3 * structure.n)
         dx[free] = -solve(r)
         dx = dx.reshape(-1, 3)
