@@ -15,6 +15,7 @@ from quadmodes.cli.common import (
     LINEAR_FORMULATIONS,
     JsonFlag,
     UserError,
+    case_argument,
     err,
     load_model_case,
     one_line_errors,
@@ -60,13 +61,12 @@ def _print_campbell(result, case_name: str, summary: dict) -> None:
         )
 
 
+CampbellCase = case_argument("model case (membrane or beam), name or TOML file")
 CampbellOutput = output_path("folder for campbell.png/.nc/.csv")
 
 
 def campbell(
-    case: Annotated[
-        str, typer.Argument(help="model case (membrane or beam), name or TOML file")
-    ] = "kane-beam",
+    case: CampbellCase = "kane-beam",
     spin_min: Annotated[str, typer.Option(help="lowest spin rate, e.g. '0 Hz'")] = "0 rad/s",
     spin_max: Annotated[str, typer.Option(help="highest spin rate, e.g. '10 rad/s'")] = "10 rad/s",
     n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
@@ -114,13 +114,12 @@ def _parse_spins_hz(spins: str) -> tuple[float, ...]:
     return spin_list
 
 
+RotatingCase = case_argument("free membrane model case (name or TOML file)")
 RotatingOutput = output_path("write the Markdown table to this file")
 
 
 def rotating_command(
-    case: Annotated[
-        str, typer.Argument(help="free membrane model case (name or TOML file)")
-    ] = "paper-membrane-coarse",
+    case: RotatingCase = "paper-membrane-coarse",
     spins: Annotated[str, typer.Option(help="spin rates, comma-separated, in Hz")] = "0,20,41",
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
     formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",

@@ -149,7 +149,12 @@ def output_path(help: str, *, optional: bool = True) -> Any:
     return Annotated[Path | None if optional else Path, typer.Option("-o", "--output", help=help)]
 
 
+def case_argument(help: str) -> Any:
+    """The CASE argument: a built-in case name or a TOML file."""
+    return Annotated[str, typer.Argument(help=help)]
+
+
 #: A model case: built-in name or TOML file.
-ModelCase = Annotated[str, typer.Argument(help="built-in case name or TOML file")]
+ModelCase = case_argument("built-in case name or TOML file")
 #: ``--json`` of the commands that print their summary as JSON.
 JsonFlag = flag("--json", "print JSON on stdout")

@@ -15,6 +15,7 @@ from rich.table import Table
 
 from quadmodes.cli.common import (
     UserError,
+    case_argument,
     err,
     flag,
     one_line_errors,
@@ -153,6 +154,7 @@ def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None
     out.print(f"results written to {escape(str(target))}")
 
 
+CompareCase = case_argument("run case (built-in name or TOML file)")
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
 YesFlag = flag("--yes", "run a full-order window estimated over 30 min")
@@ -160,9 +162,7 @@ ComparePlotsFlag = flag("--plots/--no-plots", "write overlay PNGs")
 
 
 def compare_command(
-    case: Annotated[
-        str, typer.Argument(help="run case (built-in name or TOML file)")
-    ] = "paper-41hz-coarse",
+    case: CompareCase = "paper-41hz-coarse",
     window: Annotated[str, typer.Option(help='simulated window, e.g. "1 s"')] = "1 s",
     full_dt: Annotated[
         str | None, typer.Option("--full-dt", help="full-order step (default: the run's dt)")

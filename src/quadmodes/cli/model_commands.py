@@ -17,6 +17,7 @@ from quadmodes.cli.common import (
     DEFAULT_CASE,
     JsonFlag,
     ModelCase,
+    case_argument,
     err,
     flag,
     load_model_case,
@@ -236,13 +237,12 @@ def _reduced_summary(model, model_case, info: dict, output_file: Path | None) ->
     }
 
 
+ReducedCase = case_argument("model case, or run case (its model), built-in name or TOML file")
 ReducedOutput = output_path("write the reduced model (NetCDF)")
 
 
 def reduce_command(
-    case: Annotated[
-        str, typer.Argument(help="model case, or run case (its model), built-in name or TOML file")
-    ] = DEFAULT_CASE,
+    case: ReducedCase = DEFAULT_CASE,
     output_file: ReducedOutput = None,
     modes: Annotated[
         int | None,
