@@ -685,7 +685,7 @@ def campbell(
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
     bodies spin about their minor principal axis, clamped bodies on a hub about z."""
-    from quadmodes.analysis.campbell import campbell_main
+    from quadmodes.analysis.campbell_output import campbell_main
     from quadmodes.case.units import parse_quantity
 
     try:
@@ -884,7 +884,7 @@ def rotating_command(
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
-    from quadmodes.analysis.rotating import rotating_frequency_comparison
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
 
     try:
         try:

@@ -240,7 +240,7 @@ def rotating_frame_rows(
 def check_rotating_frame() -> list[Row]:
     """Rotating-frame frequencies, full order vs reduced (Q, L), paper model at 0, 20, 41 Hz:
     with the seed's 5 modes (reported) and with 8 modes (asserted within 2 %)."""
-    from quadmodes.analysis.rotating import rotating_frequency_comparison
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
 
     rows = []
     for n_modes, asserted in ((5, False), (8, True)):
