@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from quadmodes.analysis import campbell as cb
+from quadmodes.analysis import reduced_linearisation as cb
 from quadmodes.fe.model import internal_force, strain_energy
 from quadmodes.rom import artifact
 from quadmodes.rom import diagnostics as dg
@@ -277,7 +277,7 @@ def test_artifact_round_trip_and_format_1(small_reduced_model, tmp_path):
 
 @pytest.fixture(scope="module")
 def paper_coarse():
-    from quadmodes.analysis import rotating as sp
+    from quadmodes.analysis import rotating_comparison as sp
     from quadmodes.runs import simulate
 
     case, structure, x0 = sp.case_state("paper-membrane-coarse")
@@ -286,7 +286,7 @@ def paper_coarse():
 
 def full_order_modal_coordinates(structure, x0, model, spin, axis):
     """Full-order relative equilibrium projected on the modes (quadratic modes subtracted)."""
-    from quadmodes.analysis import rotating as sp
+    from quadmodes.analysis import rotating_equilibrium as sp
 
     eq = sp.relative_equilibrium(structure, x0, spin, axis)
     d = eq.x - np.outer(model.translational, model.weights @ eq.x / model.weights.sum()) - model.X

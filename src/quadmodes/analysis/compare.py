@@ -40,7 +40,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
-from quadmodes.io.atomic import write_text
+from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import dynamics as dyn
 from quadmodes.runs.results import peak_envelope
 
@@ -430,7 +430,7 @@ def write_comparison(cmp: Comparison, directory: str | os.PathLike, plots: bool 
     payload = cmp.as_json()
     write_text(directory / "comparison.json", json.dumps(payload, indent=2) + "\n")
     rows = table_rows(cmp)
-    with open(directory / "comparison.csv", "w", newline="") as fh:
+    with atomic_path(directory / "comparison.csv") as tmp, open(tmp, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)

@@ -77,7 +77,7 @@ def campbell(
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
     bodies spin about their minor principal axis, clamped bodies on a hub about z."""
-    from quadmodes.analysis.campbell import campbell_main
+    from quadmodes.analysis.campbell_output import campbell_main
     from quadmodes.case import parse_quantity
 
     with one_line_errors():
@@ -128,7 +128,7 @@ def rotating_command(
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
-    from quadmodes.analysis.rotating import rotating_frequency_comparison
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
 
     with one_line_errors():
         spin_list = _parse_spins_hz(spins)

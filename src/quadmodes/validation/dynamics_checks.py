@@ -215,7 +215,7 @@ def check_compare_coarse(window: float = 1.0) -> list[Row]:
 def rotating_frame_rows(
     table, n_modes: int, asserted: bool, tolerance: float = 0.02, near_zero_hz: float = 0.05
 ) -> list[Row]:
-    """Rows of a :class:`quadmodes.analysis.rotating.ComparisonTable`: Q against full order per branch
+    """Rows of a :class:`quadmodes.analysis.rotating_comparison.ComparisonTable`: Q against full order per branch
     (asserted within ``tolerance`` if ``asserted``; a branch below a tenth of the spin rate,
     where a relative error is ill-conditioned, within ``near_zero_hz`` absolute), L reported."""
     rows = []
@@ -239,7 +239,7 @@ def rotating_frame_rows(
 def check_rotating_frame() -> list[Row]:
     """Rotating-frame frequencies, full order vs reduced (Q, L), paper model at 0, 20, 41 Hz:
     with the seed's 5 modes (reported) and with 8 modes (asserted within 2 %)."""
-    from quadmodes.analysis.rotating import rotating_frequency_comparison
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
 
     rows = []
     for n_modes, asserted in ((5, False), (8, True)):
