@@ -38,7 +38,6 @@ are used, as in :mod:`quadmodes.structure.prestress`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,7 +56,7 @@ from quadmodes.fe.model import (
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
 from quadmodes.rotations import skew
 from quadmodes.structure.bordered import bordered_solver
-from quadmodes.structure.prestress import ConvergenceError
+from quadmodes.structure.prestress import ConvergenceError, backtracking_step
 
 # ---------------------------------------------------------------------------------------------
 # rotating-frame operators
@@ -179,29 +178,6 @@ def _residual_scale(structure: Structure, x, spin, e, centre, r: np.ndarray) -> 
     return max(scale, np.linalg.norm(r), 1e-6 * k_diag * extent)
 
 
-def backtracking_step(
-    residual: Callable[[np.ndarray], np.ndarray],
-    x: np.ndarray,
-    dx: np.ndarray,
-    r: np.ndarray,
-    rel: float,
-    accept_below: float,
-    halvings: int = 12,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Backtracking line search on the residual norm: ``(x + t dx, residual there)`` for the
-    first ``t = 1, ½, ¼, …`` (at most ``halvings`` tries) that lowers ‖r‖ by the Armijo factor
-    ``1 − 1e-4 t``; the full step is taken outright once the relative residual ``rel`` is below
-    ``accept_below`` (round-off level). ``x``, ``dx`` (n, 3) m; ``r`` the current residual."""
-    step = 1.0
-    for _ in range(halvings):
-        trial = x + step * dx
-        r_trial = residual(trial)
-        if np.linalg.norm(r_trial) < (1.0 - 1e-4 * step) * np.linalg.norm(r) or rel < accept_below:
-            break
-        step *= 0.5
-    return trial, r_trial
-
-
 def _newton(structure, x, spin, e, centre, constraint, rtol, max_iterations):
     """Newton–Raphson with backtracking on ``rotating_residual``; the increments satisfy
     ``Cᵀ Δx = 0`` (bordered solve). Returns ``(x, relative residual, iterations)``."""
@@ -224,7 +200,7 @@ def _newton(structure, x, spin, e, centre, constraint, rtol, max_iterations):
         solve = bordered_solver(k, cf, low)
         dx = np.zeros(3 * structure.n)
         dx[free] = -solve(r)
-        x, r = backtracking_step(residual, x, dx.reshape(-1, 3), r, rel, 1e-7)
+        x, r, _ = backtracking_step(residual, x, dx.reshape(-1, 3), r, rel, 1e-7)
         rel = np.linalg.norm(r) / scale
         history.append(rel)
         if not np.isfinite(rel):
