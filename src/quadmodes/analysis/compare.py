@@ -42,7 +42,7 @@ import xarray as xr
 from quadmodes import __version__
 from quadmodes.io.atomic import write_text
 from quadmodes.rom import dynamics as dyn
-from quadmodes.runs.results import peak_envelope
+from quadmodes.runs.metrics import peak_envelope
 
 #: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")

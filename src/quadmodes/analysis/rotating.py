@@ -723,7 +723,7 @@ def rotating_frequency_comparison(
     Full-order roots are searched near every reduced root (``per_target`` per shift) and assigned
     to branches by the MAC of energy-weighted (δω, s, ṡ) vectors (:func:`match_branches`)."""
     from quadmodes.analysis import campbell as cb
-    from quadmodes.runs.simulate import reduced_model_for
+    from quadmodes.runs.model_cache import reduced_model_for
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()

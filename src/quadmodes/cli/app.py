@@ -399,7 +399,7 @@ def reduce_command(
     """
     from quadmodes.case.schema import load_run_case
     from quadmodes.rom import artifact
-    from quadmodes.runs import simulate
+    from quadmodes.runs import model_cache, simulate
 
     info: dict = {}
     try:
@@ -409,9 +409,9 @@ def reduce_command(
             n_modes = modes if modes is not None else run_case.reduced.modes
         else:
             model_case = _load(case)
-            n_modes = modes if modes is not None else simulate.DEFAULT_MODES
+            n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
         with _progress(not as_json) as progress:
-            model = simulate.reduced_model_for(model_case, n_modes, progress, info=info)
+            model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info)
         if output_file is not None:
             artifact.save_reduced_model(model, output_file)
     except (*_user_errors(), OSError) as exc:
