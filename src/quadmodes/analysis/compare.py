@@ -368,7 +368,8 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
 
 def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]:
     """Overlay plots (modal amplitude with envelopes, cone angle, spin rate, |H|, energy)."""
-    from quadmodes.io.plots import _figure, _save
+    from quadmodes.io.figures import new_figure as _figure
+    from quadmodes.io.figures import save_png as _save
 
     directory = Path(directory)
     series = [cmp.full, *cmp.reduced.values()]

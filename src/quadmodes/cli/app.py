@@ -152,7 +152,7 @@ def show_case(name: Annotated[str, typer.Argument(help="built-in case name or TO
 
 
 def _write_modal_outputs(model, directory: Path) -> None:
-    from quadmodes.io import output
+    from quadmodes.io import pictures, vtk
     from quadmodes.structure.pipeline import modes_summary
 
     s, x = model.structure, model.x
@@ -177,12 +177,12 @@ def _write_modal_outputs(model, directory: Path) -> None:
     shapes = model.modes.shapes
     freqs = model.modes.frequencies_hz
     labels = model.labels
-    output.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
-    output.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
+    vtk.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
+    vtk.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
     if len(tri):
-        output.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=None)
+        pictures.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=None)
         if cell_data:
-            output.plot_mesh_png(
+            pictures.plot_mesh_png(
                 directory / "prestress.png",
                 x,
                 tri,
@@ -191,11 +191,11 @@ def _write_modal_outputs(model, directory: Path) -> None:
                 cell_label="N/m",
             )
     for k in range(len(freqs)):
-        output.plot_mode_png(
+        pictures.plot_mode_png(
             directory / f"mode_{k + 1:02d}.png", x, tri, shapes[k], freqs[k], labels[k],
             lines=lines, index=k + 1,
         )
-    output.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
+    pictures.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
     write_text(directory / "modes.json", json.dumps(modes_summary(model), indent=2))
 
 

@@ -8,7 +8,8 @@
 * ``cone_angle.png`` — cone angle (Figs. 10, 16)
 * ``summary.png`` — all of the above plus the bending-pair envelope and its log-decrement fit
 
-Matplotlib's Agg canvas is used directly (no pyplot state), so plotting works headless.
+Figures are drawn on matplotlib's Agg canvas (:mod:`quadmodes.io.figures`), so plotting works
+headless.
 """
 
 from __future__ import annotations
@@ -20,25 +21,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from quadmodes.io.atomic import atomic_path
+from quadmodes.io.figures import new_figure, save_png
 from quadmodes.runs.metrics import log_decrement, peak_envelope
-
-_DPI = 120
-
-
-def _figure(figsize=(7.0, 4.0)):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize, dpi=_DPI)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig, path: Path) -> Path:
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=_DPI)
-    return path
 
 
 def _title(ds: xr.Dataset, what: str) -> str:
@@ -152,19 +136,19 @@ def _early_time(ds: xr.Dataset) -> float:
 
 def _write_single(ds: xr.Dataset, path: Path, what: str, draw) -> Path:
     """One-panel figure of ``ds`` against time: ``draw(ax)`` plots, ``what`` titles."""
-    fig = _figure((7.0, 4.0))
+    fig = new_figure((7.0, 4.0))
     ax = fig.add_subplot(1, 1, 1)
     draw(ax)
     ax.set_xlabel("time (s)")
     ax.grid(True, lw=0.3)
     fig.suptitle(_title(ds, what), fontsize=10)
     fig.subplots_adjust(left=0.14, right=0.86, bottom=0.13, top=0.84)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
     """|H| (top) and its relative change (bottom), seed Figs. 6, 11."""
-    fig = _figure((7.0, 5.0))
+    fig = new_figure((7.0, 5.0))
     ax1 = fig.add_subplot(2, 1, 1)
     _plot_h(ax1, ds, relative=False)
     ax1.grid(True, lw=0.3)
@@ -176,7 +160,7 @@ def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
         _title(ds, "magnitude of the angular momentum (cf. seed Figs. 6, 11)"), fontsize=10
     )
     fig.subplots_adjust(left=0.14, right=0.95, bottom=0.1, top=0.9, hspace=0.3)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _single_figures(ds: xr.Dataset) -> list[tuple[str, str, object]]:
@@ -227,7 +211,7 @@ def _summary_panels(ds: xr.Dataset) -> list[tuple[str, object]]:
 
 def _write_summary(ds: xr.Dataset, path: Path) -> Path:
     """All panels on one page (2 × 3), titled with formulation, method and step."""
-    fig = _figure((13.0, 7.5))
+    fig = new_figure((13.0, 7.5))
     for k, (what, draw) in enumerate(_summary_panels(ds)):
         ax = fig.add_subplot(2, 3, k + 1)
         draw(ax)
@@ -247,7 +231,7 @@ def _write_summary(ds: xr.Dataset, path: Path) -> Path:
         fontsize=11,
     )
     fig.subplots_adjust(left=0.075, right=0.985, bottom=0.07, top=0.9, wspace=0.4, hspace=0.32)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
