@@ -8,6 +8,8 @@
 * ``cone_angle.png`` — cone angle (Figs. 10, 16)
 * ``summary.png`` — all of the above plus the bending-pair envelope and its log-decrement fit
 
+and, for a hub-driven spin-up, ``tip_deflection.png`` (:func:`plot_tip_deflection`).
+
 Figures are drawn on matplotlib's Agg canvas (:mod:`quadmodes.io.figures`), so plotting works
 headless.
 """
@@ -21,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from quadmodes.io.atomic import atomic_path
 from quadmodes.io.figures import new_figure, save_png
 from quadmodes.runs.metrics import log_decrement, peak_envelope
 
@@ -243,3 +246,36 @@ def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
         paths.append(_write_single(ds, directory / name, what, draw))
     paths.append(_write_summary(ds, directory / "summary.png"))
     return paths
+
+
+def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """PNG of the in-plane (and axial) tip deflection and the hub rate of a spin-up."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    t = ds["time"].values
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    ax.plot(t, ds["tip_inplane"].values, label="in-plane v (hub y)")
+    ax.plot(t, ds["tip_axial"].values, "--", label="axial (hub x)")
+    ax.plot([ds.attrs["peak_time"]], [ds.attrs["peak_tip_deflection"]], "o", color="C3")
+    ax.set_ylabel("tip displacement (m)")
+    ax.set_title(
+        f"{ds.attrs['case']}: formulation {ds.attrs['formulation']}, "
+        f"Ωs = {ds.attrs['omega_s']:.3g} rad/s ({ds.attrs['status']})"
+    )
+    ax.legend(loc="best")
+    ax.grid(True, alpha=0.3)
+    ax2.plot(t, ds["hub_rate"].values, color="k")
+    ax2.set_ylabel("hub rate (rad/s)")
+    ax2.set_xlabel("time (s)")
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+    finally:
+        plt.close(fig)
+    return path

@@ -174,7 +174,9 @@ def write_pvd(path, datasets: Sequence[tuple[float, str]]) -> Path:
     return path
 
 
-def _write_mode_files(directory: Path, k: int, pts, triangles, lines, shape, f, frames, scale) -> str:
+def _write_mode_files(
+    directory: Path, k: int, pts, triangles, lines, shape, f, frames, scale
+) -> str:
     """Files of mode ``k`` (shape (n, 3), frequency ``f`` Hz): ``mode_{k:02d}.vtu`` on the
     undeformed mesh, its ``frames`` displaced frames and their ``.pvd``; returns the name of
     the undeformed file."""
@@ -244,7 +246,9 @@ def write_modes_pvd(
         raise ValueError("frames must be >= 1")
     top = []
     for k in range(shp.shape[0]):
-        name = _write_mode_files(directory, k, pts, triangles, lines, shp[k], freqs[k], frames, scale)
+        name = _write_mode_files(
+            directory, k, pts, triangles, lines, shp[k], freqs[k], frames, scale
+        )
         top.append((float(k), name))
     table = "# mode\tfrequency_hz\tlabel\n" + "".join(
         f"{k}\t{freqs[k]:.9g}\t{labels[k]}\n" for k in range(shp.shape[0])

@@ -43,7 +43,8 @@ def _first_bad_row(y: np.ndarray) -> int | None:
 
 @dataclass(frozen=True)
 class _Stop:
-    """Why the chunk loop ended early: status and message of the merged Solution, reason."""
+    """How the chunk loop ended: status and message of the merged Solution, and the reason
+    of an early stop ("" when the whole duration was integrated)."""
 
     status: int
     message: str
@@ -72,7 +73,13 @@ def _integrate_chunk(system, y: np.ndarray, ta: float, tb: float, integ, h: floa
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             sol = integrators.integrate(
-                system, y, (ta, tb), integ.method, dt=h, rtol=integ.rtol, save_every=integ.save_every
+                system,
+                y,
+                (ta, tb),
+                integ.method,
+                dt=h,
+                rtol=integ.rtol,
+                save_every=integ.save_every,
             )
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         detail = " ".join(str(exc).split()) or type(exc).__name__
@@ -171,8 +178,15 @@ def integrate_in_chunks(
     stats = samples.stats
     stats["wall_s"] = wall
     t_all, y_all, ed_all = samples.merged(y0, system.n_state)
-    status, message, reason = (0, "ok", "") if stop is None else (stop.status, stop.message, stop.reason)
+    stop = _Stop(0, "ok", "") if stop is None else stop
     merged = Solution(
-        t_all, y_all, integ.method, stats, status, message, ed_all, None if adaptive else h
+        t_all,
+        y_all,
+        integ.method,
+        stats,
+        stop.status,
+        stop.message,
+        ed_all,
+        None if adaptive else h,
     )
-    return ChunkedRun(merged, reason, wall)
+    return ChunkedRun(merged, stop.reason, wall)

@@ -417,39 +417,6 @@ def spinup_summary(ds: xr.Dataset) -> dict:
     return out
 
 
-def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """PNG of the in-plane (and axial) tip deflection and the hub rate of a spin-up."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    t = ds["time"].values
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
-    ax.plot(t, ds["tip_inplane"].values, label="in-plane v (hub y)")
-    ax.plot(t, ds["tip_axial"].values, "--", label="axial (hub x)")
-    ax.plot([ds.attrs["peak_time"]], [ds.attrs["peak_tip_deflection"]], "o", color="C3")
-    ax.set_ylabel("tip displacement (m)")
-    ax.set_title(
-        f"{ds.attrs['case']}: formulation {ds.attrs['formulation']}, "
-        f"Ωs = {ds.attrs['omega_s']:.3g} rad/s ({ds.attrs['status']})"
-    )
-    ax.legend(loc="best")
-    ax.grid(True, alpha=0.3)
-    ax2.plot(t, ds["hub_rate"].values, color="k")
-    ax2.set_ylabel("hub rate (rad/s)")
-    ax2.set_xlabel("time (s)")
-    ax2.grid(True, alpha=0.3)
-    fig.tight_layout()
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=110)
-    finally:
-        plt.close(fig)
-    return path
-
-
 def write_spinup_outputs(run, directory: str | os.PathLike, plots: bool = True) -> dict:
     """Write ``results.nc``, ``summary.json`` and (if ``plots``) ``tip_deflection.png`` of a
     :class:`quadmodes.runs.simulate.SpinupRun` into ``directory``; returns the summary."""
@@ -460,5 +427,7 @@ def write_spinup_outputs(run, directory: str | os.PathLike, plots: bool = True) 
     info = spinup_summary(ds)
     write_text(directory / "summary.json", json.dumps(info, indent=2) + "\n")
     if plots:
+        from quadmodes.io.plots import plot_tip_deflection
+
         plot_tip_deflection(ds, directory / "tip_deflection.png")
     return info

@@ -311,6 +311,7 @@ def dt_convergence(
 # hub-driven spin-up (clamped beam)
 # ---------------------------------------------------------------------------------------------
 
+
 @dataclass(frozen=True, eq=False)
 class SpinupRun:
     """A hub-driven spin-up run: the run case, its (beam) model case, the

@@ -69,7 +69,8 @@ class Validity:
             "spin_rate_rad_s": float(self.spin_rate),
             "lost_at_spin_rate_rad_s": None if self.lost_at is None else float(self.lost_at),
             "initial_modal_energy_J": float(self.modal_energy),
-            "potential_barrier_J": None if math.isinf(self.barrier_energy)
+            "potential_barrier_J": None
+            if math.isinf(self.barrier_energy)
             else float(self.barrier_energy),
             "message": self.message(),
         }
