@@ -72,7 +72,8 @@ class RunResult:
 class RunSetup:
     """Everything a run needs before integrating: the run case, its model case, the reduced
     model (restricted to the run's modes), the system of the run's formulation, the initial
-    state and the :class:`~quadmodes.runs.validity.Validity` of the formulation at the initial angular velocity."""
+    state and the :class:`~quadmodes.runs.validity.Validity` of the formulation at the initial
+    angular velocity."""
 
     run: RunCase
     model_case: Case
@@ -315,8 +316,8 @@ def dt_convergence(
 @dataclass(frozen=True, eq=False)
 class SpinupRun:
     """A hub-driven spin-up run: the run case, its (beam) model case, the
-    :class:`quadmodes.runs.spinup.SpinupResult`, the :class:`~quadmodes.runs.validity.Validity` of the formulation at the
-    final hub rate (about the hub z axis), and the wall time (s)."""
+    :class:`quadmodes.runs.spinup.SpinupResult`, the :class:`~quadmodes.runs.validity.Validity`
+    of the formulation at the final hub rate (about the hub z axis), and the wall time (s)."""
 
     run: RunCase
     model_case: Case
