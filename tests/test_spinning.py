@@ -17,7 +17,7 @@ from quadmodes.analysis.rotating_matching import rotation_and_modal_parts
 from quadmodes.analysis.rotating_modes import rotating_roots
 from quadmodes.fe.build import build_beam_structure
 from quadmodes.fe.model import centre_of_mass, inertia_tensor
-from quadmodes.runs.simulate import build_reduced_model
+from quadmodes.runs.model_cache import build_reduced_model
 from quadmodes.runs.spinup import KANE_BEAM, KANE_REFERENCE_CHORDWISE
 
 SPINS_HZ = (0.0, 20.0, 41.0)

@@ -85,7 +85,7 @@ def _mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict]:
 
 def _write_modal_outputs(model, directory: Path) -> None:
     """Mesh and modes as VTU/PVD (ParaView), PNG pictures and ``modes.json`` in ``directory``."""
-    from quadmodes.io import output
+    from quadmodes.io import pictures, vtk
     from quadmodes.structure.pipeline import modes_summary
 
     x = model.x
@@ -93,12 +93,12 @@ def _write_modal_outputs(model, directory: Path) -> None:
     shapes = model.modes.shapes
     freqs = model.modes.frequencies_hz
     labels = model.labels
-    output.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
-    output.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
+    vtk.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
+    vtk.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
     if len(tri):
-        output.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=None)
+        pictures.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=None)
         if cell_data:
-            output.plot_mesh_png(
+            pictures.plot_mesh_png(
                 directory / "prestress.png",
                 x,
                 tri,
@@ -107,11 +107,11 @@ def _write_modal_outputs(model, directory: Path) -> None:
                 cell_label="N/m",
             )
     for k in range(len(freqs)):
-        output.plot_mode_png(
+        pictures.plot_mode_png(
             directory / f"mode_{k + 1:02d}.png", x, tri, shapes[k], freqs[k], labels[k],
             lines=lines, index=k + 1,
         )  # fmt: skip
-    output.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
+    pictures.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
     write_text(directory / "modes.json", json.dumps(modes_summary(model), indent=2))
 
 
@@ -256,7 +256,7 @@ def reduce_command(
     """
     from quadmodes.case import load_run_case
     from quadmodes.rom import artifact
-    from quadmodes.runs import simulate
+    from quadmodes.runs import model_cache, simulate
 
     info: dict = {}
     with one_line_errors(OSError):
@@ -266,9 +266,9 @@ def reduce_command(
             n_modes = modes if modes is not None else run_case.reduced.modes
         else:
             model_case = load_model_case(case)
-            n_modes = modes if modes is not None else simulate.DEFAULT_MODES
+            n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
         with progress_bars(not as_json) as progress:
-            model = simulate.reduced_model_for(model_case, n_modes, progress, info=info)
+            model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info)
         if output_file is not None:
             artifact.save_reduced_model(model, output_file)
     summary = _reduced_summary(model, model_case, info, output_file)
