@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 
 import quadmodes.structure.modes as qmodes
 import quadmodes.structure.prestress as qprestress
-from quadmodes.case.schema import Case, load_case
+from quadmodes.case import Case, load_case
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import Structure, internal_force, tangent_stiffness, with_load_factor
 from quadmodes.structure import pipeline

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from quadmodes.case.schema import load_run_case
+from quadmodes.case import load_run_case
 from quadmodes.rom import integrators
 from quadmodes.runs import simulate
 from quadmodes.runs.results import write_outputs

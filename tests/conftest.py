@@ -2,7 +2,7 @@
 
 import pytest
 
-from quadmodes.case.schema import case_from_toml
+from quadmodes.case import case_from_toml
 from quadmodes.rom.reduced import reduce
 from quadmodes.structure.pipeline import build_modal_model
 

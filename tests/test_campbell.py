@@ -7,13 +7,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from quadmodes.analysis.campbell import (
-    campbell,
-    campbell_main,
-    plot_campbell,
-    relative_equilibrium,
-    write_campbell,
-)
+from quadmodes.analysis.campbell import campbell
+from quadmodes.analysis.campbell_output import campbell_main, plot_campbell, write_campbell
+from quadmodes.analysis.reduced_linearisation import relative_equilibrium
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import system as rsys
 from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE, kane_model

@@ -20,7 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 from quadmodes import __version__
-from quadmodes.case.schema import builtin_case_names, case_from_toml, load_case
+from quadmodes.case import builtin_case_names, case_from_toml, load_case
 from quadmodes.cli.app import app
 from quadmodes.mesh.io import write_surface
 from quadmodes.mesh.revolution import sphere_surface

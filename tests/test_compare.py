@@ -14,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from quadmodes.analysis import compare as cm
-from quadmodes.case.schema import load_run_case
+from quadmodes.case import load_run_case
 from quadmodes.cli.app import app
 
 

@@ -4,16 +4,18 @@ import math
 
 import pytest
 
-from quadmodes.case.schema import (
+from quadmodes.case import (
     Case,
     CaseError,
+    QuantityError,
     builtin_case_names,
     builtin_case_text,
     case_from_toml,
     case_to_toml,
+    format_quantity,
     load_case,
+    parse_quantity,
 )
-from quadmodes.case.units import QuantityError, format_quantity, parse_quantity
 
 BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
 

@@ -18,7 +18,7 @@ from quadmodes.fullorder import (
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import integrators
 from quadmodes.rom import system as rsys
-from quadmodes.runs.simulate import largest_nodal_displacement
+from quadmodes.runs.initial import largest_nodal_displacement
 from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
 BENDING = 2  # first bending mode of the small capsule (148 Hz)

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from quadmodes.analysis import campbell as cb
+from quadmodes.analysis import reduced_linearisation as cb
 from quadmodes.fe.model import internal_force, strain_energy
 from quadmodes.rom import artifact
 from quadmodes.rom import diagnostics as dg
@@ -278,7 +278,7 @@ def test_artifact_round_trip_and_format_1(small_reduced_model, tmp_path):
 
 @pytest.fixture(scope="module")
 def paper_coarse():
-    from quadmodes.analysis import rotating as sp
+    from quadmodes.analysis import rotating_comparison as sp
     from quadmodes.runs import simulate
 
     case, structure, x0 = sp.case_state("paper-membrane-coarse")
@@ -287,7 +287,7 @@ def paper_coarse():
 
 def full_order_modal_coordinates(structure, x0, model, spin, axis):
     """Full-order relative equilibrium projected on the modes (quadratic modes subtracted)."""
-    from quadmodes.analysis import rotating as sp
+    from quadmodes.analysis import rotating_equilibrium as sp
 
     eq = sp.relative_equilibrium(structure, x0, spin, axis)
     d = eq.x - np.outer(model.translational, model.weights @ eq.x / model.weights.sum()) - model.X
@@ -325,7 +325,7 @@ def test_centrifugal_deflection_q4_vs_full_order(paper_coarse):
 def test_tensors_clamped_cable_beam():
     """Clamped ANCF cable (position and slope DOFs, f(x0) ≠ 0 only at the clamp): the quartic
     coefficient of the exact manifold energy is V4·dddd (the cubic one vanishes by symmetry)."""
-    from quadmodes.case.schema import load_case
+    from quadmodes.case import load_case
     from quadmodes.rom.reduced import reduce
     from quadmodes.structure.pipeline import build_modal_model
 
@@ -353,7 +353,7 @@ def test_gas_law_pressure_has_no_manifold_potential():
     sys.path.insert(0, str(Path(__file__).parent))
     from conftest import SMALL_CAPSULE
 
-    from quadmodes.case.schema import case_from_toml
+    from quadmodes.case import case_from_toml
     from quadmodes.rom.reduced import reduce
     from quadmodes.structure.pipeline import build_modal_model
 

@@ -15,7 +15,7 @@ pytest.importorskip("numba")
 
 from test_run import run_toml, workdir  # noqa: E402, F401  (fixture)
 
-from quadmodes.case.schema import run_case_from_toml  # noqa: E402
+from quadmodes.case import run_case_from_toml  # noqa: E402
 from quadmodes.rom import diagnostics as dg  # noqa: E402
 from quadmodes.rom import dynamics as dy  # noqa: E402
 from quadmodes.rom import integrators as it  # noqa: E402

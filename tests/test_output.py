@@ -1,4 +1,4 @@
-"""Tests for quadmodes.io.output (VTU/PVD writers and PNG plots) on a small closed surface."""
+"""Tests for quadmodes.io.vtk (VTU/PVD) and quadmodes.io.pictures (PNG) on a small closed surface."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from quadmodes.io import output
+from quadmodes.io import pictures, vtk
 
 
 def _sphere(n_theta: int = 6, n_phi: int = 10, radius: float = 0.5):
@@ -80,7 +80,7 @@ def test_write_mesh_vtu_roundtrip(tmp_path, surface):
     pts, tri, shapes, _, _, lines = surface
     stress = np.linspace(-1.0, 3.0, len(tri))
     state = np.arange(len(tri)) % 3
-    path = output.write_mesh_vtu(
+    path = vtk.write_mesh_vtu(
         tmp_path / "mesh.vtu",
         pts,
         tri,
@@ -107,9 +107,9 @@ def test_write_mesh_vtu_roundtrip(tmp_path, surface):
 def test_write_mesh_vtu_rejects_bad_input(tmp_path, surface):
     pts, tri, *_ = surface
     with pytest.raises(ValueError):
-        output.write_mesh_vtu(tmp_path / "bad.vtu", pts, tri, cell_data={"x": np.ones(3)})
+        vtk.write_mesh_vtu(tmp_path / "bad.vtu", pts, tri, cell_data={"x": np.ones(3)})
     with pytest.raises(ValueError):
-        output.write_mesh_vtu(tmp_path / "bad.vtu", pts, tri + len(pts))
+        vtk.write_mesh_vtu(tmp_path / "bad.vtu", pts, tri + len(pts))
     assert list(tmp_path.iterdir()) == []
 
 
@@ -123,7 +123,7 @@ def test_write_modes_pvd(tmp_path, surface):
     pts, tri, shapes, freqs, labels, lines = surface
     frames = 8  # frame frames//4 is exactly a quarter period
     out = tmp_path / "modes_out"
-    top = output.write_modes_pvd(out, pts, tri, shapes, freqs, labels, lines=lines, frames=frames)
+    top = vtk.write_modes_pvd(out, pts, tri, shapes, freqs, labels, lines=lines, frames=frames)
     assert top == out / "modes.pvd"
 
     entries = _pvd_files(top)
@@ -155,7 +155,7 @@ def test_write_modes_pvd(tmp_path, surface):
 
 def test_write_modes_pvd_explicit_scale(tmp_path, surface):
     pts, tri, shapes, freqs, labels, _ = surface
-    output.write_modes_pvd(
+    vtk.write_modes_pvd(
         tmp_path, pts, tri, shapes[:1], freqs[:1], labels[:1], frames=4, scale=0.01
     )
     quarter = meshio.read(tmp_path / "mode_00_frame_001.vtu")
@@ -166,7 +166,7 @@ def test_write_modes_pvd_explicit_scale(tmp_path, surface):
 @pytest.mark.parametrize("with_values", [False, True])
 def test_plot_mesh_png(tmp_path, surface, with_lines, with_values):
     pts, tri, _, _, _, lines = surface
-    path = output.plot_mesh_png(
+    path = pictures.plot_mesh_png(
         tmp_path / "mesh.png",
         pts,
         tri,
@@ -181,7 +181,7 @@ def test_plot_mesh_png(tmp_path, surface, with_lines, with_values):
 @pytest.mark.parametrize("with_lines", [False, True])
 def test_plot_mode_png(tmp_path, surface, with_lines):
     pts, tri, shapes, freqs, labels, lines = surface
-    path = output.plot_mode_png(
+    path = pictures.plot_mode_png(
         tmp_path / "mode.png",
         pts,
         tri,
@@ -196,13 +196,13 @@ def test_plot_mode_png(tmp_path, surface, with_lines):
 
 def test_plot_mode_png_zero_shape(tmp_path, surface):
     pts, tri, *_ = surface
-    _check_png(output.plot_mode_png(tmp_path / "z.png", pts, tri, np.zeros_like(pts), 1.0, "z"))
+    _check_png(pictures.plot_mode_png(tmp_path / "z.png", pts, tri, np.zeros_like(pts), 1.0, "z"))
 
 
 @pytest.mark.parametrize("with_lines", [False, True])
 def test_plot_modes_overview_png(tmp_path, surface, with_lines):
     pts, tri, shapes, freqs, labels, lines = surface
-    path = output.plot_modes_overview_png(
+    path = pictures.plot_modes_overview_png(
         tmp_path / "overview.png",
         pts,
         tri,
@@ -217,5 +217,5 @@ def test_plot_modes_overview_png(tmp_path, surface, with_lines):
 def test_plot_failure_leaves_no_file(tmp_path, surface):
     pts, tri, *_ = surface
     with pytest.raises(ValueError):
-        output.plot_mesh_png(tmp_path / "bad.png", pts, tri, cell_values=np.ones(2))
+        pictures.plot_mesh_png(tmp_path / "bad.png", pts, tri, cell_values=np.ones(2))
     assert list(tmp_path.iterdir()) == []

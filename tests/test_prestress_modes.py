@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from quadmodes.case.schema import load_case
+from quadmodes.case import load_case
 from quadmodes.fe.build import MembraneSpec, build_membrane_structure
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import (
@@ -142,7 +142,7 @@ def test_paper_membrane_calibrated_frequencies():
 
 
 def test_gas_law_adds_volume_stiffness_only_to_volume_changing_modes():
-    from quadmodes.case.schema import case_from_toml
+    from quadmodes.case import case_from_toml
 
     base = """
 name = "gas-sphere"

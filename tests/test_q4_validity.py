@@ -4,7 +4,7 @@ run that starts with more modal energy than that is reported as outside Q4's val
 import numpy as np
 import pytest
 
-from quadmodes.case.schema import load_run_case
+from quadmodes.case import load_run_case
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate

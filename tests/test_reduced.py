@@ -7,8 +7,8 @@ import pytest
 
 from quadmodes.fe.model import internal_force, mass_matrix, second_order_force, tangent_stiffness
 from quadmodes.rom.artifact import ArtifactError, load_reduced_model, save_reduced_model
+from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
-from quadmodes.structure.prestress import _bordered_solver
 
 
 def test_frame_condition_arrays_vanish(small_reduced_model):
@@ -33,7 +33,7 @@ def test_g_is_half_the_static_modal_derivative(small_modal_model, small_reduced_
     ) / (2 * h)
     k = tangent_stiffness(s, x)
     # K theta = -Pi^T (dK.u) v with the frame conditions: theta = 2 g
-    theta = _bordered_solver(k, (mass_matrix(s) @ _rigid(s, x)), [])(-dk_u_v)
+    theta = bordered_solver(k, (mass_matrix(s) @ _rigid(s, x)), [])(-dk_u_v)
     theta = remove_rigid_part(s, x, theta[:, None])[:, 0].reshape(-1, 3)
     g = r.G[0, 2]
     assert np.linalg.norm(theta - 2 * g) <= 1e-5 * np.linalg.norm(theta)
@@ -87,7 +87,7 @@ def test_spin_stiffening_equals_centrifugal_geometric_stiffness(
     xr = r.X
     fc = -(s.mass_scalar @ np.cross(omega, np.cross(omega, xr)))  # centrifugal load -M Ω² X
     k = tangent_stiffness(s, x)
-    solve = _bordered_solver(k, mass_matrix(s) @ _rigid(s, x), [])
+    solve = bordered_solver(k, mass_matrix(s) @ _rigid(s, x), [])
     uc = solve(_project(s, x, fc.ravel())).reshape(-1, 3)  # K u_c = Πᵀ f_c
     for mi, ni in [(0, 0), (2, 3), (4, 4)]:
         lhs = -omega @ r.J2g[mi, ni] @ omega

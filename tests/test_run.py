@@ -17,7 +17,7 @@ import pytest
 from conftest import SMALL_CAPSULE
 from typer.testing import CliRunner
 
-from quadmodes.case.schema import (
+from quadmodes.case import (
     CaseError,
     builtin_case_names,
     builtin_run_case_names,
@@ -27,8 +27,8 @@ from quadmodes.case.schema import (
 )
 from quadmodes.cli.app import app
 from quadmodes.rom import artifact, integrators
+from quadmodes.runs import model_cache, simulate
 from quadmodes.runs import results as res
-from quadmodes.runs import simulate
 from quadmodes.structure import pipeline
 
 PAPER_RUNS = ["paper-0.5hz", "paper-41hz"]
@@ -94,9 +94,9 @@ def workdir(tmp_path, monkeypatch, small_reduced_model) -> Path:
     case = load_case(tmp_path / "small.toml")
     seeded = dataclasses.replace(
         small_reduced_model,
-        provenance={"case": case.name, "content_key": simulate.reduced_key(case, 5)},
+        provenance={"case": case.name, "content_key": model_cache.reduced_key(case, 5)},
     )
-    artifact.save_reduced_model(seeded, simulate.cache_path(case, 5))
+    artifact.save_reduced_model(seeded, model_cache.cache_path(case, 5))
     return tmp_path
 
 
@@ -176,10 +176,10 @@ def test_reduced_model_cache_is_hit_and_rebuilt_when_corrupt(tmp_path, monkeypat
     (tmp_path / "small.toml").write_text(SMALL_CAPSULE, encoding="utf-8")
     case = load_case(tmp_path / "small.toml")
     info: dict = {}
-    first = simulate.reduced_model_for(case, 5, info=info)
+    first = model_cache.reduced_model_for(case, 5, info=info)
     assert info["cache"] == "miss" and Path(info["path"]).is_file()
     assert first.n_modes == 5 and first.provenance["case"] == "small-capsule"
-    assert first.provenance["content_key"] == simulate.reduced_key(case, 5)
+    assert first.provenance["content_key"] == model_cache.reduced_key(case, 5)
     assert "case_toml" in first.provenance and int(first.provenance["n_nodes"]) > 100
     assert np.allclose(first.damping_ratio, case.material.damping_ratio)
 
@@ -190,7 +190,7 @@ def test_reduced_model_cache_is_hit_and_rebuilt_when_corrupt(tmp_path, monkeypat
 
     monkeypatch.setattr(pipeline, "build_modal_model", no_fe)
     info = {}
-    second = simulate.reduced_model_for(case, 5, info=info)
+    second = model_cache.reduced_model_for(case, 5, info=info)
     assert info["cache"] == "hit"
     assert np.array_equal(second.G, first.G) and second.labels == first.labels
 
@@ -207,7 +207,7 @@ def test_reduced_model_cache_is_hit_and_rebuilt_when_corrupt(tmp_path, monkeypat
     Path(info["path"]).write_bytes(b"not a netcdf file")  # corrupt cache entry: rebuilt
     monkeypatch.setattr(pipeline, "build_modal_model", real_build)
     info = {}
-    third = simulate.reduced_model_for(case, 5, info=info)
+    third = model_cache.reduced_model_for(case, 5, info=info)
     assert info["cache"] == "rebuilt"
     assert np.allclose(third.frequencies_hz, first.frequencies_hz)
     assert artifact.load_reduced_model(info["path"]).n_modes == 5

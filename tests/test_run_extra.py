@@ -17,7 +17,7 @@ from conftest import SMALL_CAPSULE
 from test_run import run_toml, workdir  # noqa: F401  (fixture)
 from typer.testing import CliRunner
 
-from quadmodes.case.schema import (
+from quadmodes.case import (
     CaseError,
     builtin_run_case_names,
     load_run_case,

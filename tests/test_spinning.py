@@ -1,4 +1,4 @@
-"""Full-order rotating-frame analysis (quadmodes.analysis.rotating): centrifugal relative equilibrium,
+"""Full-order rotating-frame analysis (quadmodes.analysis.rotating_*): centrifugal relative equilibrium,
 gyroscopic eigenproblem, and its comparison with the reduced model's Campbell frequencies on the
 coarse paper model; the clamped Kane beam against its published chordwise frequencies and the
 Southwell coefficient."""
@@ -6,11 +6,18 @@ Southwell coefficient."""
 import numpy as np
 import pytest
 
-from quadmodes.analysis import rotating as spn
 from quadmodes.analysis.campbell import campbell
+from quadmodes.analysis.rotating_comparison import case_state, rotating_frequency_comparison
+from quadmodes.analysis.rotating_equilibrium import (
+    centrifugal_force,
+    relative_equilibrium,
+    rotating_residual,
+)
+from quadmodes.analysis.rotating_matching import rotation_and_modal_parts
+from quadmodes.analysis.rotating_modes import rotating_roots
 from quadmodes.fe.build import build_beam_structure
 from quadmodes.fe.model import centre_of_mass, inertia_tensor
-from quadmodes.runs.simulate import build_reduced_model
+from quadmodes.runs.model_cache import build_reduced_model
 from quadmodes.runs.spinup import KANE_BEAM, KANE_REFERENCE_CHORDWISE
 
 SPINS_HZ = (0.0, 20.0, 41.0)
@@ -19,14 +26,14 @@ SPINS_HZ = (0.0, 20.0, 41.0)
 @pytest.fixture(scope="module")
 def coarse():
     """Coarse paper model: case, vibration structure, inflated state, 5-mode reduced model."""
-    case, structure, x0 = spn.case_state("paper-membrane-coarse")
+    case, structure, x0 = case_state("paper-membrane-coarse")
     return case, structure, x0, build_reduced_model(case, 5)
 
 
 @pytest.fixture(scope="module")
 def table5(coarse):
     case, _, _, rom = coarse
-    return spn.rotating_frequency_comparison(case, SPINS_HZ, model=rom, formulations=("Q", "L"))
+    return rotating_frequency_comparison(case, SPINS_HZ, model=rom, formulations=("Q", "L"))
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +41,7 @@ def table8(coarse):
     """Q with 8 modes (adds the 42.6 Hz torsion, 52.1 Hz and 57.7 Hz modes)."""
     case = coarse[0]
     rom = build_reduced_model(case, 8)
-    return spn.rotating_frequency_comparison(case, (20.0, 41.0), model=rom, formulations=("Q",))
+    return rotating_frequency_comparison(case, (20.0, 41.0), model=rom, formulations=("Q",))
 
 
 def test_zero_spin_reproduces_modal_frequencies(table5, coarse):
@@ -51,8 +58,8 @@ def test_relative_equilibrium(table5, coarse):
     e, c = table5.axis, centre_of_mass(structure, x0)
     for eq in table5.equilibria[1:]:
         assert eq.residual < 1e-9
-        res = spn.rotating_residual(structure, eq.x, eq.spin, e, c)
-        fc = spn.centrifugal_force(structure, eq.x, eq.spin, e, c)
+        res = rotating_residual(structure, eq.x, eq.spin, e, c)
+        fc = centrifugal_force(structure, eq.x, eq.spin, e, c)
         assert np.linalg.norm(res) < 1e-8 * np.linalg.norm(fc)
         # the two frame conditions only remove null directions: no reaction
         assert eq.multiplier_ratio < 1e-9
@@ -72,8 +79,8 @@ def test_centrifugal_deformation_matches_reduced_quasi_static(coarse):
     _, structure, x0, rom = coarse
     r = campbell(rom, [2 * np.pi * 5.0], 0, "Q")
     e = r.axis
-    eq = spn.relative_equilibrium(structure, x0, 2 * np.pi * 5.0, e, centre_of_mass(structure, x0))
-    _, a = spn.rotation_and_modal_parts(structure, eq.x, rom.Phi, (eq.x - x0)[None])
+    eq = relative_equilibrium(structure, x0, 2 * np.pi * 5.0, e, centre_of_mass(structure, x0))
+    _, a = rotation_and_modal_parts(structure, eq.x, rom.Phi, (eq.x - x0)[None])
     np.testing.assert_allclose(a[0].real, r.s_eq[0], rtol=0, atol=2e-3 * np.abs(r.s_eq[0]).max())
 
 
@@ -134,10 +141,10 @@ def test_kane_beam_full_order_chordwise_and_southwell():
     w0 /= b["length"] ** 2
     x, prev, found = s.reference, 0.0, {}
     for om in (1.0, *sorted(KANE_REFERENCE_CHORDWISE)):
-        eq = spn.relative_equilibrium(s, x, om, z, start_spin=prev)
+        eq = relative_equilibrium(s, x, om, z, start_spin=prev)
         assert eq.residual < 1e-8
         x, prev = eq.x, om
-        roots = spn.rotating_roots(s, x, om, z, [w0 / (2 * np.pi), (w0 + om) / (2 * np.pi)], 4)
+        roots = rotating_roots(s, x, om, z, [w0 / (2 * np.pi), (w0 + om) / (2 * np.pi)], 4)
         shapes = roots.shapes[:, s.translational]
         inplane = np.sum(np.abs(shapes[..., 1]) ** 2, 1) / np.sum(np.abs(shapes) ** 2, (1, 2))
         low = np.argsort(roots.lam.imag)

@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from quadmodes.case.schema import load_case
+from quadmodes.case import load_case
 from quadmodes.fe.model import (
     centre_of_mass,
     inertia_tensor,

@@ -4,7 +4,7 @@ compares a measured number with a published or analytic reference within its tol
 import pytest
 
 from quadmodes.validation import dynamics_checks as vdyn
-from quadmodes.validation.fe_checks import Row, format_rows, validation_markdown
+from quadmodes.validation.report import Row, format_rows, validation_markdown
 
 
 @pytest.mark.parametrize("name", vdyn.FAST)

@@ -40,9 +40,9 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
-from quadmodes.io.atomic import write_text
+from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
-from quadmodes.runs.results import peak_envelope
+from quadmodes.runs.metrics import peak_envelope
 
 #: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")
@@ -235,13 +235,13 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
     from quadmodes.rom import integrators
-    from quadmodes.runs import simulate
+    from quadmodes.runs import model_cache, simulate
 
     kernel = integrators.numba_kernel()
     if kernel is not None:  # load the compiled kernel before any timing
         kernel.warm_up()
     start = time.perf_counter()
-    model = simulate.reduced_model_for(run.model_case(), run.reduced.modes, progress)
+    model = model_cache.reduced_model_for(run.model_case(), run.reduced.modes, progress)
     reduce_wall = time.perf_counter() - start
     results = {}
     for name in formulations:
@@ -368,7 +368,8 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
 
 def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]:
     """Overlay plots (modal amplitude with envelopes, cone angle, spin rate, |H|, energy)."""
-    from quadmodes.io.plots import _figure, _save
+    from quadmodes.io.figures import new_figure as _figure
+    from quadmodes.io.figures import save_png as _save
 
     directory = Path(directory)
     series = [cmp.full, *cmp.reduced.values()]
@@ -430,7 +431,7 @@ def write_comparison(cmp: Comparison, directory: str | os.PathLike, plots: bool 
     payload = cmp.as_json()
     write_text(directory / "comparison.json", json.dumps(payload, indent=2) + "\n")
     rows = table_rows(cmp)
-    with open(directory / "comparison.csv", "w", newline="") as fh:
+    with atomic_path(directory / "comparison.csv") as tmp, open(tmp, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)

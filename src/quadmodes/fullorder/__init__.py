@@ -6,8 +6,12 @@
 
 Modules: :mod:`~quadmodes.fullorder.kinematics` (frames, reduced → full state map, per-sample
 diagnostics, hub drive, centrifugal stretch), :mod:`~quadmodes.fullorder.integrator` (the time
-stepping, damping, checkpoints) and :mod:`~quadmodes.fullorder.runs` (run cases, Kane spin-up,
-wall-time estimate).
+stepping loop and its solution), with :mod:`~quadmodes.fullorder.setup` (what is computed once;
+the run state), :mod:`~quadmodes.fullorder.step` (step force, damping force, predictor,
+residual), :mod:`~quadmodes.fullorder.newton` (step Jacobian, reused factorisation,
+backtracking), :mod:`~quadmodes.fullorder.sampling` (the sampled series) and
+:mod:`~quadmodes.fullorder.checkpoint` (checkpoints, resume); and
+:mod:`~quadmodes.fullorder.runs` (run cases, Kane spin-up, wall-time estimate).
 
 Choices (and why)
 -----------------
@@ -63,17 +67,14 @@ Choices (and why)
   transient in modes the ROM does not have.
 """
 
-from quadmodes.fullorder.integrator import (
-    FullOrderNewtonError,
-    FullOrderSolution,
-    integrate_full_order,
-)
+from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
 from quadmodes.fullorder.kinematics import (
     HubDrive,
     centrifugal_stretch,
     initial_state_from_reduced,
     kane_hub,
 )
+from quadmodes.fullorder.newton import FullOrderNewtonError
 from quadmodes.fullorder.runs import (
     KaneFullOrder,
     estimate_for_run,

@@ -14,8 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from quadmodes.fe import model as fem
 from quadmodes.rom.reduced import ReducedModel, cross_form
 from quadmodes.rotations import axis_rotation, polar_rotation, rotation_matrix
+from quadmodes.structure.bordered import bordered_solver
 
 # ---------------------------------------------------------------------------------------------
 # rotations
@@ -252,8 +254,28 @@ def minor_axis(inertia: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 
 
+def bordered_correction(
+    structure: fem.Structure,
+    x: np.ndarray,
+    stiffness: sp.spmatrix,
+    constraints: np.ndarray | None,
+    residual: np.ndarray,
+) -> np.ndarray:
+    """Newton correction Δx (n,3) m of a static residual on the free DOFs of ``structure``:
+    ``(K + Σ c v vᵀ) Δx = −r`` subject to ``Cᵀ Δx = 0`` (bordered solve), with ``stiffness`` K
+    (n_free, n_free) N/m, the rank-one gas-law terms of
+    :func:`~quadmodes.fe.model.tangent_low_rank` at x (n,3), ``constraints`` C (n_free, k) or
+    None and ``residual`` r (n_free,) N. Zero on clamped components."""
+    free = structure.free_dofs
+    low = [(c, v[free]) for c, v in fem.tangent_low_rank(structure, x)]
+    solve = bordered_solver(stiffness, constraints, low)
+    dx = np.zeros(3 * structure.n)
+    dx[free] = -solve(residual)
+    return dx.reshape(-1, 3)
+
+
 def centrifugal_stretch(
-    structure,
+    structure: fem.Structure,
     x_ref: np.ndarray,
     omega: np.ndarray,
     model: ReducedModel | None = None,
@@ -271,16 +293,6 @@ def centrifugal_stretch(
     defeats the midpoint at Δt = 0.5 ms (ωΔt ≫ 1 on those modes). Adding ``R u_c`` puts the
     non-retained modes at their quasi-static state (which is what a reduced model assumes) and
     leaves the retained ones where the reduced state has them."""
-    from quadmodes.fe.model import (
-        centre_of_mass,
-        internal_force,
-        mass_matrix,
-        rigid_body_modes,
-        tangent_low_rank,
-        tangent_stiffness,
-    )
-    from quadmodes.structure.prestress import _bordered_solver
-
     w = np.asarray(omega, float)
     lmat = np.outer(w, w) - (w @ w) * np.eye(3)  # ω × (ω × r) = L r
     tr = structure.translational.astype(float)
@@ -290,15 +302,12 @@ def centrifugal_stretch(
     scale = float(np.max(np.abs(x_ref))) or 1.0
     m_l = sp.kron(ms, lmat, format="csr")
     for _ in range(max_iterations):
-        r = x - np.outer(tr, centre_of_mass(structure, x))
-        res = internal_force(structure, x) + ms @ (r @ lmat)
-        k = (tangent_stiffness(structure, x) + m_l)[free][:, free]
-        cons = (mass_matrix(structure) @ rigid_body_modes(structure, x))[free]
-        low = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
-        solve = _bordered_solver(k, cons, low)
-        dx = np.zeros(3 * structure.n)
-        dx[free] = -solve(res.ravel()[free])
-        x = x + dx.reshape(-1, 3)
+        r = x - np.outer(tr, fem.centre_of_mass(structure, x))
+        res = fem.internal_force(structure, x) + ms @ (r @ lmat)
+        k = (fem.tangent_stiffness(structure, x) + m_l)[free][:, free]
+        cons = (fem.mass_matrix(structure) @ fem.rigid_body_modes(structure, x))[free]
+        dx = bordered_correction(structure, x, k, cons, res.ravel()[free])
+        x = x + dx
         if np.max(np.abs(dx)) <= rtol * scale:
             break
     else:

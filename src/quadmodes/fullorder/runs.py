@@ -9,15 +9,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from quadmodes.case.schema import RunCase, load_case, load_run_case
+from quadmodes.case import RunCase, load_case, load_run_case
 from quadmodes.fe.model import Structure, centre_of_mass
-from quadmodes.fullorder.integrator import FullOrderSolution, _n_steps, integrate_full_order
+from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
 from quadmodes.fullorder.kinematics import (
     HubDrive,
     centrifugal_stretch,
     initial_state_from_reduced,
     kane_hub,
 )
+from quadmodes.fullorder.setup import step_count
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.rotations import rotation_matrix
 from quadmodes.structure import pipeline
@@ -127,16 +128,11 @@ def full_order_for_run(
 
 
 def estimate_wall_time(
-    structure: Structure,
-    x_ref: np.ndarray,
-    x0: np.ndarray,
-    v0: np.ndarray,
-    t_span: tuple[float, float],
-    dt: float,
-    n_probe: int = 8,
-    **options,
-) -> dict:
-    """Time ``n_probe`` steps from the initial state and extrapolate to ``t_span``.
+    structure: Structure, x_ref: np.ndarray, x0: np.ndarray, v0: np.ndarray,
+    t_span: tuple[float, float], dt: float, n_probe: int = 8, **options,
+) -> dict:  # fmt: skip
+    """Time ``n_probe`` steps from the initial state and extrapolate to ``t_span`` (the
+    arguments before ``n_probe`` as for :func:`integrate_full_order`).
 
     Returns ``{"estimate_s", "per_step_s", "first_step_s", "n_steps", "newton_per_step",
     "factor_per_step"}`` (s; the first step carries the setup and first factorisation and is
@@ -144,7 +140,7 @@ def estimate_wall_time(
     dropped)."""
     for key in ("checkpoint", "resume", "progress", "checkpoint_every"):
         options.pop(key, None)
-    n_steps = _n_steps(t_span, dt)[0]
+    n_steps = step_count(t_span, dt)[0]
     t0 = float(t_span[0])
     start = time.perf_counter()
     integrate_full_order(structure, x_ref, x0, v0, (t0, t0 + dt), dt, **options)
@@ -258,4 +254,3 @@ __all__ = [
     "refined_extreme",
     "setup_for_run",
 ]
-

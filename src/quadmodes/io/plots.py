@@ -8,7 +8,10 @@
 * ``cone_angle.png`` — cone angle (Figs. 10, 16)
 * ``summary.png`` — all of the above plus the bending-pair envelope and its log-decrement fit
 
-Matplotlib's Agg canvas is used directly (no pyplot state), so plotting works headless.
+and, for a hub-driven spin-up, ``tip_deflection.png`` (:func:`plot_tip_deflection`).
+
+Figures are drawn on matplotlib's Agg canvas (:mod:`quadmodes.io.figures`), so plotting works
+headless.
 """
 
 from __future__ import annotations
@@ -21,23 +24,8 @@ import numpy as np
 import xarray as xr
 
 from quadmodes.io.atomic import atomic_path
-
-_DPI = 120
-
-
-def _figure(figsize=(7.0, 4.0)):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize, dpi=_DPI)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig, path: Path) -> Path:
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=_DPI)
-    return path
+from quadmodes.io.figures import new_figure, save_png
+from quadmodes.runs.metrics import log_decrement, peak_envelope
 
 
 def _title(ds: xr.Dataset, what: str) -> str:
@@ -113,8 +101,6 @@ def _plot_series(ax, ds, name: str, ylabel: str) -> None:
 
 
 def _plot_envelope(ax, ds) -> None:
-    from quadmodes.runs.results import log_decrement, peak_envelope
-
     if "bending_amplitude" not in ds:
         ax.text(0.5, 0.5, "no bending pair", ha="center", va="center", transform=ax.transAxes)
         return
@@ -151,23 +137,21 @@ def _early_time(ds: xr.Dataset) -> float:
     return min(span, max(0.5, 0.01 * span)) + (float(t[0]) if len(t) else 0.0)
 
 
-def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
-    """Write the PNG figures of ``ds`` into ``directory``; returns their paths."""
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
+def _write_single(ds: xr.Dataset, path: Path, what: str, draw) -> Path:
+    """One-panel figure of ``ds`` against time: ``draw(ax)`` plots, ``what`` titles."""
+    fig = new_figure((7.0, 4.0))
+    ax = fig.add_subplot(1, 1, 1)
+    draw(ax)
+    ax.set_xlabel("time (s)")
+    ax.grid(True, lw=0.3)
+    fig.suptitle(_title(ds, what), fontsize=10)
+    fig.subplots_adjust(left=0.14, right=0.86, bottom=0.13, top=0.84)
+    return save_png(fig, path)
 
-    def single(name, what, draw, figsize=(7.0, 4.0)):
-        fig = _figure(figsize)
-        ax = fig.add_subplot(1, 1, 1)
-        draw(ax)
-        ax.set_xlabel("time (s)")
-        ax.grid(True, lw=0.3)
-        fig.suptitle(_title(ds, what), fontsize=10)
-        fig.subplots_adjust(left=0.14, right=0.86, bottom=0.13, top=0.84)
-        paths.append(_save(fig, directory / name))
 
-    fig = _figure((7.0, 5.0))
+def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
+    """|H| (top) and its relative change (bottom), seed Figs. 6, 11."""
+    fig = new_figure((7.0, 5.0))
     ax1 = fig.add_subplot(2, 1, 1)
     _plot_h(ax1, ds, relative=False)
     ax1.grid(True, lw=0.3)
@@ -179,36 +163,40 @@ def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
         _title(ds, "magnitude of the angular momentum (cf. seed Figs. 6, 11)"), fontsize=10
     )
     fig.subplots_adjust(left=0.14, right=0.95, bottom=0.1, top=0.9, hspace=0.3)
-    paths.append(_save(fig, directory / "angular_momentum.png"))
+    return save_png(fig, path)
+
+
+def _single_figures(ds: xr.Dataset) -> list[tuple[str, str, object]]:
+    """(file name, title, draw(ax)) of the one-panel figures (seed Figs. 7–10, 12–16)."""
 
     def bending(ax, t_max=None):
         if _plot_bending(ax, ds, t_max):
             _displacement_axis(ax, ds)
 
-    single(
-        "bending_mode.png",
-        "first bending coefficient (cf. seed Figs. 7, 12)",
-        bending,
-    )
-    single(
-        "bending_mode_early.png",
-        "first bending coefficient, early times (cf. seed Fig. 13)",
-        lambda ax: bending(ax, _early_time(ds)),
-    )
-    single("energy.png", "total energy (cf. seed Figs. 8, 14)", lambda ax: _plot_energy(ax, ds))
-    single(
-        "spin_rate.png",
-        "spin rate (cf. seed Figs. 9, 15)",
-        lambda ax: _plot_series(ax, ds, "spin_rate_hz", "spin rate (Hz)"),
-    )
-    single(
-        "cone_angle.png",
-        "cone angle (cf. seed Figs. 10, 16)",
-        lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
-    )
+    return [
+        ("bending_mode.png", "first bending coefficient (cf. seed Figs. 7, 12)", bending),
+        (
+            "bending_mode_early.png",
+            "first bending coefficient, early times (cf. seed Fig. 13)",
+            lambda ax: bending(ax, _early_time(ds)),
+        ),
+        ("energy.png", "total energy (cf. seed Figs. 8, 14)", lambda ax: _plot_energy(ax, ds)),
+        (
+            "spin_rate.png",
+            "spin rate (cf. seed Figs. 9, 15)",
+            lambda ax: _plot_series(ax, ds, "spin_rate_hz", "spin rate (Hz)"),
+        ),
+        (
+            "cone_angle.png",
+            "cone angle (cf. seed Figs. 10, 16)",
+            lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
+        ),
+    ]
 
-    fig = _figure((13.0, 7.5))
-    panels = [
+
+def _summary_panels(ds: xr.Dataset) -> list[tuple[str, object]]:
+    """(title, draw(ax)) of the six panels of ``summary.png``."""
+    return [
         ("|H| relative change", lambda ax: _plot_h(ax, ds, relative=True)),
         ("first bending coefficient", lambda ax: _plot_bending(ax, ds)),
         ("bending pair amplitude and log decrement", lambda ax: _plot_envelope(ax, ds)),
@@ -222,7 +210,12 @@ def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
             lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
         ),
     ]
-    for k, (what, draw) in enumerate(panels):
+
+
+def _write_summary(ds: xr.Dataset, path: Path) -> Path:
+    """All panels on one page (2 × 3), titled with formulation, method and step."""
+    fig = new_figure((13.0, 7.5))
+    for k, (what, draw) in enumerate(_summary_panels(ds)):
         ax = fig.add_subplot(2, 3, k + 1)
         draw(ax)
         if not ax.get_title():
@@ -241,5 +234,48 @@ def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
         fontsize=11,
     )
     fig.subplots_adjust(left=0.075, right=0.985, bottom=0.07, top=0.9, wspace=0.4, hspace=0.32)
-    paths.append(_save(fig, directory / "summary.png"))
+    return save_png(fig, path)
+
+
+def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
+    """Write the PNG figures of ``ds`` into ``directory``; returns their paths."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = [_write_angular_momentum(ds, directory / "angular_momentum.png")]
+    for name, what, draw in _single_figures(ds):
+        paths.append(_write_single(ds, directory / name, what, draw))
+    paths.append(_write_summary(ds, directory / "summary.png"))
     return paths
+
+
+def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """PNG of the in-plane (and axial) tip deflection and the hub rate of a spin-up."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    t = ds["time"].values
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    ax.plot(t, ds["tip_inplane"].values, label="in-plane v (hub y)")
+    ax.plot(t, ds["tip_axial"].values, "--", label="axial (hub x)")
+    ax.plot([ds.attrs["peak_time"]], [ds.attrs["peak_tip_deflection"]], "o", color="C3")
+    ax.set_ylabel("tip displacement (m)")
+    ax.set_title(
+        f"{ds.attrs['case']}: formulation {ds.attrs['formulation']}, "
+        f"Ωs = {ds.attrs['omega_s']:.3g} rad/s ({ds.attrs['status']})"
+    )
+    ax.legend(loc="best")
+    ax.grid(True, alpha=0.3)
+    ax2.plot(t, ds["hub_rate"].values, color="k")
+    ax2.set_ylabel("hub rate (rad/s)")
+    ax2.set_xlabel("time (s)")
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+    finally:
+        plt.close(fig)
+    return path

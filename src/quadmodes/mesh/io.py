@@ -41,6 +41,23 @@ def read_surface(path: str | Path) -> TriangleSurface:
     return TriangleSurface(points[used, :3], inverse.reshape(triangles.shape))
 
 
+def _per_item_data(
+    kind: str, data: dict | None, count_name: str, count: int
+) -> dict[str, np.ndarray]:
+    """``data`` as arrays, each checked to have first dimension ``count`` (``ValueError`` naming
+    ``kind`` and ``count_name`` otherwise)."""
+    out = {}
+    for name, value in (data or {}).items():
+        arr = np.asarray(value)
+        if arr.shape[:1] != (count,):
+            raise ValueError(
+                f"mesh: {kind} '{name}' has shape {arr.shape}; "
+                f"its first dimension must be {count_name} = {count}"
+            )
+        out[name] = arr
+    return out
+
+
 def write_surface(
     path: str | Path,
     surface: TriangleSurface,
@@ -57,24 +74,9 @@ def write_surface(
     cell_data : name -> array with first dimension n_triangles.
     """
     path = Path(path)
-    pdata = {}
-    for name, value in (point_data or {}).items():
-        arr = np.asarray(value)
-        if arr.shape[:1] != (surface.n_points,):
-            raise ValueError(
-                f"mesh: point_data '{name}' has shape {arr.shape}; "
-                f"its first dimension must be n_points = {surface.n_points}"
-            )
-        pdata[name] = arr
-    cdata = {}
-    for name, value in (cell_data or {}).items():
-        arr = np.asarray(value)
-        if arr.shape[:1] != (surface.n_triangles,):
-            raise ValueError(
-                f"mesh: cell_data '{name}' has shape {arr.shape}; "
-                f"its first dimension must be n_triangles = {surface.n_triangles}"
-            )
-        cdata[name] = [arr]  # meshio wants one array per cell block
+    pdata = _per_item_data("point_data", point_data, "n_points", surface.n_points)
+    cdata = _per_item_data("cell_data", cell_data, "n_triangles", surface.n_triangles)
+    cdata = {name: [arr] for name, arr in cdata.items()}  # meshio wants one array per cell block
     mesh = meshio.Mesh(
         surface.points, [("triangle", surface.triangles)], point_data=pdata, cell_data=cdata
     )

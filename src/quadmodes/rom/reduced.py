@@ -33,8 +33,8 @@ from quadmodes.fe.model import (
     total_mass,
 )
 from quadmodes.fe.pressure import PressureSet
+from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
-from quadmodes.structure.prestress import _bordered_solver
 
 
 @dataclass(frozen=True)
@@ -208,7 +208,7 @@ def quadratic_modes(structure: Structure, x: np.ndarray, shapes: np.ndarray, pro
         constraint = constraint @ vec[:, lam > 1e-10 * lam.max()]
     else:
         constraint = None
-    solve = _bordered_solver(k, constraint, low_rank)
+    solve = bordered_solver(k, constraint, low_rank)
     g = np.zeros((n_modes, n_modes, structure.n, 3))
     pairs = [(m, q) for m in range(n_modes) for q in range(m, n_modes)]
     for j, (m, q) in enumerate(pairs):

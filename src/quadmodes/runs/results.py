@@ -1,5 +1,4 @@
-"""Results of a run: a self-describing NetCDF file (``results.nc``), a JSON summary and the
-log-decrement estimate.
+"""Results of a run: a self-describing NetCDF file (``results.nc``) and a JSON summary.
 
 ``results.nc`` (xarray, written with h5netcdf) has a ``time`` coordinate (s) and variables with
 ``units`` and ``description`` attributes; global attributes carry the run case TOML, the model
@@ -7,14 +6,7 @@ case TOML, the method, step, formulation, status and work counters, the package 
 ``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
 from the dataset alone, so it can be recomputed from a saved file.
 
-Log decrement (:func:`log_decrement`): for the first bending pair (s_b1, s_b2) the amplitude
-``a(t) = √(s_b1² + s_b2²)``; its peak envelope is the maximum of ``a`` in consecutive windows of
-one period ``T = 1/f`` of the pair (f the mean of the pair's natural frequencies), each maximum
-refined by a parabola through the neighbouring samples. ``ln(envelope)`` is fitted by a straight
-line in time, using the windows whose envelope exceeds 10× the late-time level (the median of
-``a`` over the last 10 % of the run) so that a forced floor does not bias a decay; if fewer than
-three windows qualify, all windows are used. ``δ = −slope·T`` per period: 2πζ for a free decay
-with modal damping ratio ζ, negative for growth.
+The log decrement of the summary is :func:`quadmodes.runs.metrics.log_decrement`.
 """
 
 from __future__ import annotations
@@ -29,6 +21,7 @@ import xarray as xr
 
 from quadmodes import __version__
 from quadmodes.io.atomic import atomic_path, write_text
+from quadmodes.runs.metrics import log_decrement
 
 FORMAT = "quadmodes-run-results"
 FORMAT_VERSION = 1
@@ -40,17 +33,10 @@ def _var(dims, value, units: str, description: str) -> xr.Variable:
     return xr.Variable(dims, np.asarray(value), attrs={"units": units, "description": description})
 
 
-def to_dataset(result) -> xr.Dataset:
-    """The :class:`quadmodes.runs.simulate.RunResult` as an xarray Dataset (SI units)."""
-    from quadmodes.rom import system as rsys
-    from quadmodes.runs.simulate import largest_nodal_displacement
-
-    sol, d, sys = result.solution, result.diagnostics, result.system
-    run, model = result.run, result.model
-    q, w, s, sd = rsys.split_state(sys, sol.y)
-    n = sys.n_modes
-    labels = list(model.labels[:n]) if n else []
-    freqs = np.asarray(model.frequencies_hz[:n], float)
+def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variable]:
+    """Data variables of ``results.nc``: diagnostics ``d`` (:class:`quadmodes.rom.diagnostics.
+    Diagnostics`), the state split into q (nt, 4), ω (nt, 3) rad/s, s and ṡ (nt, N), and the
+    amplitude of the bending pair ``pair`` (0-based mode indices; none if empty)."""
     t = ("time",)
     tx = ("time", "xyz")
     tm = ("time", "mode")
@@ -88,14 +74,19 @@ def to_dataset(result) -> xr.Dataset:
             ("time", "quat"), q, "1", "attitude quaternion (scalar first), body to inertial"
         ),
     }
-    pair = result.initial.bending_modes
     if pair:
         amp = np.sqrt(np.sum(s[:, list(pair)] ** 2, axis=1))
         data["bending_amplitude"] = _var(
             t, amp, "kg0.5 m", "first bending pair amplitude sqrt(s_b1^2 + s_b2^2)"
         )
-    coords = {
-        "time": ("time", np.asarray(sol.t, float), {"units": "s", "description": "time"}),
+    return data
+
+
+def _mode_coords(time: np.ndarray, labels: list[str], freqs: np.ndarray) -> dict:
+    """Coordinates: time (s), xyz, quat, and the retained modes (number, label, frequency Hz)."""
+    n = len(freqs)
+    return {
+        "time": ("time", np.asarray(time, float), {"units": "s", "description": "time"}),
         "xyz": ("xyz", XYZ),
         "quat": ("quat", QUAT),
         "mode": ("mode", np.arange(1, n + 1), {"description": "retained mode number"}),
@@ -106,7 +97,14 @@ def to_dataset(result) -> xr.Dataset:
             {"units": "Hz", "description": "natural frequency (not spinning)"},
         ),
     }
-    ds = xr.Dataset(data, coords=coords)
+
+
+def _run_attrs(result, n: int) -> dict:
+    """Global attributes of ``results.nc`` for a run result with ``n`` retained modes."""
+    from quadmodes.runs.initial import largest_nodal_displacement
+
+    sol, run, model = result.solution, result.run, result.model
+    pair = result.initial.bending_modes
     stats = sol.stats
     attrs = {
         "format": FORMAT,
@@ -148,12 +146,26 @@ def to_dataset(result) -> xr.Dataset:
         attrs["incomplete_reason"] = result.reason
     if result.notes:
         attrs["notes"] = "; ".join(result.notes)
-    ds.attrs.update(attrs)
+    return attrs
+
+
+def to_dataset(result) -> xr.Dataset:
+    """The :class:`quadmodes.runs.simulate.RunResult` as an xarray Dataset (SI units)."""
+    from quadmodes.rom import system as rsys
+
+    sol, sys, model = result.solution, result.system, result.model
+    q, w, s, sd = rsys.split_state(sys, sol.y)
+    n = sys.n_modes
+    labels = list(model.labels[:n]) if n else []
+    freqs = np.asarray(model.frequencies_hz[:n], float)
+    data = _run_variables(result.diagnostics, q, w, s, sd, result.initial.bending_modes)
+    ds = xr.Dataset(data, coords=_mode_coords(sol.t, labels, freqs))
+    ds.attrs.update(_run_attrs(result, n))
     return ds
 
 
 def validity_attrs(validity) -> dict:
-    """results.nc attributes of a :class:`quadmodes.runs.simulate.Validity` (empty if None):
+    """results.nc attributes of a :class:`quadmodes.runs.validity.Validity` (empty if None):
     ``valid`` (1/0), ``rotating_stiffness_min_eigenvalue`` (s-2, at the run's spin),
     ``validity_spin_rate`` (rad/s) and ``validity_lost_at_spin_rate`` (rad/s; NaN if never)."""
     if validity is None:
@@ -209,78 +221,6 @@ def load_results(path: str | os.PathLike) -> xr.Dataset:
     """Read a ``results.nc`` file into memory."""
     with xr.open_dataset(path, engine="h5netcdf") as ds:
         return ds.load()
-
-
-# ---------------------------------------------------------------------------------------------
-# log decrement
-# ---------------------------------------------------------------------------------------------
-
-
-def peak_envelope(t: np.ndarray, a: np.ndarray, period: float):
-    """(times, values) of the maximum of ``a`` in consecutive windows of length ``period``,
-    each refined by a parabola through the maximum sample and its neighbours."""
-    t = np.asarray(t, float)
-    a = np.asarray(a, float)
-    if len(t) < 3 or not period > 0:
-        return np.zeros(0), np.zeros(0)
-    n_win = int(math.floor((t[-1] - t[0]) / period + 1e-9))
-    et, ea = [], []
-    edges = np.searchsorted(t, t[0] + period * np.arange(n_win + 1))
-    for k in range(n_win):
-        lo, hi = edges[k], max(edges[k + 1], edges[k] + 1)
-        i = lo + int(np.argmax(a[lo:hi]))
-        ti, ai = t[i], a[i]
-        if 0 < i < len(a) - 1:
-            y0, y1, y2 = a[i - 1], a[i], a[i + 1]
-            den = y0 - 2 * y1 + y2
-            if den < 0:
-                p = 0.5 * (y0 - y2) / den
-                if abs(p) <= 1:
-                    ai = y1 - 0.25 * (y0 - y2) * p
-                    ti = ti + p * 0.5 * (t[i + 1] - t[i - 1])
-        et.append(ti)
-        ea.append(ai)
-    return np.asarray(et), np.asarray(ea)
-
-
-def log_decrement(t: np.ndarray, a: np.ndarray, frequency_hz: float) -> dict:
-    """Log decrement per period of ``a(t)`` (see the module docstring).
-
-    Returns ``{"log_decrement", "fit_start_s", "fit_end_s", "fit_peaks", "period_s"}``;
-    ``log_decrement`` is None when the samples cannot resolve the period or there are fewer
-    than three windows."""
-    out = {
-        "log_decrement": None,
-        "fit_start_s": None,
-        "fit_end_s": None,
-        "fit_peaks": 0,
-        "period_s": None,
-    }
-    t = np.asarray(t, float)
-    a = np.asarray(a, float)
-    if not (frequency_hz and frequency_hz > 0) or len(t) < 8:
-        return out
-    period = 1.0 / frequency_hz
-    out["period_s"] = period
-    if np.median(np.diff(t)) > period / 4:  # too coarse to see the oscillation
-        return out
-    et, ea = peak_envelope(t, a, period)
-    ok = ea > 0
-    et, ea = et[ok], ea[ok]
-    if len(ea) < 3:
-        return out
-    floor = float(np.median(a[int(0.9 * len(a)) :]))
-    use = ea > 10.0 * floor
-    if use.sum() < 3:
-        use = np.ones_like(ea, bool)
-    slope = np.polyfit(et[use], np.log(ea[use]), 1)[0]
-    out.update(
-        log_decrement=float(-slope * period),
-        fit_start_s=float(et[use][0]),
-        fit_end_s=float(et[use][-1]),
-        fit_peaks=int(use.sum()),
-    )
-    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -477,39 +417,6 @@ def spinup_summary(ds: xr.Dataset) -> dict:
     return out
 
 
-def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """PNG of the in-plane (and axial) tip deflection and the hub rate of a spin-up."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    t = ds["time"].values
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
-    ax.plot(t, ds["tip_inplane"].values, label="in-plane v (hub y)")
-    ax.plot(t, ds["tip_axial"].values, "--", label="axial (hub x)")
-    ax.plot([ds.attrs["peak_time"]], [ds.attrs["peak_tip_deflection"]], "o", color="C3")
-    ax.set_ylabel("tip displacement (m)")
-    ax.set_title(
-        f"{ds.attrs['case']}: formulation {ds.attrs['formulation']}, "
-        f"Ωs = {ds.attrs['omega_s']:.3g} rad/s ({ds.attrs['status']})"
-    )
-    ax.legend(loc="best")
-    ax.grid(True, alpha=0.3)
-    ax2.plot(t, ds["hub_rate"].values, color="k")
-    ax2.set_ylabel("hub rate (rad/s)")
-    ax2.set_xlabel("time (s)")
-    ax2.grid(True, alpha=0.3)
-    fig.tight_layout()
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=110)
-    finally:
-        plt.close(fig)
-    return path
-
-
 def write_spinup_outputs(run, directory: str | os.PathLike, plots: bool = True) -> dict:
     """Write ``results.nc``, ``summary.json`` and (if ``plots``) ``tip_deflection.png`` of a
     :class:`quadmodes.runs.simulate.SpinupRun` into ``directory``; returns the summary."""
@@ -520,5 +427,7 @@ def write_spinup_outputs(run, directory: str | os.PathLike, plots: bool = True) 
     info = spinup_summary(ds)
     write_text(directory / "summary.json", json.dumps(info, indent=2) + "\n")
     if plots:
+        from quadmodes.io.plots import plot_tip_deflection
+
         plot_tip_deflection(ds, directory / "tip_deflection.png")
     return info

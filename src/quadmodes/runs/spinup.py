@@ -241,35 +241,33 @@ class SpinupResult:
         return self.tip[:, 0]
 
 
-def kane_spinup(
-    omega_s: float = 6.0,
-    t_ramp: float = 15.0,
-    duration: float = 30.0,
-    n_modes: int = 4,
-    formulation: str = "Q",
-    model: ReducedModel | None = None,
-    n_elements: int = 20,
-    out_of_plane: bool = False,
-    rtol: float = 1e-9,
-    atol: float = 1e-11,
-    n_out: int = 3001,
-    blowup: float = 100.0,
-    **beam,
-) -> SpinupResult:
-    """Kane spin-up 0 → ``omega_s`` (rad/s) in ``t_ramp`` (s), run to ``duration`` (s).
+@dataclass(frozen=True, eq=False)
+class _Pieces:
+    """DOP853 solutions of the consecutive pieces of a spin-up (dense output), how it ended
+    ("ok", "diverged" or "failed", with a message) and the number of accepted output times."""
 
-    ``formulation``: "Q" (quadratic modes, spin stiffening through J2g) or "L" (linear modes,
-    no stiffening: diverges for Ωs above the first bending frequency, 3.80 rad/s). ``model``: a
-    clamped :class:`ReducedModel` (X from the hub point); default :func:`kane_model` with
-    ``n_modes`` in-plane bending modes on ``n_elements`` cable elements; ``beam``: beam data
-    overriding :data:`KANE_BEAM` (``length``, ``youngs_modulus``, …). Integration: DOP853 with
-    ``rtol``/``atol``; a terminal event stops the run cleanly when |U_tip| exceeds
-    ``blowup`` × (beam length); output on ``n_out`` uniform times."""
-    if model is None:
-        model = kane_model(n_modes, n_elements, out_of_plane, **beam)
-    if model.free:
-        raise ValueError("kane_spinup: the model must be clamped to the hub (free=False)")
-    sys = reduced_system(model, formulation)
+    sols: list
+    status: str
+    message: str
+    n_steps: int
+
+    def state(self, t) -> np.ndarray:
+        """State [s, ṡ] (nt, 2N) at times ``t`` (s) from the dense outputs of the pieces."""
+        t = np.atleast_1d(np.asarray(t, float))
+        out = np.empty((t.size, self.sols[0].y.shape[0]))
+        for k, sol in enumerate(self.sols):
+            lo, hi = sol.t[0], sol.t[-1]
+            sel = (t >= lo) & (t <= hi) if k == 0 else (t > lo) & (t <= hi)
+            if np.any(sel):
+                out[sel] = sol.sol(t[sel]).T
+        return out
+
+
+def _integrate_pieces(
+    sys, model: ReducedModel, omega_s, t_ramp, duration, formulation, rtol, atol, blowup
+) -> _Pieces:
+    """DOP853 from rest through the ramp (0 … T) and the steady spin (T … ``duration``), with
+    a terminal event when |U_tip| exceeds ``blowup`` × (beam length)."""
     n = sys.n_modes
     length = float(np.max(np.linalg.norm(model.X[model.translational], axis=1)))
     limit = blowup * length
@@ -320,34 +318,67 @@ def kane_spinup(
             message = f"formulation {formulation}: integrator stopped: {sol.message}"
             break
         y0 = sol.y[:, -1]
-    t_end = float(sols[-1].t[-1])
-    time = np.linspace(0.0, t_end, max(2, int(round(n_out * t_end / duration))))
+    return _Pieces(sols, status, message, n_steps)
 
-    def state(t):
-        t = np.atleast_1d(np.asarray(t, float))
-        out = np.empty((t.size, 2 * n))
-        for k, sol in enumerate(sols):
-            lo, hi = sol.t[0], sol.t[-1]
-            sel = (t >= lo) & (t <= hi) if k == 0 else (t > lo) & (t <= hi)
-            if np.any(sel):
-                out[sel] = sol.sol(t[sel]).T
-        return out
 
-    y = state(time)
-    s, sd = y[:, :n], y[:, n:]
-    tip = tip_displacement(model, s)
-    v = tip[:, 1]
+def _inplane_peak(model: ReducedModel, n: int, pieces: _Pieces, time: np.ndarray, v: np.ndarray):
+    """(time s, value m) of the largest |v| of the in-plane tip deflection ``v`` sampled at
+    ``time``, refined on the dense solution of the ``n`` modal coordinates for a completed run
+    (bounded scalar search)."""
     k = int(np.nanargmax(np.abs(v)))
     peak_t, peak_v = float(time[k]), float(v[k])
-    if status == "ok" and 0 < k < time.size - 1:
+    if pieces.status == "ok" and 0 < k < time.size - 1:
         sign = math.copysign(1.0, peak_v)
         res = minimize_scalar(
-            lambda tt: -sign * tip_displacement(model, state(tt)[0, :n])[1],
+            lambda tt: -sign * tip_displacement(model, pieces.state(tt)[0, :n])[1],
             bounds=(time[k - 1], time[k + 1]),
             method="bounded",
             options={"xatol": 1e-6},
         )
         peak_t, peak_v = float(res.x), float(-sign * res.fun)
+    return peak_t, peak_v
+
+
+def kane_spinup(
+    omega_s: float = 6.0,
+    t_ramp: float = 15.0,
+    duration: float = 30.0,
+    n_modes: int = 4,
+    formulation: str = "Q",
+    model: ReducedModel | None = None,
+    n_elements: int = 20,
+    out_of_plane: bool = False,
+    rtol: float = 1e-9,
+    atol: float = 1e-11,
+    n_out: int = 3001,
+    blowup: float = 100.0,
+    **beam,
+) -> SpinupResult:
+    """Kane spin-up 0 → ``omega_s`` (rad/s) in ``t_ramp`` (s), run to ``duration`` (s).
+
+    ``formulation``: "Q" (quadratic modes, spin stiffening through J2g) or "L" (linear modes,
+    no stiffening: diverges for Ωs above the first bending frequency, 3.80 rad/s). ``model``: a
+    clamped :class:`ReducedModel` (X from the hub point); default :func:`kane_model` with
+    ``n_modes`` in-plane bending modes on ``n_elements`` cable elements; ``beam``: beam data
+    overriding :data:`KANE_BEAM` (``length``, ``youngs_modulus``, …). Integration: DOP853 with
+    ``rtol``/``atol``; a terminal event stops the run cleanly when |U_tip| exceeds
+    ``blowup`` × (beam length); output on ``n_out`` uniform times."""
+    if model is None:
+        model = kane_model(n_modes, n_elements, out_of_plane, **beam)
+    if model.free:
+        raise ValueError("kane_spinup: the model must be clamped to the hub (free=False)")
+    sys = reduced_system(model, formulation)
+    n = sys.n_modes
+    pieces = _integrate_pieces(
+        sys, model, omega_s, t_ramp, duration, formulation, rtol, atol, blowup
+    )
+    t_end = float(pieces.sols[-1].t[-1])
+    time = np.linspace(0.0, t_end, max(2, int(round(n_out * t_end / duration))))
+    y = pieces.state(time)
+    s, sd = y[:, :n], y[:, n:]
+    tip = tip_displacement(model, s)
+    v = tip[:, 1]
+    peak_t, peak_v = _inplane_peak(model, n, pieces, time, v)
     after = v[time > t_ramp]
     after_max = float(np.max(np.abs(after))) if after.size else float("nan")
     return SpinupResult(
@@ -362,8 +393,8 @@ def kane_spinup(
         peak_deflection=peak_v,
         peak_time=peak_t,
         after_ramp_max=after_max,
-        status=status,
-        message=message,
+        status=pieces.status,
+        message=pieces.message,
         model=model,
-        n_steps=n_steps,
+        n_steps=pieces.n_steps,
     )

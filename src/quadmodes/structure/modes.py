@@ -23,7 +23,7 @@ from quadmodes.fe.model import (
     tangent_low_rank,
     tangent_stiffness,
 )
-from quadmodes.structure.prestress import _bordered_solver
+from quadmodes.structure.bordered import bordered_solver
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,7 @@ def compute_modes(
     m = mass_matrix(structure)[free][:, free]
     sigma = -((2.0 * np.pi * (shift_hz if shift_hz is not None else 1.0)) ** 2)
     low_rank = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
-    solve = _bordered_solver((k - sigma * m).tocsr(), None, low_rank)
+    solve = bordered_solver((k - sigma * m).tocsr(), None, low_rank)
     op_inv = spla.LinearOperator(k.shape, matvec=solve, dtype=float)
     n_total = k.shape[0]
     n_request = min(count + n_rigid + 4, n_total - 1)

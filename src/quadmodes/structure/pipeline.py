@@ -1,5 +1,12 @@
-"""Glue from a validated case to the finite-element stages: mesh -> structure -> prestress ->
-modes -> labels. Each step is a small function; the CLI and the calibration call them."""
+"""The structure stage's pipeline from a validated case to a modal model: mesh -> structure ->
+prestress -> modes -> labels.
+
+Each step is a small function: :func:`structure_for_case` (mesh and stress-free finite-element
+structure), :func:`reference_state` (inflation), :func:`with_gas_law` (pressure for vibrations
+about the inflated state), :func:`build_modal_model` (all of them plus modes and labels, as a
+:class:`ModalModel`) and :func:`modes_summary` (its JSON summary). The CLI, the calibration, the
+reduction and the full-order runs call them.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from quadmodes.case.schema import Case
+from quadmodes.case import Case
 from quadmodes.fe.build import (
     EndBodySpec,
     MembraneSpec,

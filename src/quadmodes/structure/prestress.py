@@ -13,8 +13,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import (
@@ -27,6 +25,7 @@ from quadmodes.fe.model import (
     with_load_factor,
 )
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
+from quadmodes.structure.bordered import bordered_solver
 
 Progress = Callable[[str, float], None]
 log = logging.getLogger(__name__)
@@ -67,38 +66,36 @@ class PrestressedState:
         return state
 
 
-def _bordered_solver(k: sp.spmatrix, constraint: np.ndarray | None, low_rank) -> Callable:
-    """Factorise ``[[K + Σ c v vᵀ, C], [Cᵀ, 0]]`` and return ``rhs (3n,) -> solution (3n,)``."""
-    n = k.shape[0]
-    if constraint is None:
-        a = k.tocsc()
-    else:
-        c = sp.csc_matrix(constraint)
-        a = sp.bmat([[k, c], [c.T, None]], format="csc")
-    lu = spla.splu(a, permc_spec="COLAMD")
-    m = a.shape[0]
-
-    def base(rhs: np.ndarray) -> np.ndarray:
-        full = np.zeros(m)
-        full[:n] = rhs
-        return lu.solve(full)[:n]
-
-    if not low_rank:
-        return base
-    # Sherman–Morrison for the rank-one gas-law terms.
-    vecs = [(coef, vec, base(vec)) for coef, vec in low_rank]
-
-    def solve(rhs: np.ndarray) -> np.ndarray:
-        y = base(rhs)
-        for coef, vec, kv in vecs:
-            y = y - kv * (coef * (vec @ y) / (1.0 + coef * (vec @ kv)))
-        return y
-
-    return solve
-
-
 def _reduced(structure: Structure, vec: np.ndarray) -> np.ndarray:
     return vec.ravel()[structure.free_dofs]
+
+
+def backtracking_step(
+    residual: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    dx: np.ndarray,
+    r: np.ndarray,
+    rel: float,
+    accept_below: float,
+    halvings: int = 12,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Backtracking line search on the residual norm: ``(x + t dx, residual there, t)`` for the
+    first ``t = 1, ½, ¼, …`` (at most ``halvings`` tries; the last one is taken if none passes)
+    that lowers ‖r‖ by the Armijo factor ``1 − 1e-4 t``; the full step is taken outright once the
+    relative residual ``rel`` is below ``accept_below`` (round-off level).
+
+    residual: ``(n, 3) -> (m,)`` residual on the free DOFs (N). x, dx: ``(n, 3)`` state and
+    Newton increment (m). r: ``(m,)`` residual at ``x``.
+    """
+    step = 1.0
+    for k in range(halvings):
+        if k:
+            step *= 0.5
+        trial = x + step * dx
+        r_trial = residual(trial)
+        if np.linalg.norm(r_trial) < (1.0 - 1e-4 * step) * np.linalg.norm(r) or rel < accept_below:
+            break
+    return trial, r_trial, step
 
 
 def solve_static(
@@ -114,12 +111,16 @@ def solve_static(
     """
     x = x_start.copy()
     free = structure.free_dofs
+
+    def residual(y: np.ndarray) -> np.ndarray:
+        return _reduced(structure, internal_force(structure, y))
+
     msub = mass_matrix(structure)[free][:, free] if structure.is_free else None
     pressure_sets = [e for e in structure.elements if isinstance(e, PressureSet)]
     scale = 0.0
     for ps in pressure_sets:
         scale += np.linalg.norm(ps.force(x))
-    r = _reduced(structure, internal_force(structure, x))
+    r = residual(x)
     scale = max(scale, np.linalg.norm(r), 1e-300)
     rel = np.linalg.norm(r) / scale
     history = [rel]
@@ -135,21 +136,14 @@ def solve_static(
         if it == 1 or len(history) < 2 or history[-1] > 0.1 * history[-2]:
             k = tangent_stiffness(structure, x)[free][:, free]
             constraint = msub @ rigid_body_modes(structure, x)[free] if structure.is_free else None
-            solve = _bordered_solver(k, constraint, tangent_low_rank(structure, x))
+            solve = bordered_solver(k, constraint, tangent_low_rank(structure, x))
             factorisations += 1
         dx_free = -solve(r)
         dx = np.zeros(3 * structure.n)
         dx[free] = dx_free
         dx = dx.reshape(-1, 3)
         # Backtracking on the residual norm (the tangent can be indefinite early in inflation).
-        step = 1.0
-        for _ in range(12):
-            trial = x + step * dx
-            r_trial = _reduced(structure, internal_force(structure, trial))
-            if np.linalg.norm(r_trial) < (1.0 - 1e-4 * step) * np.linalg.norm(r) or rel < 1e-6:
-                break
-            step *= 0.5
-        x, r = trial, r_trial
+        x, r, step = backtracking_step(residual, x, dx, r, rel, 1e-6)
         rel = np.linalg.norm(r) / scale
         history.append(rel)
         log.debug(

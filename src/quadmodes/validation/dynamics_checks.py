@@ -1,21 +1,20 @@
 """Validation suite, dynamics part: the reduced model and the full-order reference against
 published numbers (``../shared/references.md``) and against each other.
 
-Each check returns :class:`quadmodes.validation.fe_checks.Row` values; ``quadmodes validate`` runs them
-(``--suite``) and writes the tables to docs/validation.md. ``FAST`` names the checks cheap enough
-for the test suite.
+Each check returns :class:`quadmodes.validation.report.Row` values; ``quadmodes validate`` runs
+them (``--suite``) and writes the tables to docs/validation.md. ``FAST`` names the checks cheap
+enough for the test suite.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
 from quadmodes.rom import integrators as integ
 from quadmodes.rom import system as rsys
-from quadmodes.validation.fe_checks import Row
+from quadmodes.validation.report import Check, Row
 
 REF2 = "references §2 (one mode, ζ = 0.02, Δt = 2.5 ms)"
 REF3 = "references §3 (Kane et al. spin-up)"
@@ -103,7 +102,7 @@ def check_kane_campbell() -> list[Row]:
 
 
 def _paper_run(name: str, **overrides):
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
     from quadmodes.runs.results import summary, to_dataset
 
@@ -129,7 +128,7 @@ def check_paper_slow_spin() -> list[Row]:
 def check_paper_fast_spin() -> list[Row]:
     """paper-41hz (Q, 120 s): |H|, coning growth and its Δt convergence (dt, dt/2, dt/4), and
     backward Euler at the seed's 2.5 ms beside it."""
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
 
     run = load_run_case("paper-41hz")
@@ -207,7 +206,7 @@ def comparison_rows(payload: dict, tolerance: float = 0.05) -> list[Row]:
 def check_compare_coarse(window: float = 1.0) -> list[Row]:
     """``quadmodes compare paper-41hz-coarse --window 1 s``: rigid, L, P, Q, Q4 vs full order."""
     from quadmodes.analysis.compare import compare
-    from quadmodes.case.schema import load_run_case
+    from quadmodes.case import load_run_case
 
     cmp = compare(load_run_case("paper-41hz-coarse"), window, full_order_dt=2.5e-4)
     return comparison_rows(cmp.as_json())
@@ -216,7 +215,7 @@ def check_compare_coarse(window: float = 1.0) -> list[Row]:
 def rotating_frame_rows(
     table, n_modes: int, asserted: bool, tolerance: float = 0.02, near_zero_hz: float = 0.05
 ) -> list[Row]:
-    """Rows of a :class:`quadmodes.analysis.rotating.ComparisonTable`: Q against full order per branch
+    """Rows of a :class:`quadmodes.analysis.rotating_comparison.ComparisonTable`: Q against full order per branch
     (asserted within ``tolerance`` if ``asserted``; a branch below a tenth of the spin rate,
     where a relative error is ill-conditioned, within ``near_zero_hz`` absolute), L reported."""
     rows = []
@@ -240,7 +239,7 @@ def rotating_frame_rows(
 def check_rotating_frame() -> list[Row]:
     """Rotating-frame frequencies, full order vs reduced (Q, L), paper model at 0, 20, 41 Hz:
     with the seed's 5 modes (reported) and with 8 modes (asserted within 2 %)."""
-    from quadmodes.analysis.rotating import rotating_frequency_comparison
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
 
     rows = []
     for n_modes, asserted in ((5, False), (8, True)):
@@ -249,7 +248,7 @@ def check_rotating_frame() -> list[Row]:
     return rows
 
 
-ROM_CHECKS: dict[str, Callable[[], list[Row]]] = {
+ROM_CHECKS: dict[str, Check] = {
     "backward-euler": check_backward_euler,
     "kane-reduced": check_kane_reduced,
     "kane-campbell": check_kane_campbell,
@@ -257,7 +256,7 @@ ROM_CHECKS: dict[str, Callable[[], list[Row]]] = {
     "paper-41hz": check_paper_fast_spin,
 }
 
-FULL_ORDER_CHECKS: dict[str, Callable[[], list[Row]]] = {
+FULL_ORDER_CHECKS: dict[str, Check] = {
     "kane-full-order": check_full_order_kane,
     "compare-41hz-coarse": check_compare_coarse,
     "rotating-frame": check_rotating_frame,

@@ -1,0 +1,206 @@
+"""Campbell output: the figure, the xarray dataset with units, the CSV table and the files
+written by ``quadmodes campbell`` (all through :mod:`quadmodes.io.atomic`), and the CLI entry
+(:func:`campbell_main`: reduced model of a case, sweep, write)."""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import numpy as np
+
+from quadmodes.analysis.campbell import CampbellResult, campbell
+from quadmodes.io.atomic import atomic_path
+from quadmodes.rom.reduced import ReducedModel
+
+
+def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str | None = None):
+    """Campbell figure (matplotlib Figure, Agg canvas): frequency (rad/s) of each branch vs spin
+    rate, engine-order lines f = kΩ for k in ``orders`` and unstable roots marked (×, with
+    their growth rate on a second panel when there are any). Saved to ``path`` if given."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    unstable = result.unstable
+    panels = 2 if unstable.any() else 1
+    fig = Figure(figsize=(7.5, 5.0 + 2.0 * (panels - 1)))
+    FigureCanvasAgg(fig)
+    axs = fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0]
+    ax = axs[0]
+    for b, lab in enumerate(result.labels):
+        (line,) = ax.plot(result.spin, result.frequency[:, b], "-", lw=1.5, label=lab)
+        bad = unstable[:, b]
+        if bad.any():
+            ax.plot(result.spin[bad], result.frequency[bad, b], "x", color=line.get_color())
+            axs[1].plot(result.spin, result.growth[:, b], "-", color=line.get_color(), label=lab)
+    top = max(float(np.nanmax(result.frequency, initial=0.0)) * 1.05, 1e-9)
+    for k in orders:
+        ax.plot(result.spin, k * result.spin, "k:", lw=0.8)
+        j = np.searchsorted(k * result.spin, top) - 1
+        if 0 <= j < result.spin.size and k * result.spin[j] > 0:
+            ax.annotate(f"{k}Ω", (result.spin[j], k * result.spin[j]), fontsize=8)
+    ax.set_ylim(0.0, top)
+    ax.set_ylabel("rotating-frame frequency (rad/s)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    kind = "free body" if result.free else "clamped to hub"
+    ax.set_title(title or f"Campbell diagram ({kind}, formulation {result.formulation})")
+    if panels == 2:
+        axs[1].axhline(0.0, color="k", lw=0.6)
+        axs[1].set_ylabel("growth rate Re λ (1/s)")
+        axs[1].grid(True, alpha=0.3)
+    axs[-1].set_xlabel("spin rate Ω (rad/s)")
+    fig.tight_layout()
+    if path is not None:
+        with atomic_path(path) as tmp:
+            fig.savefig(os.fspath(tmp), dpi=150)
+    return fig
+
+
+def to_dataset(result: CampbellResult):
+    """xarray Dataset of a Campbell result with units (CF-style ``units`` attributes)."""
+    import xarray as xr
+
+    ds = xr.Dataset(
+        {
+            "frequency": (("spin", "branch"), result.frequency, {"units": "rad/s"}),
+            "frequency_hz": (("spin", "branch"), result.frequency_hz, {"units": "Hz"}),
+            "growth_rate": (("spin", "branch"), result.growth, {"units": "1/s"}),
+            "mac_previous": (("spin", "branch"), result.mac, {"units": "1"}),
+            "min_rotating_stiffness": (("spin",), result.min_stiffness, {"units": "1/s^2"}),
+            "equilibrium_modal_coordinates": (
+                ("spin", "mode"),
+                result.s_eq,
+                {"units": "kg^0.5 m"},
+            ),
+            "equilibrium_spin_axis": (("spin", "xyz"), result.spin_axis, {"units": "1"}),
+        },
+        coords={
+            "spin": ("spin", result.spin, {"units": "rad/s", "long_name": "spin rate"}),
+            "branch": ("branch", np.arange(len(result.labels))),
+            "branch_label": ("branch", np.array(result.labels, dtype=object)),
+            "mode": ("mode", np.arange(result.s_eq.shape[1])),
+            "xyz": ("xyz", np.array(["x", "y", "z"], dtype=object)),
+        },
+        attrs={
+            "title": "Campbell diagram of a quadmodes reduced model",
+            "formulation": result.formulation,
+            "body": "free" if result.free else "clamped to hub",
+            "spin_axis_x": float(result.axis[0]),
+            "spin_axis_y": float(result.axis[1]),
+            "spin_axis_z": float(result.axis[2]),
+            "mode_labels": "; ".join(result.mode_labels),
+            "tracking": "MAC of state eigenvectors (energy inner product), optimal assignment",
+        },
+    )
+    return ds
+
+
+#: Columns of ``campbell.csv``.
+CSV_COLUMNS = (
+    "spin_rad_s",
+    "branch",
+    "label",
+    "frequency_rad_s",
+    "frequency_hz",
+    "growth_1_s",
+    "mac",
+)
+
+
+def write_csv(result: CampbellResult, path) -> Path:
+    """Write the Campbell table to ``path`` (CSV, one row per spin rate and branch; atomic)."""
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(CSV_COLUMNS))
+        for i, om in enumerate(result.spin):
+            for b, lab in enumerate(result.labels):
+                w.writerow(
+                    [
+                        f"{om:.10g}",
+                        b,
+                        lab,
+                        f"{result.frequency[i, b]:.10g}",
+                        f"{result.frequency_hz[i, b]:.10g}",
+                        f"{result.growth[i, b]:.10g}",
+                        f"{result.mac[i, b]:.6f}",
+                    ]
+                )
+    return Path(path)
+
+
+def write_campbell(result: CampbellResult, directory, stem: str = "campbell") -> dict[str, Path]:
+    """Write ``campbell.png``, ``campbell.nc`` (NetCDF4, h5netcdf, units in attributes) and
+    ``campbell.csv`` (one row per spin rate and branch) into ``directory``, each atomically;
+    returns the paths."""
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"png": out / f"{stem}.png", "nc": out / f"{stem}.nc", "csv": out / f"{stem}.csv"}
+    plot_campbell(result, paths["png"])
+    with atomic_path(paths["nc"]) as tmp:
+        to_dataset(result).to_netcdf(tmp, engine="h5netcdf")
+    write_csv(result, paths["csv"])
+    return paths
+
+
+def model_for_case(case, progress=None) -> ReducedModel:
+    """Reduced model of a case (name, path or :class:`~quadmodes.case.Case`) with its modes and
+    damping ratio; degenerate y/z pairs of a straight beam are split into pure planes."""
+    from quadmodes.case import Case, load_case
+    from quadmodes.rom.reduced import reduce
+    from quadmodes.structure.pipeline import build_modal_model
+
+    if not isinstance(case, Case):
+        case = load_case(case)
+    mm = build_modal_model(case, progress)
+    shapes, labels = mm.modes.shapes, list(mm.labels)
+    if case.kind == "beam":
+        from quadmodes.runs.spinup import split_planes
+
+        shapes, _, _ = split_planes(mm.structure, mm.modes.frequencies_hz, shapes)
+        from quadmodes.structure.labels import label_modes
+
+        labels = label_modes(mm.structure, mm.x, shapes)
+        zeta = case.beam.damping_ratio
+    else:
+        zeta = case.material.damping_ratio
+    return reduce(
+        mm.structure,
+        mm.x,
+        mm.modes.frequencies_hz,
+        shapes,
+        labels,
+        zeta,
+        progress=progress,
+        provenance={"case": case.name},
+    )
+
+
+def campbell_main(
+    case_or_model,
+    spin_min: float,
+    spin_max: float,
+    n: int = 41,
+    axis=None,
+    formulation: str = "Q",
+    output_dir=None,
+    damped: bool = False,
+    progress=None,
+) -> tuple[CampbellResult, dict[str, Path]]:
+    """Convenience entry for the CLI: build (or take) the reduced model, sweep ``n`` spin rates
+    from ``spin_min`` to ``spin_max`` (rad/s), and write the outputs to ``output_dir`` (if given).
+
+    ``case_or_model``: a :class:`ReducedModel`, a case name / TOML path or a Case."""
+    if n < 1:
+        raise ValueError("n: give at least one spin rate")
+    if spin_max < spin_min:
+        raise ValueError("spin_max: must not be below spin_min")
+    model = (
+        case_or_model
+        if isinstance(case_or_model, ReducedModel)
+        else model_for_case(case_or_model, progress)
+    )
+    result = campbell(model, np.linspace(spin_min, spin_max, n), axis, formulation, damped)
+    paths = write_campbell(result, output_dir) if output_dir is not None else {}
+    return result, paths

@@ -1,0 +1,174 @@
+"""Field annotations shared by every case table.
+
+Dimensional fields are written in TOML as quantity strings ("0.3 psi", "60 in") and stored as
+SI floats (m, kg, Pa, kg/m^3, kg m^2, m^2, m^4, s, rad, rad/s). Each field carries a
+:class:`FieldMeta` (TOML example, unit dimension, display unit) that error messages and the TOML
+writer read back with :func:`field_meta`. A check that fails raises a pydantic error whose kind
+(``"quantity"``, ``"case_value"``, ``"case_rule"``) :mod:`quadmodes.case.errors` turns into one
+line naming the field path and the fix.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationInfo
+from pydantic_core import PydanticCustomError
+
+from quadmodes.case.units import QuantityError, format_quantity, parse_quantity
+
+
+@dataclass(frozen=True)
+class FieldMeta:
+    """Per-field metadata: TOML example, unit dimension (None if not a quantity), display unit."""
+
+    example: str
+    dimension: str | None = None
+    display: str | None = None
+
+
+class Section(BaseModel):
+    """A case table: frozen, unknown keys rejected."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+def toml_value(value: object) -> str:
+    """A scalar as TOML source text (also used to echo inputs in error messages)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    return str(value)
+
+
+def field_meta(model: type[BaseModel], name: str) -> FieldMeta:
+    """The :class:`FieldMeta` of field ``name`` of ``model`` (a generic one if it has none)."""
+    for item in model.model_fields[name].metadata:
+        if isinstance(item, FieldMeta):
+            return item
+    return FieldMeta('"..."')
+
+
+def field_error(kind: str, detail: str, sub: str | None = None) -> PydanticCustomError:
+    """A validation error of ``kind`` with message ``detail``; ``sub`` is the path (below the
+    failing table) of the field it is about, for checks that span several fields."""
+    ctx: dict[str, Any] = {"detail": detail}
+    if sub is not None:
+        ctx["sub"] = sub
+    return PydanticCustomError(kind, "{detail}", ctx)
+
+
+def inch(si: float) -> str:
+    """A length (m) as an inch quantity string, for messages."""
+    return format_quantity(si, "in")
+
+
+# --------------------------------------------------------------------------------------------
+# value checks on SI floats: None if fine, else what is wrong
+
+
+Check = Callable[[float], str | None]
+
+
+def positive(x: float) -> str | None:
+    return None if x > 0 else "must be positive"
+
+
+def nonnegative(x: float) -> str | None:
+    return None if x >= 0 else "must not be negative"
+
+
+def ratio(x: float) -> str | None:
+    return None if 0 <= x < 1 else "must satisfy 0 <= ratio < 1"
+
+
+def poisson(nu: float) -> str | None:
+    if nu >= 0.5:
+        return "must be below 0.5 for an isotropic membrane"
+    if nu <= -1:
+        return "must be above -1 for an isotropic membrane"
+    return None
+
+
+def at_least_one(x: float) -> str | None:
+    return None if x >= 1 else "must be at least 1"
+
+
+# --------------------------------------------------------------------------------------------
+# annotated field types
+
+
+def quantity(
+    dimension: str,
+    example: str,
+    check: Check | None = None,
+    display: str | None = None,
+    optional: bool = False,
+) -> Any:
+    """Annotated float field read from a quantity string and stored in SI."""
+    dimensionless = dimension == "dimensionless"
+    shown = example if dimensionless else f'"{example}"'
+
+    def validate(value: Any, info: ValidationInfo) -> float | None:
+        if value is None and optional:
+            return None
+        try:
+            si = parse_quantity(value, dimension, info.field_name or "", example)
+        except QuantityError as exc:
+            raise field_error("quantity", exc.detail) from None
+        problem = check(si) if check else None
+        if problem:
+            raise field_error("case_value", f"{problem}; use e.g. {shown}")
+        return si
+
+    meta = FieldMeta(shown, dimension, display)
+    if optional:
+        return Annotated[float | None, BeforeValidator(validate), meta]
+    return Annotated[float, BeforeValidator(validate), meta]
+
+
+def integer(example: int, minimum: int) -> Any:
+    """Annotated whole-number field (no booleans, no fractions)."""
+
+    def validate(value: Any) -> int:
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise field_error("case_value", f"must be a whole number; use e.g. {example}")
+        if value < minimum:
+            raise field_error("case_value", f"must be at least {minimum}; use e.g. {example}")
+        return value
+
+    return Annotated[int, BeforeValidator(validate), FieldMeta(str(example))]
+
+
+def text(example: str) -> Any:
+    """Annotated string field."""
+    return Annotated[str, FieldMeta(toml_value(example))]
+
+
+def choice(*options: str) -> Any:
+    """Annotated string field that must be one of ``options`` (the first is the example)."""
+    return Annotated[Literal[options], FieldMeta(toml_value(options[0]))]  # type: ignore[valid-type]
+
+
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+
+def valid_name(value: str, example: str) -> str:
+    """``value`` if it is a valid case name (letters, digits, ".", "_", "-"), else an error that
+    suggests ``example``."""
+    if not _NAME.match(value):
+        raise field_error(
+            "case_value", f'use letters, digits, ".", "_" or "-" only; e.g. "{example}"'
+        )
+    return value

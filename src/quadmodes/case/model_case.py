@@ -1,0 +1,131 @@
+"""A model case: the top level of a membrane or beam case file, and its TOML text.
+
+A membrane case (``kind = "membrane"``) has ``[geometry]``, ``[mesh]``, ``[material]``,
+``[pressure]`` and any ``[[end_body]]`` tables; a beam case (``kind = "beam"``) has ``[beam]``;
+both may have ``[modes]``. :func:`case_to_toml` writes a case in SI units; the text loads back
+to an equal case.
+"""
+
+from __future__ import annotations
+
+from typing import Self
+
+from pydantic import Field, field_validator, model_validator
+
+from quadmodes.case.fields import Section, choice, field_error, inch, text, toml_value, valid_name
+from quadmodes.case.model_sections import Beam, EndBody, Geometry, Material, Mesh, Modes, Pressure
+from quadmodes.case.toml_writing import section_lines, toml_document
+
+_MEMBRANE_SECTIONS = ("geometry", "mesh", "material", "pressure")
+
+
+class Case(Section):
+    """A complete case. Membrane cases use geometry/mesh/material/pressure/end_body; beam
+    cases use beam; the other sections are None (or empty)."""
+
+    name: text("my-case")
+    description: text("what this case is for") = ""
+    kind: choice("membrane", "beam")
+    geometry: Geometry | None = None
+    mesh: Mesh | None = None
+    material: Material | None = None
+    pressure: Pressure | None = None
+    end_body: tuple[EndBody, ...] = ()
+    beam: Beam | None = None
+    modes: Modes = Field(default_factory=Modes)
+
+    @field_validator("name")
+    @classmethod
+    def check_name(cls, value: str) -> str:
+        return valid_name(value, "my-case")
+
+    @model_validator(mode="after")
+    def check_kind(self) -> Self:
+        if self.kind == "membrane":
+            self._check_membrane_tables()
+            self._check_end_bodies()
+        else:
+            self._check_beam_tables()
+        return self
+
+    def _check_membrane_tables(self) -> None:
+        see = 'see "quadmodes show-case paper-membrane"'
+        for section in _MEMBRANE_SECTIONS:
+            if getattr(self, section) is None:
+                raise field_error(
+                    "case_rule",
+                    f'missing; kind = "membrane" needs a [{section}] table ({see})',
+                    section,
+                )
+        if self.beam is not None:
+            raise field_error(
+                "case_rule",
+                'not used when kind = "membrane"; remove the [beam] table or set kind = "beam"',
+                "beam",
+            )
+
+    def _check_beam_tables(self) -> None:
+        if self.beam is None:
+            raise field_error(
+                "case_rule",
+                'missing; kind = "beam" needs a [beam] table (see "quadmodes show-case kane-beam")',
+                "beam",
+            )
+        for section in (*_MEMBRANE_SECTIONS, "end_body"):
+            if getattr(self, section):
+                table = "[[end_body]] tables" if section == "end_body" else f"[{section}] table"
+                raise field_error(
+                    "case_rule",
+                    f'not used when kind = "beam"; remove the {table} or set kind = "membrane"',
+                    section,
+                )
+
+    def _check_end_bodies(self) -> None:
+        names: set[str] = set()
+        poles: dict[str, str] = {}
+        for i, body in enumerate(self.end_body):
+            if body.name in names:
+                raise field_error(
+                    "case_rule",
+                    f"{toml_value(body.name)} is used twice; give each end body its own name",
+                    f"end_body[{i}].name",
+                )
+            if body.pole in poles:
+                raise field_error(
+                    "case_rule",
+                    f"{toml_value(body.pole)} already carries end body "
+                    f"{toml_value(poles[body.pole])}; use at most one end body per pole",
+                    f"end_body[{i}].pole",
+                )
+            names.add(body.name)
+            poles[body.pole] = body.name
+            radius = self.geometry.cap_radius(body.pole) if self.geometry else None
+            if radius is not None and body.attach_radius >= radius:
+                raise field_error(
+                    "case_rule",
+                    f"{inch(body.attach_radius)} must be smaller than the {body.pole} cap "
+                    f"radius {inch(radius)}; use a smaller attach_radius",
+                    f"end_body[{i}].attach_radius",
+                )
+
+    def to_toml(self) -> str:
+        """This case as TOML text in SI units (see :func:`case_to_toml`)."""
+        return case_to_toml(self)
+
+
+def case_to_toml(case: Case) -> str:
+    """TOML text for ``case`` with quantities in SI units (comments give familiar units).
+
+    ``case_from_toml(case_to_toml(case)) == case`` holds exactly.
+    """
+    tables = [
+        (f"[{name}]", section_lines(getattr(case, name)))
+        for name in ("geometry", "mesh", "material", "pressure", "beam", "modes")
+        if getattr(case, name) is not None
+    ]
+    tables += [("[[end_body]]", section_lines(body)) for body in case.end_body]
+    return toml_document(
+        f"quadmodes case {case.name!s}: quantities in SI units",
+        {"name": case.name, "description": case.description, "kind": case.kind},
+        tables,
+    )

@@ -1,0 +1,238 @@
+"""The tables of a model case: ``[geometry]``, ``[mesh]``, ``[material]``, ``[pressure]``,
+``[[end_body]]`` (membrane cases), ``[beam]`` (beam cases) and ``[modes]``.
+
+Quantities are stored in SI units: m, kg, Pa, kg/m^3, kg m^2, m^2, m^4.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Self
+
+from pydantic import ValidationInfo, field_validator, model_validator
+
+from quadmodes.case.fields import (
+    FieldMeta,
+    Section,
+    at_least_one,
+    choice,
+    field_error,
+    field_meta,
+    inch,
+    integer,
+    nonnegative,
+    poisson,
+    positive,
+    quantity,
+    ratio,
+    text,
+)
+
+_CAP_FIELDS = ("length", "front_cap_diameter", "rear_cap_diameter", "diameter", "file")
+_SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
+    "sphere-cone": ("length", "front_cap_diameter", "rear_cap_diameter"),
+    "sphere": ("diameter",),
+    "capsule": ("length", "diameter"),
+    "flat-cylinder": ("length", "diameter"),
+    "file": ("file",),
+}
+
+
+class Geometry(Section):
+    """Membrane surface of revolution about the x axis; lengths in m.
+
+    ``length`` is the overall pole-to-pole length. A sphere-cone is two spherical caps joined
+    by a tangent cone; a capsule is a cylinder with hemispherical ends; a flat-cylinder has
+    flat end discs; ``file`` is a mesh file (relative paths are taken from the case file).
+    """
+
+    shape: choice("sphere-cone", "sphere", "capsule", "flat-cylinder", "file")
+    length: quantity("length", "60 in", positive, "in", optional=True) = None
+    front_cap_diameter: quantity("length", "5 in", positive, "in", optional=True) = None
+    rear_cap_diameter: quantity("length", "20 in", positive, "in", optional=True) = None
+    diameter: quantity("length", "20 in", positive, "in", optional=True) = None
+    file: Annotated[str | None, FieldMeta('"body.vtu"')] = None
+
+    @field_validator("file")
+    @classmethod
+    def resolve_file(cls, value: str | None, info: ValidationInfo) -> str | None:
+        if value is None:
+            return None
+        if not value.strip():
+            raise field_error("case_value", 'must name a mesh file; use e.g. "body.vtu"')
+        base = (info.context or {}).get("base_dir")
+        path = Path(value).expanduser()
+        if base is not None and not path.is_absolute():
+            path = Path(base) / path
+        return str(path) if base is not None else value
+
+    @model_validator(mode="after")
+    def check_shape(self) -> Self:
+        needed = _SHAPE_FIELDS[self.shape]
+        for name in _CAP_FIELDS:
+            given = getattr(self, name) is not None
+            if name in needed and not given:
+                example = field_meta(Geometry, name).example
+                raise field_error(
+                    "case_rule",
+                    f'missing; shape = "{self.shape}" needs it, e.g. {name} = {example}',
+                    name,
+                )
+            if given and name not in needed:
+                raise field_error(
+                    "case_rule",
+                    f'not used for shape = "{self.shape}"; remove it '
+                    f'(shape "{self.shape}" takes {", ".join(needed)})',
+                    name,
+                )
+        if self.shape == "sphere-cone":
+            assert self.length and self.front_cap_diameter and self.rear_cap_diameter
+            widest = max(self.front_cap_diameter, self.rear_cap_diameter)
+            if self.length <= widest:
+                raise field_error(
+                    "case_rule",
+                    f"{inch(self.length)} must exceed the larger cap diameter "
+                    f"{inch(widest)}; lengthen the body or shrink the caps",
+                    "length",
+                )
+        if self.shape == "capsule":
+            assert self.length and self.diameter
+            if self.length <= self.diameter:
+                raise field_error(
+                    "case_rule",
+                    f"{inch(self.length)} must exceed the diameter {inch(self.diameter)}; "
+                    'for a ball use shape = "sphere"',
+                    "length",
+                )
+        return self
+
+    def cap_radius(self, pole: str) -> float | None:
+        """Radius (m) of the sphere or end disc at ``pole`` ("front"/"rear"); None for a file."""
+        if self.shape == "file":
+            return None
+        if self.shape == "sphere-cone":
+            cap = self.front_cap_diameter if pole == "front" else self.rear_cap_diameter
+            return (cap or 0.0) / 2
+        return (self.diameter or 0.0) / 2
+
+
+class Mesh(Section):
+    """Triangulation settings: target edge length (m), optional grading (at least
+    ``elements_per_radius`` edges per hoop radius of curvature, e.g. on a small cap; edges of
+    ``attach_radius / elements_per_attach_radius`` at the rim of each end body's rigid patch,
+    growing away from it), and the mass matrix kind."""
+
+    edge_length: quantity("length", "1 in", positive, "in")
+    elements_per_radius: quantity("dimensionless", "6", at_least_one, optional=True) = None
+    elements_per_attach_radius: quantity("dimensionless", "8", at_least_one, optional=True) = None
+    mass_matrix: choice("consistent", "lumped") = "consistent"
+
+
+class Material(Section):
+    """Isotropic membrane: density kg/m^3, Young's modulus Pa, thickness m, ratios plain."""
+
+    density: quantity("density", "0.0335 lb/in^3", positive, "lb/in^3")
+    youngs_modulus: quantity("pressure", "0.05 Mpsi", positive, "Mpsi")
+    poisson_ratio: quantity("dimensionless", "0.3", poisson)
+    thickness: quantity("length", "0.0045 in", positive, "in")
+    damping_ratio: quantity("dimensionless", "0.02", ratio) = 0.0
+
+
+class Pressure(Section):
+    """Inflation pressure (Pa, gauge) and polytropic gas-law exponent (0 = constant)."""
+
+    value: quantity(
+        "pressure",
+        "0.3 psi",
+        lambda p: None if p > 0 else "must be positive for a membrane",
+        "psi",
+    )
+    gas_law_exponent: quantity("dimensionless", "0", nonnegative) = 0.0
+
+
+_INERTIA = quantity("inertia", "1e-5 kg m^2", nonnegative, "kg*m^2", optional=True)
+
+
+class EndBody(Section):
+    """Rigid body at a pole: mass kg, lengths m, inertias kg m^2 about its own centre.
+
+    Its rotary inertia is given either directly (``inertia_axial``, ``inertia_transverse``) or as
+    the shape of a uniform solid cylinder (``radius``, ``height``; axis along the body axis), in
+    which case the inertias scale with the mass (the calibration fits masses with the shape
+    fixed). Membrane nodes on that cap within ``attach_radius`` of the axis are tied to it; its
+    centre of mass lies ``offset`` outside the pole on the axis; ``arm`` is the half-size of the
+    point-mass cluster that carries the inertia (default: 1.25 × the smallest that works).
+    """
+
+    name: text("rear")
+    pole: choice("front", "rear")
+    mass: quantity("mass", "0.1 kg", positive, "kg")
+    inertia_axial: _INERTIA = None
+    inertia_transverse: _INERTIA = None
+    radius: quantity("length", "2 in", positive, "in", optional=True) = None
+    height: quantity("length", "1 in", nonnegative, "in", optional=True) = None
+    attach_radius: quantity("length", "1.5 in", positive, "in")
+    offset: quantity("length", "0.5 in", nonnegative, "in")
+    arm: quantity("length", "1 in", positive, "in", optional=True) = None
+
+    @field_validator("name")
+    @classmethod
+    def check_name(cls, value: str) -> str:
+        if not value.strip():
+            raise field_error("case_value", 'must not be empty; use e.g. "rear"')
+        return value
+
+    @model_validator(mode="after")
+    def check_inertia(self) -> Self:
+        direct = (self.inertia_axial is not None, self.inertia_transverse is not None)
+        shape = (self.radius is not None, self.height is not None)
+        if any(direct) and any(shape):
+            raise field_error(
+                "case_rule",
+                "give either inertia_axial and inertia_transverse, or radius and height, not both",
+                "radius" if shape[0] else "height",
+            )
+        if not (all(direct) or all(shape)):
+            missing = "inertia_transverse" if direct[0] else "inertia_axial"
+            if any(shape):
+                missing = "height" if shape[0] else "radius"
+            raise field_error(
+                "case_rule",
+                "missing; give inertia_axial and inertia_transverse, or radius and height "
+                '(a uniform solid cylinder), e.g. radius = "2 in"',
+                missing,
+            )
+        return self
+
+    def inertias(self) -> tuple[float, float]:
+        """Axial and transverse moments of inertia (kg m²) about the body's own centre."""
+        if self.radius is not None:
+            r, h = self.radius, self.height or 0.0
+            return 0.5 * self.mass * r * r, self.mass * (3.0 * r * r + h * h) / 12.0
+        return self.inertia_axial, self.inertia_transverse
+
+    def cluster_arm(self) -> float:
+        """Half-size (m) of the point-mass cluster: ``arm`` or 1.25 × the smallest feasible."""
+        if self.arm is not None:
+            return self.arm
+        i_ax, i_tr = self.inertias()
+        return 1.25 * max((i_ax + 2.0 * i_tr) / (2.0 * self.mass), 1e-12) ** 0.5
+
+
+class Beam(Section):
+    """Euler-Bernoulli beam along x: length m, area m^2, second moment m^4, E Pa, kg/m^3."""
+
+    length: quantity("length", "10 m", positive, "m")
+    elements: integer(20, 1)
+    area: quantity("area", "4e-4 m^2", positive, "m^2")
+    second_moment: quantity("second_moment", "2e-7 m^4", positive, "m^4")
+    youngs_modulus: quantity("pressure", "7e10 Pa", positive, "Pa")
+    density: quantity("density", "3000 kg/m^3", positive, "kg/m^3")
+    support: choice("clamped", "free") = "clamped"
+    damping_ratio: quantity("dimensionless", "0.02", ratio) = 0.0
+
+
+class Modes(Section):
+    """Number of elastic modes to compute."""
+
+    count: integer(10, 1) = 10

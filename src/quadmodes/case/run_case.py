@@ -1,0 +1,124 @@
+"""A run case: a model (built-in name or case file) with the reduced model, initial conditions
+and integration settings of one run, and its TOML text.
+
+:func:`run_case_to_toml` writes a run case in SI units; the text loads back to an equal run.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Self
+
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+
+from quadmodes.case.builtin import builtin_case_names
+from quadmodes.case.errors import CaseError
+from quadmodes.case.fields import (
+    FieldMeta,
+    Section,
+    choice,
+    field_error,
+    text,
+    toml_value,
+    valid_name,
+)
+from quadmodes.case.model_case import Case
+from quadmodes.case.model_loading import load_case
+from quadmodes.case.run_sections import RunInitial, RunIntegration, RunReduced, RunSpinup
+from quadmodes.case.toml_writing import section_lines, toml_document
+from quadmodes.case.units import format_quantity
+
+
+class RunCase(Section):
+    """A run: integrate a model's reduced equations from given initial conditions.
+
+    ``model`` is a built-in case name or the path of a case file (relative paths are taken from
+    the run-case file). A free-body run has ``[initial]`` and ``[integration]``; a hub-driven
+    spin-up of a clamped beam has ``[spinup]`` instead."""
+
+    name: text("my-run")
+    description: text("what this run is for") = ""
+    kind: choice("run")
+    model: Annotated[str, FieldMeta('"paper-membrane"')]
+    reduced: RunReduced = Field(default_factory=RunReduced)
+    initial: RunInitial | None = None
+    integration: RunIntegration | None = None
+    spinup: RunSpinup | None = None
+
+    @model_validator(mode="after")
+    def check_tables(self) -> Self:
+        if self.spinup is not None:
+            for table in ("initial", "integration"):
+                if getattr(self, table) is not None:
+                    raise field_error(
+                        "case_rule",
+                        f"not used with [spinup] (hub-driven spin-up); remove the [{table}] "
+                        "table or the [spinup] table",
+                        table,
+                    )
+            return self
+        for table in ("initial", "integration"):
+            if getattr(self, table) is None:
+                raise field_error(
+                    "case_rule",
+                    "missing; a free-body run needs [initial] and [integration] tables "
+                    "(or [spinup] for a hub-driven spin-up of a clamped beam)",
+                    table,
+                )
+        return self
+
+    @field_validator("name")
+    @classmethod
+    def check_name(cls, value: str) -> str:
+        return valid_name(value, "my-run")
+
+    @field_validator("model")
+    @classmethod
+    def resolve_model(cls, value: str, info: ValidationInfo) -> str:
+        if not value.strip():
+            raise field_error("case_value", 'must name a model case; use e.g. "paper-membrane"')
+        if value in builtin_case_names():
+            return value
+        base = (info.context or {}).get("base_dir")
+        path = Path(value).expanduser()
+        if base is not None and not path.is_absolute():
+            return str(Path(base) / path)
+        return value
+
+    def model_case(self) -> Case:
+        """The model (membrane or beam case); raises :class:`CaseError` naming ``model``."""
+        try:
+            return load_case(self.model)
+        except CaseError as exc:
+            raise CaseError(
+                f"model = {toml_value(self.model)}: {exc}", source=f"{self.name}", field="model"
+            ) from None
+
+    def to_toml(self) -> str:
+        """This run case as TOML text in SI units (see :func:`run_case_to_toml`)."""
+        return run_case_to_toml(self)
+
+
+def _initial_lines(initial: RunInitial) -> list[str]:
+    """``[initial]`` lines, the spin rate also in Hz as a comment."""
+    hz = format_quantity(initial.spin_rate / (2.0 * math.pi), "Hz")
+    return [
+        f"{line}  # {hz}" if line.startswith("spin_rate") else line
+        for line in section_lines(initial)
+    ]
+
+
+def run_case_to_toml(run: RunCase) -> str:
+    """TOML text for ``run`` with quantities in SI units (comments give familiar units);
+    ``run_case_from_toml(run_case_to_toml(run)) == run``."""
+    tables = [
+        (f"[{name}]", _initial_lines(section) if name == "initial" else section_lines(section))
+        for name in ("reduced", "initial", "integration", "spinup")
+        if (section := getattr(run, name)) is not None
+    ]
+    return toml_document(
+        f"quadmodes run case {run.name!s}: quantities in SI units",
+        {"name": run.name, "description": run.description, "kind": run.kind, "model": run.model},
+        tables,
+    )

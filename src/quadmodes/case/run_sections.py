@@ -1,0 +1,93 @@
+"""The tables of a run case: ``[reduced]`` (which reduced model), ``[initial]`` (initial
+conditions) and ``[integration]`` (time stepping) for a free-body run, or ``[spinup]`` for a
+hub-driven spin-up of a clamped beam.
+
+Quantities are stored in SI units: rad/s, rad, m, s.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Self
+
+from pydantic import model_validator
+
+from quadmodes.case.fields import (
+    Section,
+    choice,
+    field_error,
+    integer,
+    nonnegative,
+    positive,
+    quantity,
+)
+from quadmodes.case.units import format_quantity
+
+
+def _cone(theta: float) -> str | None:
+    return None if 0.0 <= theta < 0.5 * math.pi else "must satisfy 0 deg <= cone_angle < 90 deg"
+
+
+def _rtol(x: float) -> str | None:
+    return None if 0.0 < x < 1.0 else "must satisfy 0 < rtol < 1"
+
+
+class RunReduced(Section):
+    """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
+    formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
+    linear modes, "rigid" no elastic modes, "Q4" quadratic modes with the quartic manifold
+    potential)."""
+
+    modes: integer(5, 1) = 5
+    formulation: choice("Q", "P", "L", "rigid", "Q4") = "Q"
+
+
+class RunInitial(Section):
+    """Initial state: spin rate (rad/s) about the minor principal axis of the (deformed)
+    inertia, cone angle (rad) between the angular momentum and that axis, and an initial
+    deformation in the first bending mode whose largest nodal displacement is
+    ``bending_amplitude`` (m; 0 = undeformed). Modal velocities start at zero."""
+
+    spin_rate: quantity("angular_rate", "41 Hz", positive)
+    cone_angle: quantity("angle", "6 deg", _cone, "deg") = 0.0
+    bending_amplitude: quantity("length", "0.5 in", nonnegative, "in") = 0.0
+
+
+class RunIntegration(Section):
+    """Time integration: method, step ``dt`` (s; the sampling step for "adaptive"), duration
+    (s), keep every ``save_every``-th step, relative tolerance ``rtol`` ("adaptive" only)."""
+
+    method: choice("midpoint", "backward-euler", "adaptive") = "midpoint"
+    dt: quantity("time", "0.5 ms", positive, "ms")
+    duration: quantity("time", "4 s", positive, "s")
+    save_every: integer(4, 1) = 1
+    rtol: quantity("dimensionless", "1e-9", _rtol) = 1e-9
+
+    @model_validator(mode="after")
+    def check_span(self) -> Self:
+        if self.dt > self.duration:
+            raise field_error(
+                "case_rule",
+                f"{format_quantity(self.dt, 'ms')} is longer than the duration "
+                f"{format_quantity(self.duration, 's')}; use a smaller dt",
+                "dt",
+            )
+        return self
+
+    @property
+    def n_steps(self) -> int:
+        """Number of (fixed) steps: ``ceil(duration / dt)``."""
+        return max(1, math.ceil(self.duration / self.dt - 1e-9))
+
+
+class RunSpinup(Section):
+    """Hub-driven spin-up of a clamped beam (Kane, Ryan & Banerjee): the hub rate rises
+    smoothly from 0 to ``omega_s`` (rad/s) in ``ramp_time`` (s) and is held until ``duration``
+    (s); integrated with scipy's DOP853 (relative tolerance ``rtol``) by
+    :func:`quadmodes.runs.spinup.kane_spinup`. Replaces ``[initial]`` and ``[integration]``."""
+
+    omega_s: quantity("angular_rate", "6 rad/s", positive, "rad/s")
+    ramp_time: quantity("time", "15 s", positive, "s") = 15.0
+    duration: quantity("time", "30 s", positive, "s") = 30.0
+    rtol: quantity("dimensionless", "1e-9", _rtol) = 1e-9
+    samples: integer(3001, 2) = 3001

@@ -1,0 +1,147 @@
+"""Linearised analyses about steady spin: ``campbell`` (reduced model over a range of spin rates)
+and ``rotating`` (full order against reduced, branch by branch)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from quadmodes.cli.common import (
+    LINEAR_FORMULATIONS,
+    JsonFlag,
+    UserError,
+    case_argument,
+    err,
+    load_model_case,
+    one_line_errors,
+    out,
+    output_path,
+    parse_formulations,
+    progress_bars,
+    staged_output,
+)
+from quadmodes.io.atomic import write_text
+
+# ------------------------------------------------------------------------------ campbell
+
+
+def _campbell_summary(result, case_name: str, formulation: str) -> dict:
+    """The JSON summary of ``campbell``: spin rates and branch frequencies (rad/s, rotating
+    frame), and the spin rates where the rotating stiffness is not positive definite."""
+    return {
+        "case": case_name,
+        "formulation": formulation,
+        "spin_rate_rad_s": [float(v) for v in result.spin],
+        "branches": list(result.labels),
+        "frequency_rad_s": np.asarray(result.frequency).tolist(),
+        "unstable_spin_rates_rad_s": [
+            float(w)
+            for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)
+            if np.any(u) or k <= 0.0
+        ],
+    }
+
+
+def _print_campbell(result, case_name: str, summary: dict) -> None:
+    """At most 9 spin rates by the first 6 branches, and where the stiffness is lost."""
+    freqs = np.asarray(result.frequency)
+    table = Table("spin (rad/s)", *result.labels[:6], title=f"{case_name}: rotating-frame (rad/s)")
+    for k in np.linspace(0, len(result.spin) - 1, min(9, len(result.spin))).astype(int):
+        table.add_row(f"{result.spin[k]:.3g}", *[f"{v:.4g}" for v in freqs[k, :6]])
+    out.print(table)
+    if summary["unstable_spin_rates_rad_s"]:
+        out.print(
+            f"[bold red]rotating stiffness not positive definite from "
+            f"{summary['unstable_spin_rates_rad_s'][0]:.4g} rad/s[/]"
+        )
+
+
+CampbellCase = case_argument("model case (membrane or beam), name or TOML file")
+CampbellOutput = output_path("folder for campbell.png/.nc/.csv")
+
+
+def campbell(
+    case: CampbellCase = "kane-beam",
+    spin_min: Annotated[str, typer.Option(help="lowest spin rate, e.g. '0 Hz'")] = "0 rad/s",
+    spin_max: Annotated[str, typer.Option(help="highest spin rate, e.g. '10 rad/s'")] = "10 rad/s",
+    n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
+    formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
+    output_dir: CampbellOutput = None,
+    as_json: JsonFlag = False,
+) -> None:
+    """Frequencies of the reduced model linearised about steady spin over a range of spin rates
+    (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
+    bodies spin about their minor principal axis, clamped bodies on a hub about z."""
+    from quadmodes.analysis.campbell_output import campbell_main
+    from quadmodes.case import parse_quantity
+
+    with one_line_errors():
+        lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
+        hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
+        if formulation not in LINEAR_FORMULATIONS:
+            raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
+        c = load_model_case(case)
+        with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
+            result, _ = campbell_main(
+                c, lo, hi, n, formulation=formulation, output_dir=scratch, progress=progress
+            )
+    summary = _campbell_summary(result, c.name, formulation)
+    if as_json:
+        sys.stdout.write(json.dumps(summary) + "\n")
+        return
+    _print_campbell(result, c.name, summary)
+    if output_dir is not None:
+        out.print(f"outputs written to {output_dir}")
+
+
+# ------------------------------------------------------------------------------ rotating
+
+
+def _parse_spins_hz(spins: str) -> tuple[float, ...]:
+    """The comma-separated, non-negative spin rates (Hz) of ``--spins``."""
+    try:
+        spin_list = tuple(float(v) for v in spins.split(",") if v.strip())
+    except ValueError:
+        raise UserError(f'--spins: "{spins}" is not a comma-separated list of Hz values, '
+                        'e.g. "0,20,41"') from None  # fmt: skip
+    if not spin_list or any(v < 0 for v in spin_list):
+        raise UserError('--spins: give one or more non-negative spin rates in Hz, e.g. "0,20,41"')
+    return spin_list
+
+
+RotatingCase = case_argument("free membrane model case (name or TOML file)")
+RotatingOutput = output_path("write the Markdown table to this file")
+
+
+def rotating_command(
+    case: RotatingCase = "paper-membrane-coarse",
+    spins: Annotated[str, typer.Option(help="spin rates, comma-separated, in Hz")] = "0,20,41",
+    modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
+    formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",
+    output: RotatingOutput = None,
+) -> None:
+    """Rotating-frame frequencies of the full-order model linearised about its spinning
+    equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
+    (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
+
+    with one_line_errors():
+        spin_list = _parse_spins_hz(spins)
+        names = parse_formulations(formulations, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
+        if modes < 1:
+            raise UserError("--modes: must be at least 1")
+        c = load_model_case(case)
+        with progress_bars() as bars:
+            table = rotating_frequency_comparison(c, spin_list, modes, names, progress=bars)
+    text = table.to_text()
+    out.print(text, markup=False, highlight=False, soft_wrap=True)
+    if output is not None:
+        write_text(
+            output, f"# {table.case}: rotating-frame frequencies, full order vs reduced\n\n{text}\n"
+        )
+        err.print(f"written {output}")

@@ -1,0 +1,210 @@
+"""The ``compare`` command: reduced formulations against the full-order transient on one window,
+with the full-order run estimated first and checkpointed as it goes."""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from quadmodes.cli.common import (
+    UserError,
+    case_argument,
+    err,
+    flag,
+    one_line_errors,
+    out,
+    output_path,
+    parse_formulations,
+    progress_bars,
+    staged_output,
+)
+
+#: Full-order runs estimated longer than this (s) need --yes.
+LONG_FULL_ORDER_S = 1800.0
+
+
+@dataclass(frozen=True)
+class ComparisonPlan:
+    """What ``compare`` runs: the run case cut to the window, the window (s), the full-order
+    step (s) and the reduced formulations."""
+
+    run: Any
+    window_s: float
+    full_dt_s: float
+    formulations: tuple[str, ...]
+
+
+def _num(value, fmt: str) -> str:
+    return "n/a" if value is None else format(value, fmt)
+
+
+def _plan(
+    case: str,
+    window: str,
+    full_dt: str | None,
+    modes: int | None,
+    spin_rate: str | None,
+    formulations: str,
+) -> ComparisonPlan:
+    """Load the run case and check the options; raises UserError (or a case/quantity error)."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.case import load_run_case, parse_quantity
+    from quadmodes.runs import simulate
+
+    run = load_run_case(case)
+    if run.spinup is not None:
+        raise UserError(f"{case}: a hub-driven spin-up; compare needs a free-body run case")
+    run = simulate.apply_overrides(run, spin_rate=spin_rate)
+    t_window = parse_quantity(window, "time", "--window")
+    dt_full = parse_quantity(full_dt, "time", "--full-dt") if full_dt else run.integration.dt
+    if not t_window > 0:
+        raise UserError('--window: must be positive, e.g. "1 s"')
+    if not 0 < dt_full < t_window:
+        raise UserError("--full-dt: must be positive and shorter than the window")
+    names = parse_formulations(
+        formulations, cmp.AVAILABLE, use="rigid, L, P, Q, Q4", none="(none given)"
+    )
+    if modes is not None:
+        if modes < 1:
+            raise UserError("--modes: must be at least 1")
+        run = run.model_copy(update={"reduced": run.reduced.model_copy(update={"modes": modes})})
+    return ComparisonPlan(cmp.window_run(run, t_window), t_window, dt_full, names)
+
+
+def _checkpoint_for(target: Path, resume: bool) -> Path:
+    """The full-order checkpoint beside ``target``: it must exist to resume, else it is removed."""
+    checkpoint = target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
+    if resume and not checkpoint.exists():
+        raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
+    if not resume and checkpoint.exists():
+        checkpoint.unlink()
+    return checkpoint
+
+
+def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: bool) -> None:
+    """Print the full-order run's estimated wall time; a long run needs ``go_ahead``
+    (--yes or --resume), else UserError."""
+    from quadmodes.fullorder import estimate_for_run
+
+    run = plan.run
+    est = estimate_for_run(run, dt=plan.full_dt_s, window=plan.window_s, setup=setup)
+    minutes = est["estimate_s"] / 60.0
+    err.print(
+        f"full order: {run.name}, {plan.window_s:g} s at dt = {plan.full_dt_s * 1e3:g} ms, estimated "
+        f"{minutes:.1f} min (checkpoint {checkpoint.name}; Ctrl-C stops, --resume continues)",
+        highlight=False,
+    )
+    if est["estimate_s"] > LONG_FULL_ORDER_S and not go_ahead:
+        raise UserError(
+            f"--window: the full-order run is estimated at {minutes:.0f} min; pass --yes to "
+            "run it (Ctrl-C stops it, --resume continues), or shorten --window"
+        )
+
+
+def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bool,
+                    bars_shown: bool, rerun_hint: str):  # fmt: skip
+    """The reduced runs and the checkpointed full-order run; Ctrl-C keeps the checkpoint and
+    says how to continue (``rerun_hint``: the command line without --resume)."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.fullorder import full_order_for_run
+
+    def full(r, dt):
+        return full_order_for_run(
+            r, dt=dt, progress=bars, setup=setup, checkpoint=checkpoint,
+            checkpoint_every=500, resume=resume,
+        )  # fmt: skip
+
+    with progress_bars(bars_shown) as bars:
+        try:
+            return cmp.compare(
+                plan.run, plan.window_s, formulations=plan.formulations,
+                full_order_dt=plan.full_dt_s, full_order=full, progress=bars,
+            )  # fmt: skip
+        except KeyboardInterrupt:
+            err.print(
+                f"stopped; the full-order checkpoint is kept at {checkpoint}: continue with "
+                f"{rerun_hint} --resume"
+            )
+            raise typer.Exit(code=130) from None
+
+
+def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None:
+    """Errors relative to full order, wall times and speed-ups, one row a model."""
+    table = Table(
+        "model", "envelope", "cone angle", "cone change", "spin rate", "wall (s)", "speed-up",
+        title=f"{plan.run.name}: {plan.window_s:g} s window, errors relative to full order",
+    )  # fmt: skip
+    fo = payload["full_order"]
+    table.add_row("full order", "—", "—", "—", "—", f"{fo['wall_s']:.3g}", "1")
+    for name, row in payload["formulations"].items():
+        table.add_row(
+            name, *(_num(row[k], ".2e") for k in ("envelope_error", "cone_angle_error",
+                                                  "cone_angle_change_error", "spin_rate_error")),
+            _num(row["wall_s"], ".3g"), _num(row["speedup"], ".3g"),
+        )  # fmt: skip
+    out.print(table)
+    out.print(f"results written to {escape(str(target))}")
+
+
+CompareCase = case_argument("run case (built-in name or TOML file)")
+CompareOutput = output_path("folder (default: out/compare-<case>)")
+ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
+YesFlag = flag("--yes", "run a full-order window estimated over 30 min")
+ComparePlotsFlag = flag("--plots/--no-plots", "write overlay PNGs")
+
+
+def compare_command(
+    case: CompareCase = "paper-41hz-coarse",
+    window: Annotated[str, typer.Option(help='simulated window, e.g. "1 s"')] = "1 s",
+    full_dt: Annotated[
+        str | None, typer.Option("--full-dt", help="full-order step (default: the run's dt)")
+    ] = None,
+    modes: Annotated[
+        int | None, typer.Option(help="retained modes of the reduced model (default: the run's)")
+    ] = None,
+    spin_rate: Annotated[
+        str | None, typer.Option("--spin-rate", help='initial spin rate, e.g. "20 Hz"')
+    ] = None,
+    formulations: Annotated[
+        str, typer.Option(help="comma-separated, from rigid, L, P, Q, Q4")
+    ] = "rigid,L,P,Q,Q4",
+    output_dir: CompareOutput = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print the table as JSON")] = False,
+    resume: ResumeFlag = False,
+    yes: YesFlag = False,
+    plots: ComparePlotsFlag = True,
+) -> None:
+    """Reduced formulations (rigid, L, P, Q, Q4) against the full-order finite-element transient on
+    one window: errors of the modal-amplitude envelope, cone angle and spin rate, wall times and
+    speed-ups. Writes comparison.nc/.json/.csv and overlay plots.
+
+    The full-order run is estimated first and checkpointed as it goes: Ctrl-C stops it, and the
+    same command with --resume continues from the checkpoint."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.fullorder import setup_for_run
+
+    # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
+    with one_line_errors(RuntimeError):
+        plan = _plan(case, window, full_dt, modes, spin_rate, formulations)
+        target = output_dir or Path("out") / f"compare-{plan.run.name}"
+        checkpoint = _checkpoint_for(target, resume)
+        setup = setup_for_run(plan.run)  # inflation + initial state, once for estimate and run
+        _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
+        result = _run_comparison(
+            plan, setup, checkpoint, resume=resume, bars_shown=not as_json,
+            rerun_hint=f"quadmodes compare {case} --window '{window}'",
+        )  # fmt: skip
+        with staged_output(target) as scratch:
+            payload = cmp.write_comparison(result, scratch, plots=plots)
+        checkpoint.unlink(missing_ok=True)
+    if as_json:
+        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
+        return
+    _print_comparison(payload, plan, target)

@@ -1,0 +1,286 @@
+"""Commands on the structural model: ``cases``, ``show-case``, ``modes``, ``calibrate``, ``reduce``."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from quadmodes import __version__
+from quadmodes.cli.common import (
+    DEFAULT_CASE,
+    JsonFlag,
+    ModelCase,
+    case_argument,
+    err,
+    flag,
+    load_model_case,
+    one_line_errors,
+    out,
+    output_path,
+    progress_bars,
+    staged_output,
+)
+from quadmodes.io.atomic import write_text
+
+
+def cases() -> None:
+    """List the built-in cases."""
+    from quadmodes.case import builtin_case_names, builtin_run_case_names, load_run_case
+
+    table = Table("name", "kind", "description")
+    for name in builtin_case_names():
+        c = load_model_case(name)
+        table.add_row(name, c.kind, c.description)
+    for name in builtin_run_case_names(spinup=None):
+        r = load_run_case(name)
+        table.add_row(name, r.kind, r.description)
+    out.print(table)
+
+
+def show_case(name: ModelCase) -> None:
+    """Print a case as TOML (copy it, edit it, pass the file to any command)."""
+    from quadmodes.case import builtin_case_names, builtin_case_text, builtin_run_case_names
+
+    with one_line_errors():
+        if name in builtin_case_names() or name in builtin_run_case_names(spinup=None):
+            sys.stdout.write(builtin_case_text(name))
+        else:
+            sys.stdout.write(load_model_case(name).to_toml())
+
+
+# ------------------------------------------------------------------------------ modes
+
+
+def _mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict]:
+    """Triangles (n_tri, 3), line segments (n_lines, 2) or None, and per-triangle cell data of a
+    modal model; a beam is drawn as the centreline through its position DOFs."""
+    s = model.structure
+    tri, lines, cell_data = None, None, {}
+    for e in s.elements:
+        kind = type(e).__name__
+        if kind == "MembraneSet":
+            tri = e.conn
+        elif kind in ("BarSet",):
+            lines = e.conn
+    if model.prestress is not None:
+        res = model.prestress.stress_resultants
+        cell_data = {
+            "stress_resultant_minor_N_per_m": res[:, 0],
+            "stress_resultant_major_N_per_m": res[:, 1],
+            "wrinkle_state": model.prestress.wrinkle_state(),
+        }
+    if tri is None:  # beam: draw the centreline of the position DOFs as lines
+        pos = np.flatnonzero(s.translational)
+        lines = np.stack([pos[:-1], pos[1:]], 1)
+        tri = np.zeros((0, 3), int)
+    return tri, lines, cell_data
+
+
+def _write_modal_outputs(model, directory: Path) -> None:
+    """Mesh and modes as VTU/PVD (ParaView), PNG pictures and ``modes.json`` in ``directory``."""
+    from quadmodes.io import pictures, vtk
+    from quadmodes.structure.pipeline import modes_summary
+
+    x = model.x
+    tri, lines, cell_data = _mesh_for_output(model)
+    shapes = model.modes.shapes
+    freqs = model.modes.frequencies_hz
+    labels = model.labels
+    vtk.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
+    vtk.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
+    if len(tri):
+        pictures.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=None)
+        if cell_data:
+            pictures.plot_mesh_png(
+                directory / "prestress.png",
+                x,
+                tri,
+                title=f"{model.case.name}: minor principal stress resultant after inflation",
+                cell_values=cell_data["stress_resultant_minor_N_per_m"],
+                cell_label="N/m",
+            )
+    for k in range(len(freqs)):
+        pictures.plot_mode_png(
+            directory / f"mode_{k + 1:02d}.png", x, tri, shapes[k], freqs[k], labels[k],
+            lines=lines, index=k + 1,
+        )  # fmt: skip
+    pictures.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
+    write_text(directory / "modes.json", json.dumps(modes_summary(model), indent=2))
+
+
+def _mode_table(title: str, frequencies_hz, labels) -> Table:
+    """Mode number, frequency (Hz) and label, one row a mode."""
+    table = Table("mode", "frequency (Hz)", "label", title=title)
+    for k, (f, lab) in enumerate(zip(frequencies_hz, labels, strict=True)):
+        table.add_row(str(k + 1), f"{f:.3f}", lab)
+    return table
+
+
+def _print_modes_summary(name: str, summary: dict) -> None:
+    """The ``modes`` report: frequencies, rigid-body frequencies, mass, inertia, prestress."""
+    out.print(_mode_table(f"{name}: elastic modes", summary["frequencies_hz"], summary["labels"]))
+    rigid = ", ".join(f"{f:.2e}" for f in summary["rigid_frequencies_hz"]) or "none (clamped)"
+    out.print(f"rigid-body frequencies (Hz): {rigid}")
+    out.print(f"mass: {summary['mass_kg']:.5g} kg")
+    inertia = np.array(summary["inertia_kg_m2"])
+    out.print(
+        "inertia about the centre of mass (kg m²): "
+        + "; ".join(" ".join(f"{v:.5g}" for v in row) for row in inertia)
+    )
+    if "prestress" in summary:
+        p = summary["prestress"]
+        out.print(
+            f"inflation at {summary['pressure_pa']:.1f} Pa: volume change "
+            f"{100 * p['volume_change']:.3f} %, stress resultants "
+            f"{p['stress_resultant_min_n_per_m']:.3g}–{p['stress_resultant_max_n_per_m']:.3g} N/m, "
+            f"{p['elements_in_compression']} elements in compression"
+        )
+
+
+ModesOutput = output_path("folder for VTU/PVD, PNG and JSON")
+
+
+def modes(
+    case: ModelCase = DEFAULT_CASE, as_json: JsonFlag = False, output_dir: ModesOutput = None
+) -> None:
+    """Inflate the case, compute its modes, print a table (and write pictures and ParaView files)."""
+    from quadmodes.structure.pipeline import build_modal_model, modes_summary
+
+    with one_line_errors():
+        c = load_model_case(case)
+        with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
+            model = build_modal_model(c, progress)
+            if scratch is not None:
+                progress("outputs", 0.0)
+                _write_modal_outputs(model, scratch)
+                progress("outputs", 1.0)
+    summary = modes_summary(model)
+    if as_json:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        return
+    _print_modes_summary(c.name, summary)
+    if output_dir is not None:
+        out.print(f"outputs written to {output_dir}")
+
+
+# ------------------------------------------------------------------------------ calibrate
+
+
+CalibratedOutput = output_path("write the calibrated case (TOML)")
+NoAxialFlag = flag("--no-axial", "fit masses only; inertias scale with mass")
+
+
+def calibrate(
+    case: ModelCase = DEFAULT_CASE,
+    output_file: CalibratedOutput = None,
+    rocking: Annotated[float, typer.Option(help="rear-mass rocking pair target (Hz)")] = 31.2,
+    bending: Annotated[float, typer.Option(help="bending pair target (Hz)")] = 38.0,
+    axial: Annotated[
+        float | None,
+        typer.Option(help="rear-mass axial mode target (Hz); default: geometric mean of the two"),
+    ] = None,
+    no_axial: NoAxialFlag = False,
+) -> None:
+    """Fit the end-body masses (and rear inertia) so the modes match the seed's frequencies."""
+    from quadmodes.structure.calibrate import calibrate_end_masses
+
+    target_axial = None if no_axial else (axial or float(np.sqrt(rocking * bending)))
+    with one_line_errors():
+        c = load_model_case(case)
+        with progress_bars() as progress:
+            result = calibrate_end_masses(
+                c, rocking_hz=rocking, bending_hz=bending, axial_hz=target_axial, progress=progress
+            )
+    err.print(_mode_table(f"{c.name}: calibrated modes", result.frequencies_hz, result.labels))
+    for b in result.case.end_body:
+        err.print(
+            f"{b.name}: mass {b.mass:.6g} kg, inertia axial {b.inertia_axial:.6g} kg m², "
+            f"transverse {b.inertia_transverse:.6g} kg m², arm {b.arm:.6g} m"
+        )
+    header = (
+        f"# Calibrated by `quadmodes calibrate` (quadmodes {__version__}): rocking pair "
+        f"{result.rocking_hz:.4f} Hz, bending pair {result.bending_hz:.4f} Hz"
+        + (f", rear axial {result.axial_hz:.4f} Hz" if result.axial_hz else "")
+        + "\n"
+    )
+    text = header + result.case.to_toml()
+    if output_file is None:
+        sys.stdout.write(text)
+    else:
+        write_text(output_file, text)
+        err.print(f"calibrated case written to {output_file}")
+
+
+# ------------------------------------------------------------------------------ reduce
+
+
+def _reduced_summary(model, model_case, info: dict, output_file: Path | None) -> dict:
+    """The JSON summary of ``reduce``: frequencies, labels, damping, mass, cache entry."""
+    return {
+        "case": model_case.name,
+        "n_modes": model.n_modes,
+        "frequencies_hz": [float(f) for f in model.frequencies_hz],
+        "labels": list(model.labels),
+        "damping_ratio": [float(z) for z in model.damping_ratio],
+        "mass_kg": float(model.mass),
+        "content_key": str(model.provenance.get("content_key", "")),
+        "cache": info.get("cache"),
+        "cache_path": info.get("path"),
+        "output": str(output_file) if output_file is not None else None,
+    }
+
+
+ReducedCase = case_argument("model case, or run case (its model), built-in name or TOML file")
+ReducedOutput = output_path("write the reduced model (NetCDF)")
+
+
+def reduce_command(
+    case: ReducedCase = DEFAULT_CASE,
+    output_file: ReducedOutput = None,
+    modes: Annotated[
+        int | None,
+        typer.Option("--modes", help="elastic modes to keep (default: the run case's, else 5)"),
+    ] = None,
+    as_json: JsonFlag = False,
+) -> None:
+    """Build the reduced model (quadratic modes, floating-frame arrays) of a case.
+
+    Cached in $QUADMODES_CACHE or ~/.cache/quadmodes: later calls and `run` skip the FE work.
+    """
+    from quadmodes.case import load_run_case
+    from quadmodes.rom import artifact
+    from quadmodes.runs import model_cache, simulate
+
+    info: dict = {}
+    with one_line_errors(OSError):
+        if simulate.is_run_case(case):
+            run_case = load_run_case(case)
+            model_case = run_case.model_case()
+            n_modes = modes if modes is not None else run_case.reduced.modes
+        else:
+            model_case = load_model_case(case)
+            n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
+        with progress_bars(not as_json) as progress:
+            model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info)
+        if output_file is not None:
+            artifact.save_reduced_model(model, output_file)
+    summary = _reduced_summary(model, model_case, info, output_file)
+    if as_json:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        return
+    table = Table("mode", "frequency (Hz)", "label", "damping", title=f"{model_case.name}: reduced")
+    for k, (f, lab, z) in enumerate(
+        zip(model.frequencies_hz, model.labels, model.damping_ratio, strict=True)
+    ):
+        table.add_row(str(k + 1), f"{f:.3f}", lab, f"{z:.3g}")
+    out.print(table)
+    out.print(f"cache {summary['cache']}: {escape(str(summary['cache_path']))}")
+    if output_file is not None:
+        out.print(f"reduced model written to {escape(str(output_file))}")

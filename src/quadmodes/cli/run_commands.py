@@ -1,0 +1,286 @@
+"""The ``run`` command: integrate run cases (free-body runs and hub-driven spin-ups), write their
+outputs, print their summaries."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from quadmodes.cli.common import (
+    ProgressCallback,
+    UserError,
+    err,
+    flag,
+    one_line_errors,
+    out,
+    output_path,
+    progress_bars,
+    staged_output,
+)
+
+
+def _run_progress(update: ProgressCallback) -> ProgressCallback:
+    """Wrap a bar callback: without a terminal (no bars), print the progress in 10 % steps."""
+    shown: dict[str, int] = {}
+
+    def progress(stage: str, fraction: float) -> None:
+        update(stage, fraction)
+        if err.is_terminal:
+            return
+        tenth = int(10 * fraction + 1e-9)
+        if shown.get(stage, -1) < tenth:
+            shown[stage] = tenth
+            err.print(f"{escape(stage)}: {10 * tenth} %", highlight=False)
+
+    return progress
+
+
+# ------------------------------------------------------------------------------ summary tables
+
+#: (label, summary key or keys, format) of a free-body run's summary table.
+_RUN_ROWS = [
+    ("status", "status", "{}"),
+    ("steps", "steps", "{}"),
+    ("wall time (s)", "wall_s", "{:.1f}"),
+    ("max |H(t) − H0| / |H0|", "H_relative_drift", "{:.2e}"),
+    ("energy start → end (J)", ("energy_start_J", "energy_end_J"), "{:.6g} → {:.6g}"),
+    ("dissipated energy (J)", "dissipated_energy_J", "{:.4g}"),
+    ("spin rate start → end (Hz)", ("spin_rate_start_hz", "spin_rate_end_hz"), "{:.5f} → {:.5f}"),
+    (
+        "cone angle start → end (deg)",
+        ("cone_angle_start_deg", "cone_angle_end_deg"),
+        "{:.4f} → {:.4f}",
+    ),
+    ("bending log decrement", "log_decrement", "{:.4f}"),
+    ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
+    ("reduced model valid at this spin", "valid", "{}"),
+]
+
+#: (label, summary key, format) of a spin-up's summary table.
+_SPINUP_ROWS = [
+    ("status", "status", "{}"),
+    ("formulation", "formulation", "{}"),
+    ("final hub rate Ωs (rad/s)", "omega_s_rad_s", "{:.4g}"),
+    ("peak in-plane tip deflection (m)", "peak_tip_deflection_m", "{:.4f}"),
+    ("time of the peak (s)", "peak_time_s", "{:.3f}"),
+    ("max |v| after the spin-up (m)", "max_abs_after_spinup_m", "{:.4f}"),
+    ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
+    ("steps", "steps", "{}"),
+    ("wall time (s)", "wall_s", "{:.1f}"),
+]
+
+
+def _format_row(summary: dict, key, fmt: str) -> str:
+    """``fmt`` filled with the summary's value(s) at ``key`` (a key or a tuple); "—" if missing."""
+    keys = key if isinstance(key, tuple) else (key,)
+    values = [summary.get(k) for k in keys]
+    if any(v is None for v in values):
+        return "—"
+    return fmt.format(*values)
+
+
+def _dt_table(name: str, rows: list[dict]) -> Table:
+    """The ``--dt-convergence`` table: end values at dt, dt/2, dt/4 and their relative changes."""
+
+    def rel(v) -> str:
+        return "—" if v is None else f"{v:.2e}"
+
+    table = Table(
+        "dt (ms)",
+        "steps",
+        "cone angle end (deg)",
+        "rel. change",
+        "spin rate end (Hz)",
+        "rel. change",
+        "dissipated (J)",
+        "rel. change",
+        title=f"{name}: time-step convergence (t = {rows[0]['t_end_s']:.4g} s)",
+        box=box.SIMPLE_HEAD,
+    )
+    for r in rows:
+        table.add_row(
+            f"{1e3 * r['dt_s']:.4g}",
+            str(r["steps"]),
+            f"{r['cone_angle_deg']:.6f}",
+            rel(r["rel_change_cone_angle_deg"]),
+            f"{r['spin_rate_hz']:.6f}",
+            rel(r["rel_change_spin_rate_hz"]),
+            f"{r['dissipated_energy_J']:.6g}",
+            rel(r["rel_change_dissipated_energy_J"]),
+        )
+    return table
+
+
+def _print_run_summaries(summaries: dict[str, dict], spinups: set[str], output_dir: Path) -> None:
+    """One summary table a run (and its time-step convergence table), then where it was written."""
+    for name, summary in summaries.items():
+        rows = _SPINUP_ROWS if name in spinups else _RUN_ROWS
+        table = Table("quantity", "value", title=f"{name}: run summary")
+        for label, key, fmt in rows:
+            table.add_row(label, _format_row(summary, key, fmt))
+        out.print(table)
+        if summary.get("dt_convergence"):
+            # not cropped to 80 columns when the output is not a terminal
+            out.print(
+                _dt_table(name, summary["dt_convergence"]),
+                width=None if out.is_terminal else 132,
+            )
+        out.print(f"results written to {escape(str(output_dir / name))}")
+
+
+# ------------------------------------------------------------------------------ warnings
+
+
+def _warn_validity(name: str, validity) -> None:
+    """Warn (stderr) when the formulation is outside its validity for this run."""
+    if validity is not None and not validity.valid:
+        err.print(
+            f"[bold yellow]warning:[/] {escape(name)}: {escape(validity.message())}",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
+def _warn_stopped_early(name: str, result, target: Path) -> None:
+    """Warn (stderr) that a run stopped before its end and wrote partial results."""
+    err.print(
+        f"[bold yellow]warning:[/] {escape(name)} stopped early ("
+        f"{escape(' '.join(result.reason.split()))}); partial results with complete = 0 "
+        f"written to {escape(str(target))}",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
+# ------------------------------------------------------------------------------ steps of run
+
+
+def _check_dt_convergence(runs: list) -> None:
+    """``--dt-convergence`` needs fixed-step free-body runs: raise UserError otherwise."""
+    for r in runs:
+        if r.spinup is not None:
+            raise UserError(
+                f"--dt-convergence: {r.name} is a spin-up integrated by DOP853 with "
+                "its own step control; it has no fixed step"
+            )
+        if r.integration.method == "adaptive":
+            raise UserError(
+                "--dt-convergence: needs a fixed-step method (midpoint or "
+                'backward-euler), not "adaptive"'
+            )
+
+
+def _prepare_runs(names: list[str], overrides: dict[str, str | None], dt_convergence: bool) -> list:
+    """Load the run cases, apply the command-line overrides and prepare the free-body runs
+    (reduced model, initial state); spin-ups are returned as their run cases."""
+    from quadmodes.case import load_run_case
+    from quadmodes.runs import simulate
+
+    runs = [simulate.apply_overrides(load_run_case(name), **overrides) for name in names]
+    if dt_convergence:
+        _check_dt_convergence(runs)
+    with progress_bars(True) as bars:
+        return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
+
+
+def _execute(setup, target: Path, *, plots: bool, dt_convergence: bool) -> tuple[Any, dict]:
+    """Integrate one prepared run (or spin-up) and write its outputs into ``target`` (staged);
+    returns the result and its summary."""
+    from quadmodes.runs import simulate
+    from quadmodes.runs.results import write_outputs, write_spinup_outputs
+
+    if not isinstance(setup, simulate.RunSetup):  # a spin-up
+        result = simulate.simulate_spinup(setup)
+        _warn_validity(setup.name, result.validity)
+        with staged_output(target) as scratch:
+            return result, write_spinup_outputs(result, scratch, plots=plots)
+    _warn_validity(setup.run.name, setup.validity)
+    with progress_bars(True) as bars:
+        result = simulate.execute(setup, _run_progress(bars))
+        extra = None
+        if dt_convergence:
+            rows = simulate.dt_convergence(setup, result, _run_progress(bars))
+            extra = {"dt_convergence": rows}
+    with staged_output(target) as scratch:
+        return result, write_outputs(result, scratch, plots=plots, extra=extra)
+
+
+# ------------------------------------------------------------------------------ run
+
+RunOutput = output_path("folder; each run writes DIR/<case name>/", optional=False)
+DtConvergenceFlag = flag(
+    "--dt-convergence", "also run at dt/2 and dt/4 and print a convergence table"
+)
+RunPlotsFlag = flag("--plots/--no-plots", "write PNG figures")
+
+
+def run_command(
+    case: Annotated[
+        str | None,
+        typer.Argument(help="run case (built-in name or TOML file); default: both paper cases"),
+    ] = None,
+    output_dir: RunOutput = Path("out"),
+    as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
+    method: Annotated[str | None, typer.Option(help="midpoint | backward-euler | adaptive")] = None,
+    dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
+    duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,
+    formulation: Annotated[str | None, typer.Option(help="Q | P | L | rigid | Q4")] = None,
+    spin_rate: Annotated[
+        str | None,
+        typer.Option(
+            "--spin-rate",
+            help='initial spin rate, or the final hub rate Ωs of a spin-up, e.g. "10 rad/s"',
+        ),
+    ] = None,
+    dt_convergence: DtConvergenceFlag = False,
+    plots: RunPlotsFlag = True,
+) -> None:
+    """Integrate run cases; write results.nc, summary.json and PNG figures per case.
+
+    With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz. A run case with a
+    [spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
+
+    A formulation outside its validity (rotating-frame stiffness not positive definite at some
+    spin rate up to the run's) prints a warning; the JSON summary says `valid: false`.
+
+    Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
+    results).
+    """
+    from quadmodes.runs import simulate
+
+    names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
+    overrides = dict(
+        method=method, dt=dt, duration=duration, formulation=formulation, spin_rate=spin_rate
+    )
+    with one_line_errors():
+        setups = _prepare_runs(names, overrides, dt_convergence)
+    summaries: dict[str, dict] = {}
+    spinups: set[str] = set()
+    failed: list[str] = []
+    for setup in setups:
+        is_spinup = not isinstance(setup, simulate.RunSetup)
+        name = setup.name if is_spinup else setup.run.name
+        if is_spinup:
+            spinups.add(name)
+        target = output_dir / name
+        with one_line_errors(OSError):
+            result, summaries[name] = _execute(
+                setup, target, plots=plots, dt_convergence=dt_convergence
+            )
+        if not result.complete:
+            failed.append(name)
+            _warn_stopped_early(name, result, target)
+    if as_json:
+        payload = next(iter(summaries.values())) if case is not None else summaries
+        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
+    else:
+        _print_run_summaries(summaries, spinups, output_dir)
+    if failed:
+        raise typer.Exit(code=1)

@@ -1,0 +1,117 @@
+"""The ``validate`` command: run the validation checks and print (or write) their tables."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+
+from quadmodes.cli.common import (
+    ProgressCallback,
+    UserError,
+    err,
+    fail,
+    flag,
+    progress_bars,
+    user_errors,
+)
+from quadmodes.io.atomic import write_text
+
+VALIDATION_SUITES = ("fe", "reduced", "full-order")
+
+#: Section titles of the suites after the finite-element tables.
+_TITLES = {"reduced": "Reduced dynamics", "full-order": "Full-order reference"}
+
+
+def _checks_to_run(chosen: list[str], quick: bool) -> list[tuple[str, str, Callable[[], list]]]:
+    """(suite, check name, check) of the chosen suites; with ``quick`` only the fast checks
+    of the dynamics suites (all of the finite-element suite)."""
+    from quadmodes.validation import dynamics_checks as vdyn
+    from quadmodes.validation import fe_checks as validation
+
+    checks: dict[str, dict] = {
+        "fe": validation.FE_CHECKS,
+        "reduced": vdyn.ROM_CHECKS,
+        "full-order": vdyn.FULL_ORDER_CHECKS,
+    }
+    return [
+        (k, name, fn)
+        for k in chosen
+        for name, fn in checks[k].items()
+        if not quick or name in vdyn.FAST or k == "fe"
+    ]
+
+
+def _run_checks(
+    todo: list[tuple[str, str, Callable[[], list]]],
+    results: dict[str, list],
+    progress: ProgressCallback,
+) -> None:
+    """Run each check, appending its rows to ``results[suite]``; a check that raises counts as
+    one failed row "<name>: ran to completion" carrying the error."""
+    from quadmodes.validation.report import Row
+
+    for i, (k, name, fn) in enumerate(todo):
+        progress("validation", i / max(len(todo), 1))
+        err.print(f"running {k}/{name} ...")
+        try:
+            results[k] += fn()
+        except (*user_errors(), ImportError, RuntimeError) as exc:
+            err.print(f"[bold red]check {escape(name)} failed to run:[/] {escape(str(exc))}")
+            results[k].append(
+                Row(f"{name}: ran to completion", 0.0, 1.0, 0.0, absolute=True,
+                               source=" ".join(str(exc).split())[:200])
+            )  # fmt: skip
+    progress("validation", 1.0)
+
+
+ValidateWrite = Annotated[
+    Path | None, typer.Option("--write", help="write the tables to this Markdown file")
+]
+SuiteOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--suite", help="fe | reduced | full-order (repeat to combine; default: all three)"
+    ),
+]
+ConvergenceFlag = flag("--convergence/--no-convergence", "paper-model mesh convergence")
+QuickFlag = flag("--quick", "only the fast checks (the subset the tests run)")
+
+
+def validate(
+    write: ValidateWrite = None,
+    suite: SuiteOption = None,
+    convergence: ConvergenceFlag = True,
+    quick: QuickFlag = False,
+) -> None:
+    """Run the validation suite and print (or write) the measured tables with pass/fail.
+
+    The whole suite (finite elements, reduced dynamics, full order) takes tens of minutes on two
+    cores; --quick runs the subset the tests also run."""
+    from quadmodes.validation import fe_checks as validation
+    from quadmodes.validation.report import validation_markdown
+
+    chosen = list(suite or VALIDATION_SUITES)
+    bad = [s for s in chosen if s not in VALIDATION_SUITES]
+    if bad:
+        fail(UserError(f"--suite: unknown {', '.join(bad)}; choose from fe, reduced, full-order"))
+    todo = _checks_to_run(chosen, quick)
+    results: dict[str, list] = {k: [] for k in chosen}
+    with progress_bars() as progress:
+        _run_checks(todo, results, progress)
+        conv = validation.mesh_convergence() if convergence and "fe" in chosen and not quick else []
+    sections = {_TITLES[k]: results[k] for k in chosen if k != "fe"}
+    text = validation_markdown(results.get("fe", []), conv, sections)
+    if write is None:
+        sys.stdout.write(text)
+    else:
+        write_text(write, text)
+        err.print(f"written {write}")
+    failed = [r.check for rows in results.values() for r in rows if not r.passed]
+    if failed:
+        err.print(f"[bold red]{len(failed)} checks failed:[/] {', '.join(failed)}")
+        raise typer.Exit(code=1)

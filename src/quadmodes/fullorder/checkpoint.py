@@ -1,0 +1,78 @@
+"""Checkpoints of a full-order transient: the run state, the sampled series and the predictor's
+history in one .npz (written atomically), and the resume from one.
+
+Entries (format :data:`CHECKPOINT_VERSION`): version, n, dt (s), t0 (s), step, x, v (n,3),
+E_d_now (J), axis_prev (3,), n_newton, n_factor, wall_s (s), ``series_<name>`` per sampled
+series (:data:`~quadmodes.fullorder.sampling.SERIES`), prev_c (3,), prev_R (3,3), prev_b (n,3):
+the body frame of the previous state.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from quadmodes.fullorder.sampling import SERIES, SampledSeries
+from quadmodes.fullorder.setup import FullOrderProblem, RunState
+from quadmodes.io.atomic import atomic_path
+
+#: Checkpoint file format version.
+CHECKPOINT_VERSION = 1
+
+
+def write_checkpoint(path: Path, data: dict) -> None:
+    """Write ``data`` (arrays) to ``path`` (.npz) atomically: temporary file + ``os.replace``."""
+    with atomic_path(path, fsync=True) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **data)
+
+
+def read_checkpoint(path: Path) -> dict:
+    """Arrays of a checkpoint written by :func:`write_checkpoint`."""
+    with np.load(Path(path), allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def checkpoint_data(
+    problem: FullOrderProblem, state: RunState, samples: SampledSeries, wall_s: float
+) -> dict:
+    """The checkpoint entries (module docstring) of ``state`` after ``wall_s`` s of wall time."""
+    data = {
+        "version": CHECKPOINT_VERSION, "n": problem.n, "dt": problem.h, "t0": problem.t0,
+        "step": state.step, "x": state.x, "v": state.v, "E_d_now": state.e_d,
+        "axis_prev": samples.axis_prev, "n_newton": state.n_newton, "n_factor": state.n_factor,
+        "wall_s": wall_s,
+    }  # fmt: skip
+    for k in SERIES:
+        data[f"series_{k}"] = np.asarray(samples.series[k])
+    for k, arr in zip(("prev_c", "prev_R", "prev_b"), state.frame_prev, strict=True):
+        data[k] = arr  # the predictor's history
+    return data
+
+
+def resume_from(path: Path, problem: FullOrderProblem, samples: SampledSeries) -> RunState:
+    """The :class:`RunState` saved in checkpoint ``path``; its series are restored into
+    ``samples``. Raises ValueError for a checkpoint of another model, t0 or time step, or one
+    already past the end of the problem's time span."""
+    data = read_checkpoint(path)
+    if (
+        int(data["n"]) != problem.n
+        or not math.isclose(float(data["dt"]), problem.h, rel_tol=1e-12)
+        or not math.isclose(float(data["t0"]), problem.t0, abs_tol=1e-12)
+    ):
+        raise ValueError(f"checkpoint {path}: made for another model, t0 or time step")
+    state = RunState(
+        step=int(data["step"]),
+        x=data["x"].copy(),
+        v=data["v"].copy(),
+        e_d=float(data["E_d_now"]),
+        frame_prev=(data["prev_c"].copy(), data["prev_R"].copy(), data["prev_b"].copy()),
+        n_newton=int(data["n_newton"]),
+        n_factor=int(data["n_factor"]),
+        wall_before=float(data["wall_s"]),
+    )
+    samples.restore(data, data["axis_prev"].copy())
+    if state.step > problem.n_steps:
+        raise ValueError(f"checkpoint {path}: already past the end of t_span")
+    return state

@@ -1,0 +1,242 @@
+"""Modified Newton for one full-order step: the step Jacobian, the factorised Newton matrix
+(reused across iterations and steps through the frame covariance), backtracking and the
+convergence test.
+
+Iterations ``δx = −(Δt²/2) A⁻¹ r``, ``A = M + (Δt²/2) ∂f_step/∂x₁`` on the free DOFs (+ gas-law
+rank-one terms by Sherman–Morrison; the rank-N damping term is left out of A). Converged when
+the largest correction is below the problem's tolerance (``newton_tol × body size``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from quadmodes.fe.assembly import assemble_matrix
+from quadmodes.fe.bar import BarSet
+from quadmodes.fe.membrane import MembraneSet, _voigt_stress, green_strain
+from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
+from quadmodes.fullorder.setup import FullOrderProblem
+
+#: Refactor when successive Newton corrections shrink by less than this factor.
+RHO_REFACTOR = 0.5
+#: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
+LINE_SEARCH = 1e-5
+
+
+class FullOrderNewtonError(RuntimeError):
+    """Newton did not converge in a full-order step; the message is one line."""
+
+    def __init__(self, step: int, time: float, residual: float, checkpoint: Path | None = None):
+        self.step, self.time, self.residual, self.checkpoint = step, time, residual, checkpoint
+        kept = f"checkpoint kept at {checkpoint}" if checkpoint else "no checkpoint"
+        super().__init__(
+            f"full-order Newton did not converge at step {step}, t = {time:.6g} s, residual "
+            f"{residual:.2e} (relative correction); {kept}"
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# Newton matrix
+# ---------------------------------------------------------------------------------------------
+
+
+def _strain_rows(f: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Membrane strain–displacement rows ``(ne, 3, 9)`` for ``[E11, E22, 2E12]`` at F (ne,3,2)."""
+    return np.stack(
+        [
+            np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 0]),
+            np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 1]),
+            np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 1])
+            + np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 0]),
+        ],
+        1,
+    ).reshape(-1, 3, 9)
+
+
+def _membrane_block(e: MembraneSet, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray):
+    """``½[K_geo(S̄) + B(x½)ᵀ D B(x₁)]`` (ne,9,9) of a membrane set."""
+    fh, _ = green_strain(e.gradients, xh[e.conn])
+    f1, e1 = green_strain(e.gradients, x1[e.conn])
+    _, e0 = green_strain(e.gradients, x0[e.conn])
+    sbar = _voigt_stress(e.d, 0.5 * (e0 + e1))
+    g = e.gradients
+    k_mat = np.einsum("epa,pq,eqb->eab", _strain_rows(fh, g), e.d, _strain_rows(f1, g))
+    k_geo = np.einsum("eak,ekl,ebl->eab", g, sbar, g)
+    k_geo = np.einsum("eab,ij->eaibj", k_geo, np.eye(3)).reshape(-1, 9, 9)
+    return 0.5 * e._volume()[:, None, None] * (k_mat + k_geo)
+
+
+def _bar_block(e: BarSet, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray):
+    """The bars' counterpart of :func:`_membrane_block` (ne,6,6)."""
+    dh, d1 = e._d(xh), e._d(x1)
+    ebar = 0.5 * (e.strain(x0) + e.strain(x1))
+    k = e.EA / e.length0
+    kb = (0.5 * k)[:, None, None] * (
+        ebar[:, None, None] * np.eye(3)
+        + np.einsum("ei,ej->eij", dh, d1) / (e.length0**2)[:, None, None]
+    )
+    return np.block([[kb, -kb], [-kb, kb]])
+
+
+def step_jacobian(structure: Structure, x0: np.ndarray, x1: np.ndarray, energy_momentum: bool):
+    """``∂f_step/∂x₁`` (3n,3n) sparse (N/m) of
+    :func:`~quadmodes.fullorder.step.step_force` (or of ``f(x½)``: ½K(x½)) and its rank-one
+    gas-law terms ``[(c, v)]``. The energy–momentum blocks are not symmetric:
+    ``½[K_geo(S̄) + B(x½)ᵀ D B(x₁)]`` for membranes, likewise for bars."""
+    xh = 0.5 * (x0 + x1)
+    low = [(0.5 * c, v) for c, v in tangent_low_rank(structure, xh)]
+    if not energy_momentum:
+        return 0.5 * tangent_stiffness(structure, xh), low
+    mats = []
+    for e in structure.elements:
+        if isinstance(e, MembraneSet):
+            ke = _membrane_block(e, x0, x1, xh)
+        elif isinstance(e, BarSet):
+            ke = _bar_block(e, x0, x1, xh)
+        else:
+            ke = 0.5 * e.stiffness(xh)
+        mats.append(assemble_matrix(e.conn, ke, structure.n))
+    out = mats[0]
+    for m in mats[1:]:
+        out = out + m
+    return out.tocsr(), low
+
+
+class NewtonMatrix:
+    """Sparse LU of ``A = M + (Δt²/2) J`` on the free DOFs, J = ∂f_step/∂x₁ at a body-frame
+    pair (z₀, z₁) (:func:`step_jacobian`).
+
+    Frame covariance ``J(𝒬z₀, 𝒬z₁) = 𝒬 J(z₀, z₁) 𝒬ᵀ`` (𝒬 = I ⊗ Q; M commutes with 𝒬) lets one
+    factorisation serve later steps whose body-frame pair is close to (z₀, z₁):
+    ``A⁻¹ r ≈ 𝒬 A(z)⁻¹ 𝒬ᵀ r`` with Q the current frame, whatever the rigid rotation since."""
+
+    def __init__(self, structure, m_full, z0, z1, dt: float, free: np.ndarray, em: bool):
+        jac, low = step_jacobian(structure, z0, z1, em)
+        a = m_full + (0.5 * dt * dt) * jac
+        self.lu = spla.splu(a[free][:, free].tocsc(), permc_spec="COLAMD")
+        self.low = []
+        for coef, vec in low:
+            vf = np.asarray(vec).ravel()[free]
+            self.low.append((0.5 * dt * dt * coef, vf, self.lu.solve(vf)))
+
+    @classmethod
+    def at(cls, problem: FullOrderProblem, z0: np.ndarray, z1: np.ndarray) -> NewtonMatrix:
+        """The Newton matrix of ``problem`` at the body-frame pair (z0, z1) (n,3)."""
+        return cls(problem.structure, problem.m_full, z0, z1, problem.h, problem.free,
+                   problem.energy_momentum)  # fmt: skip
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        y = self.lu.solve(rhs)
+        for coef, vec, av in self.low:  # Sherman–Morrison for c v vᵀ
+            y = y - av * (coef * (vec @ y) / (1.0 + coef * (vec @ av)))
+        return y
+
+
+# ---------------------------------------------------------------------------------------------
+# iterations
+# ---------------------------------------------------------------------------------------------
+
+
+def line_search(residual_norm, x1: np.ndarray, dx: np.ndarray, r0: float):
+    """Backtracking along dx on the residual norm (N): the first α of 1, ½, ¼, … (six halvings)
+    with ``‖r(x₁ + α dx)‖ < (1 − 10⁻⁴α) r0``. Returns ``(α, trial point)``, or ``(1, None)`` if
+    none qualifies (the caller's convergence control takes over)."""
+    alpha = 1.0
+    for _ in range(7):
+        y = x1 + alpha * dx
+        trial = residual_norm(y)
+        if np.isfinite(trial) and trial < (1.0 - 1e-4 * alpha) * r0:
+            return alpha, y
+        alpha *= 0.5
+    return 1.0, None
+
+
+@dataclass(frozen=True, eq=False)
+class NewtonResult:
+    """Outcome of :func:`solve_step`: the end state x1 (n,3) m, ``v½`` and ``f_d`` (n,3) of the
+    last residual evaluated at an iterate (the one before the last correction), the Newton
+    matrix in use at the end, converged, the last correction (m, max norm), and the numbers of
+    iterations and factorisations made."""
+
+    x1: np.ndarray
+    vh: np.ndarray
+    fd: np.ndarray
+    matrix: NewtonMatrix
+    converged: bool
+    correction: float
+    n_newton: int
+    n_factor: int
+
+
+class _LastResidual:
+    """The residual with its last evaluation remembered (the line search's last trial is the
+    next iterate)."""
+
+    def __init__(self, residual: Callable):
+        self.residual, self.y, self.value = residual, None, None
+
+    def __call__(self, y: np.ndarray):
+        if self.y is not y:
+            self.y, self.value = y, self.residual(y)
+        return self.value
+
+
+def _correction(problem: FullOrderProblem, matrix: NewtonMatrix, r, rot) -> np.ndarray:
+    """Newton correction δx (n,3) m of residual r (n,3) N with the matrix applied in frame rot."""
+    n = problem.n
+    rb = (r @ rot).ravel()[problem.free]
+    dz = np.zeros(3 * n)
+    dz[problem.free] = -(0.5 * problem.h * problem.h) * matrix.solve(rb)
+    return dz.reshape(n, 3) @ rot.T
+
+
+def solve_step(
+    problem: FullOrderProblem, matrix: NewtonMatrix | None, x: np.ndarray, x1: np.ndarray,
+    rot: np.ndarray, residual: Callable, max_newton: int,
+) -> NewtonResult:  # fmt: skip
+    """Modified Newton from the predicted end state x1 (n,3) of the step from x (n,3); the
+    Newton matrix is applied in frame rot (3,3). ``matrix``: the factorisation to reuse (None:
+    factorise at the start); it is renewed at the current iterate when successive corrections
+    shrink by less than :data:`RHO_REFACTOR` (after at least two iterations with it).
+    ``residual(y) -> (v½, r, f_d)``. Corrections above :data:`LINE_SEARCH` × body size
+    backtrack on the residual norm (:func:`line_search`)."""
+    n_newton = n_factor = 0
+    since = math.inf  # Newton iterations since the last factorisation
+    if matrix is None:
+        matrix = NewtonMatrix.at(problem, x @ rot, x1 @ rot)
+        n_factor, since = n_factor + 1, 0
+    prev, nd, ok = None, math.inf, False
+    residual_at = _LastResidual(residual)
+    for _ in range(max_newton):
+        vh, r, fd = residual_at(x1)
+        dx = _correction(problem, matrix, r, rot)
+        if float(np.max(np.abs(dx))) > LINE_SEARCH * problem.scale:
+            # far from the solution (a violent transient): backtrack on the residual
+            alpha, trial = line_search(
+                lambda y: float(np.linalg.norm(residual_at(y)[1])), x1, dx,
+                float(np.linalg.norm(r)),
+            )  # fmt: skip
+            dx = alpha * dx
+            x1 = trial if trial is not None else x1 + dx
+        else:
+            x1 = x1 + dx
+        n_newton, since = n_newton + 1, since + 1
+        nd = float(np.max(np.abs(dx)))
+        if not np.isfinite(nd):
+            break
+        if nd <= problem.tol:
+            ok = True
+            break
+        if prev is not None and nd > RHO_REFACTOR * prev and since >= 2:
+            # the frozen matrix no longer contracts well: renew it at this iterate
+            matrix = NewtonMatrix.at(problem, x @ rot, x1 @ rot)
+            n_factor, since, prev = n_factor + 1, 0, None
+            continue
+        prev = nd
+    return NewtonResult(x1, vh, fd, matrix, ok, nd, n_newton, n_factor)

@@ -1,0 +1,93 @@
+"""Initial state of a free-body run: a deformation in the first bending mode and the coning
+angular velocity about the minor principal axis of the deformed body."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadmodes.case import CaseError, RunCase
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import reduced as red
+from quadmodes.rom import system as rsys
+from quadmodes.runs.model_cache import PAIR_TOLERANCE
+
+
+def bending_pair(labels, frequencies_hz) -> tuple[int, ...]:
+    """Indices of the first bending mode and its partner (same label, frequency within
+    :data:`PAIR_TOLERANCE`); ``()`` if no retained mode is labelled bending."""
+    labels = list(labels)
+    found = [k for k, lab in enumerate(labels) if "bending" in str(lab).lower()]
+    if not found:
+        return ()
+    first = found[0]
+    pair = [first]
+    nxt = first + 1
+    f = np.asarray(frequencies_hz, float)
+    if nxt < len(labels) and labels[nxt] == labels[first]:
+        if abs(f[nxt] - f[first]) <= PAIR_TOLERANCE * f[first]:
+            pair.append(nxt)
+    return tuple(pair)
+
+
+def largest_nodal_displacement(model: red.ReducedModel, mode: int) -> float:
+    """Largest nodal displacement (m) of mode ``mode`` per unit modal coordinate (√kg·m)."""
+    u = np.asarray(model.Phi[mode])[np.asarray(model.translational, bool)]
+    return float(np.max(np.linalg.norm(u, axis=1)))
+
+
+@dataclass(frozen=True, eq=False)
+class InitialState:
+    """Initial state of a run.
+
+    y0 (7+2N,): [q, ω, s, ṡ]. spin_axis (3,): body-frame minor principal axis of J̃(s0) (sign:
+    largest component positive). inertia (3,3) kg m²: J̃(s0). bending_modes: indices of the
+    first bending pair (may be empty). notes: remarks (e.g. an ignored deformation)."""
+
+    y0: np.ndarray
+    spin_axis: np.ndarray
+    inertia: np.ndarray
+    bending_modes: tuple[int, ...]
+    notes: tuple[str, ...] = ()
+
+
+def _initial_deformation(
+    model: red.ReducedModel, n: int, pair: tuple[int, ...], amplitude: float, notes: list[str]
+) -> np.ndarray:
+    """s0 (N,) √kg·m: ``amplitude`` (m, largest nodal displacement) in the first bending mode
+    ``pair[0]``; zero if ``amplitude`` is 0 (or with no elastic modes, noted in ``notes``)."""
+    s0 = np.zeros(n)
+    if amplitude > 0.0:
+        if n == 0:
+            notes.append("initial.bending_amplitude ignored: no elastic modes (rigid)")
+        elif not pair:
+            labels = ", ".join(model.labels)
+            raise CaseError(
+                "initial.bending_amplitude: no retained mode is a bending mode "
+                f'(labels: {labels}); set it to "0 in" or '
+                "keep more modes in [reduced]",
+                field="initial.bending_amplitude",
+            )
+        else:
+            s0[pair[0]] = amplitude / largest_nodal_displacement(model, pair[0])
+    return s0
+
+
+def initial_state(system: rsys.ReducedSystem, model: red.ReducedModel, run: RunCase) -> InitialState:
+    """Initial state of ``run``: modal displacement s0 in the first bending mode (largest nodal
+    displacement = ``initial.bending_amplitude``), ṡ0 = 0, q0 = identity, and the body angular
+    velocity of :func:`quadmodes.rom.dynamics.coning_omega` for J̃(s0): spin ``initial.spin_rate``
+    about the minor principal axis of J̃(s0), cone angle ``initial.cone_angle`` between
+    H = J̃(s0) ω and that axis."""
+    n = system.n_modes
+    notes: list[str] = []
+    pair = bending_pair(model.labels, model.frequencies_hz) if n else ()
+    s0 = _initial_deformation(model, n, pair, run.initial.bending_amplitude, notes)
+    jt = dyn.inertia_tensor(system, s0, "rot")
+    jt = 0.5 * (jt + jt.T)
+    omega = dyn.coning_omega(jt, run.initial.spin_rate, run.initial.cone_angle)
+    lam, vec = np.linalg.eigh(jt)
+    axis = vec[:, 0] * np.sign(vec[np.argmax(np.abs(vec[:, 0])), 0])
+    y0 = rsys.pack_state(system, omega=omega, s=s0)
+    return InitialState(y0, axis, jt, pair, tuple(notes))

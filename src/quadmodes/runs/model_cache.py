@@ -1,0 +1,166 @@
+"""The reduced model of a case, built once and cached on disk.
+
+Stages::
+
+    Case ──build_reduced_model──▶ ReducedModel ──artifact.save_reduced_model──▶ cache file
+    Case ──reduced_model_for──▶ ReducedModel (from the cache file when its content key matches)
+
+The cache folder is ``$QUADMODES_CACHE`` or ``~/.cache/quadmodes``; a file is named
+``<case>-N<modes>-<key>.nc`` where the key hashes the case TOML, the number of modes and the
+artifact format version (:func:`reduced_key`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from quadmodes import __version__
+from quadmodes.case import Case, CaseError, Modes
+from quadmodes.rom import artifact
+from quadmodes.rom import reduced as red
+from quadmodes.structure import pipeline
+
+Progress = Callable[[str, float], None]
+
+DEFAULT_MODES = 5
+#: Two modes with the same label within this relative frequency gap form a (degenerate) pair.
+PAIR_TOLERANCE = 0.05
+#: Modes this close in frequency (relative) are degenerate, whatever their labels.
+DEGENERATE_TOLERANCE = 1e-3
+
+
+def cache_dir() -> Path:
+    """Folder of cached reduced models: ``$QUADMODES_CACHE`` or ``~/.cache/quadmodes``."""
+    env = os.environ.get("QUADMODES_CACHE")
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "quadmodes"
+
+
+def damping_ratio_of(case: Case) -> float:
+    """Modal damping ratio of a case (``material.damping_ratio`` or ``beam.damping_ratio``)."""
+    section = case.material if case.kind == "membrane" else case.beam
+    return float(section.damping_ratio) if section is not None else 0.0
+
+
+def reduced_key(case: Case, n_modes: int) -> str:
+    """Content key of the reduced model of ``case`` with ``n_modes`` modes (includes the
+    package version and the artifact format version, so that files of another format are not
+    cache hits)."""
+    return artifact.content_key(
+        case.to_toml()
+        + f"\n# reduced.modes = {int(n_modes)}\n"
+        + f"# artifact.format_version = {artifact.FORMAT_VERSION}\n"
+    )
+
+
+def cache_path(case: Case, n_modes: int) -> Path:
+    """Cache file of the reduced model of ``case`` with ``n_modes`` modes."""
+    return cache_dir() / f"{case.name}-N{int(n_modes)}-{reduced_key(case, n_modes)}.nc"
+
+
+def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
+    """Raise :class:`CaseError` if keeping the lowest ``n_modes`` of the modes (labels,
+    frequencies Hz, one more than kept) separates two members of a degenerate pair."""
+    if len(freqs) <= n_modes:
+        return
+    a, b = n_modes - 1, n_modes
+    gap = abs(freqs[b] - freqs[a])
+    same_label = labels[a] == labels[b] and gap <= PAIR_TOLERANCE * freqs[a]
+    if same_label or gap <= DEGENERATE_TOLERANCE * freqs[a]:
+        raise CaseError(
+            f"reduced.modes = {n_modes} splits the pair {labels[a]} / {labels[b]} at "
+            f"{freqs[a]:.2f}/{freqs[b]:.2f} Hz (modes {a + 1} and {b + 1}); keep pairs whole: "
+            f"use {n_modes - 1} or {n_modes + 1}",
+            field="reduced.modes",
+        )
+
+
+def _provenance(case: Case, modal, n_modes: int) -> dict:
+    """Provenance of the reduced model: case, its TOML, node and mode counts, version, key."""
+    return {
+        "case": case.name,
+        "case_toml": case.to_toml(),
+        "n_nodes": int(modal.structure.n),
+        "n_modes": n_modes,
+        "quadmodes_version": __version__,
+        "content_key": reduced_key(case, n_modes),
+    }
+
+
+def build_reduced_model(
+    case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None
+) -> red.ReducedModel:
+    """Modal model of ``case`` (``pipeline.build_modal_model``), its lowest ``n_modes`` elastic
+    modes, and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance.
+
+    Raises :class:`CaseError` (field ``reduced.modes``) if the model has fewer modes or the cut
+    splits a degenerate pair."""
+    n_modes = int(n_modes)
+    if n_modes < 1:
+        raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
+    count = max(case.modes.count, n_modes + 1)  # one more, to see whether a pair is split
+    work = (
+        case if count == case.modes.count else case.model_copy(update={"modes": Modes(count=count)})
+    )
+    modal = pipeline.build_modal_model(work, progress)
+    freqs = np.asarray(modal.modes.frequencies_hz, float)
+    labels = list(modal.labels)
+    if len(freqs) < n_modes:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: the model has only {len(freqs)} elastic modes; "
+            f"use at most {len(freqs)}",
+            field="reduced.modes",
+        )
+    _check_pair_not_split(labels, freqs, n_modes)
+    return red.reduce(
+        modal.structure,
+        modal.x,
+        freqs[:n_modes],
+        modal.modes.shapes[:n_modes],
+        labels[:n_modes],
+        damping_ratio_of(case),
+        progress,
+        _provenance(case, modal, n_modes),
+    )
+
+
+def reduced_model_for(
+    case: Case,
+    n_modes: int = DEFAULT_MODES,
+    progress: Progress | None = None,
+    *,
+    use_cache: bool = True,
+    info: dict | None = None,
+) -> red.ReducedModel:
+    """The reduced model of ``case`` with ``n_modes`` modes, from the cache if present.
+
+    The cache file is keyed by ``artifact.content_key(case TOML + n_modes)``; a missing, corrupt
+    or mismatching file is (re)built and saved. ``info`` (optional dict) receives ``cache``
+    ("hit", "miss", "rebuilt" or "off") and ``path``."""
+    info = {} if info is None else info
+    path = cache_path(case, n_modes)
+    info["path"] = str(path)
+    info["cache"] = "off" if not use_cache else "miss"
+    if use_cache and path.is_file():
+        try:
+            model = artifact.load_reduced_model(path)
+        except artifact.ArtifactError:
+            info["cache"] = "rebuilt"
+        else:
+            if (
+                model.provenance.get("content_key") == reduced_key(case, n_modes)
+                and model.n_modes == n_modes
+            ):
+                info["cache"] = "hit"
+                return model
+            info["cache"] = "rebuilt"
+    model = build_reduced_model(case, n_modes, progress)
+    if use_cache:
+        try:
+            artifact.save_reduced_model(model, path)
+        except OSError as exc:  # a read-only cache is not an error: the run goes on
+            info["cache"] = f"not saved ({exc.strerror or type(exc).__name__})"
+    return model

@@ -1,0 +1,125 @@
+"""Validity of the reduced model at a run's spin: the rotating-frame stiffness Λ − ωᵀJ2ω must
+stay positive definite from rest up to the spin, and (Q4 only) the initial modal energy must
+stay below the lowest barrier of the truncated quartic potential."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import rotating_frame as rf
+from quadmodes.rom import system as rsys
+
+#: Spin rates scanned (uniformly from 0 to the run's spin) by :func:`rotating_validity`.
+VALIDITY_SCAN = 64
+
+
+@dataclass(frozen=True)
+class Validity:
+    """Whether the rotating-frame stiffness K(ω) = Λ − ωᵀJ2ω of the reduced model stays
+    positive definite for every spin rate from 0 up to the run's (ω scaled along its direction).
+
+    min_eigenvalue (1/s²): smallest eigenvalue of K at the run's ω (mass-normalised modal
+    coordinates, so the square of a rotating-frame frequency); spin_rate (rad/s): |ω|;
+    lost_at (rad/s): the spin rate at which K stops being positive definite (None if it does
+    not); valid: ``lost_at is None``."""
+
+    formulation: str
+    spin_rate: float
+    min_eigenvalue: float
+    lost_at: float | None
+    modal_energy: float = 0.0
+    barrier_energy: float = math.inf
+
+    @property
+    def beyond_barrier(self) -> bool:
+        """Q4 only: the initial modal energy exceeds the quartic potential's lowest barrier."""
+        return self.modal_energy > self.barrier_energy
+
+    @property
+    def valid(self) -> bool:
+        return self.lost_at is None and not self.beyond_barrier
+
+    def message(self) -> str:
+        """One line for a warning ("" when valid)."""
+        if self.valid:
+            return ""
+        if self.lost_at is None:
+            return (
+                f"formulation {self.formulation} is outside its validity: the initial modal energy "
+                f"{self.modal_energy:.4g} J exceeds the lowest barrier {self.barrier_energy:.4g} J "
+                "of its truncated quartic potential, so the motion may leave the range where Q4 "
+                "means anything; use Q, or a smaller initial deformation"
+            )
+        return (
+            f"formulation {self.formulation} is outside its validity: the rotating-frame "
+            f"stiffness Λ − ωᵀJ2ω is not positive definite above a spin rate of "
+            f"{self.lost_at:.4g} rad/s ({self.lost_at / (2 * math.pi):.4g} Hz); the run's spin "
+            f"is {self.spin_rate:.4g} rad/s (smallest eigenvalue {self.min_eigenvalue:.4g} s⁻²)"
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "valid": self.valid,
+            "formulation": self.formulation,
+            "rotating_stiffness_min_eigenvalue": float(self.min_eigenvalue),
+            "rotating_stiffness_min_eigenvalue_units": "s-2",
+            "spin_rate_rad_s": float(self.spin_rate),
+            "lost_at_spin_rate_rad_s": None if self.lost_at is None else float(self.lost_at),
+            "initial_modal_energy_J": float(self.modal_energy),
+            "potential_barrier_J": None
+            if math.isinf(self.barrier_energy)
+            else float(self.barrier_energy),
+            "message": self.message(),
+        }
+
+
+def _min_stiffness(system: rsys.ReducedSystem, omega: np.ndarray) -> float:
+    k = rf.rotating_frame_matrices(system, omega)[2]
+    return float(np.linalg.eigvalsh(k).min()) if k.shape[0] else math.inf
+
+
+def rotating_validity(
+    system: rsys.ReducedSystem, omega, formulation: str, n_scan: int = VALIDITY_SCAN
+) -> Validity:
+    """:class:`Validity` of ``system`` (its formulation's J2) spinning at ``omega`` (3,) rad/s:
+    the smallest eigenvalue of Λ − ωᵀJ2ω on a scan of ``n_scan`` spin rates α·ω (0 < α ≤ 1),
+    the first loss of definiteness refined by bisection."""
+    from scipy.optimize import brentq
+
+    omega = np.asarray(omega, float)
+    rate = float(np.linalg.norm(omega))
+    if system.n_modes == 0 or rate == 0.0:
+        return Validity(formulation, rate, math.inf if system.n_modes == 0 else
+                        _min_stiffness(system, omega), None)  # fmt: skip
+    alphas = np.linspace(0.0, 1.0, n_scan + 1)
+    values = [_min_stiffness(system, a * omega) for a in alphas]
+    lost = None
+    for k in range(1, len(alphas)):
+        if values[k] <= 0.0:
+            if values[k - 1] > 0.0:
+                a = brentq(lambda x: _min_stiffness(system, x * omega), alphas[k - 1], alphas[k])
+            else:
+                a = alphas[k - 1]
+            lost = float(a * rate)
+            break
+    return Validity(formulation, rate, values[-1], lost)
+
+
+def initial_validity(system: rsys.ReducedSystem, y0: np.ndarray, formulation: str) -> Validity:
+    """:func:`rotating_validity` at the angular velocity of the initial state ``y0`` (7+2N,);
+    for a quartic (Q4) system also the initial modal energy ½ṡᵀμṡ + V(s) (J) and the lowest
+    barrier of its potential (J)."""
+    omega0 = rsys.split_state(system, y0)[1]
+    validity = rotating_validity(system, omega0, formulation)
+    if system.quartic:
+        _, _, s0, sd0 = rsys.split_state(system, y0)
+        e_modal = float(0.5 * sd0 @ system.mu @ sd0 + dyn.potential_energy(system, y0))
+        validity = dataclasses.replace(
+            validity, modal_energy=e_modal, barrier_energy=dyn.potential_barrier(system)[0]
+        )
+    return validity
