@@ -28,6 +28,7 @@ import scipy.sparse.linalg as spla
 from quadmodes.analysis.rotating_equilibrium import gyroscopic_matrix, rotating_stiffness
 from quadmodes.analysis.spin_axis import unit_axis
 from quadmodes.fe.model import Structure, mass_matrix, rigid_body_modes, tangent_low_rank
+from quadmodes.linalg.factor import lu_factor, with_rank_one_terms
 
 #: Relative offset of a shift from its target frequency (keeps K + σG + σ²M regular).
 SHIFT_OFFSET = 3e-3
@@ -58,18 +59,8 @@ class RotatingRoots:
 
 def _complex_solver(q: sp.spmatrix, low_rank) -> Callable:
     """Sparse complex LU of ``Q + Σ c v vᵀ`` (Sherman–Morrison for the gas-law terms)."""
-    lu = spla.splu(q.tocsc(), permc_spec="COLAMD")
-    if not low_rank:
-        return lu.solve
-    pre = [(c, v, lu.solve(v.astype(complex))) for c, v in low_rank]
-
-    def solve(b):
-        y = lu.solve(b)
-        for c, v, kv in pre:
-            y = y - kv * (c * (v @ y) / (1.0 + c * (v @ kv)))
-        return y
-
-    return solve
+    lu = lu_factor(q, symmetric=False)
+    return with_rank_one_terms(lu.solve, [(c, v.astype(complex)) for c, v in low_rank])
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,8 @@
 ``[[K + Σ c v vᵀ, C], [Cᵀ, 0]] [u; λ] = [r; 0]``: a sparse matrix ``K`` with optional linear
 constraints ``Cᵀ u = 0`` (e.g. the mass-weighted rigid-motion frame conditions ``Ψᵀ M u = 0``
 of a free body, with multipliers ``λ``) and optional rank-one terms (the gas-law pressure
-stiffness), applied by Sherman–Morrison on top of one sparse LU factorisation.
+stiffness), applied by Sherman–Morrison on top of one sparse LU factorisation
+(:mod:`quadmodes.linalg.factor`; ``K`` is taken to be symmetric, as every caller's is).
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
+
+from quadmodes.linalg.factor import lu_factor, with_rank_one_terms
 
 
 def bordered_solver(
@@ -32,7 +34,7 @@ def bordered_solver(
     else:
         c = sp.csc_matrix(constraint)
         a = sp.bmat([[k, c], [c.T, None]], format="csc")
-    lu = spla.splu(a, permc_spec="COLAMD")
+    lu = lu_factor(a, symmetric=True)
     m = a.shape[0]
 
     def base(rhs: np.ndarray) -> np.ndarray:
@@ -40,15 +42,4 @@ def bordered_solver(
         full[:n] = rhs
         return lu.solve(full)[:n]
 
-    if not low_rank:
-        return base
-    # Sherman–Morrison for the rank-one gas-law terms.
-    vecs = [(coef, vec, base(vec)) for coef, vec in low_rank]
-
-    def solve(rhs: np.ndarray) -> np.ndarray:
-        y = base(rhs)
-        for coef, vec, kv in vecs:
-            y = y - kv * (coef * (vec @ y) / (1.0 + coef * (vec @ kv)))
-        return y
-
-    return solve
+    return with_rank_one_terms(base, low_rank)
