@@ -68,3 +68,17 @@ def test_paper_model_tangent_and_second_order_by_finite_differences(paper):
     ) / (4 * h * h)
     b = second_order_force(structure, x, u, v)
     assert np.linalg.norm(2 * b - fd2) < 1e-5 * np.linalg.norm(fd2)
+
+
+def test_tangent_through_the_csr_pattern_equals_the_element_sum(paper):
+    """The precomputed CSR scatter map sums exactly the element matrices (against COO assembly of
+    each set), and the pattern is shared by the load-stepped copy of the structure."""
+    from quadmodes.fe.assembly import assemble_matrix
+    from quadmodes.fe.model import stiffness_pattern, with_load_factor
+
+    _, structure, x = paper
+    k = tangent_stiffness(structure, x)
+    reference = sum(assemble_matrix(e.conn, e.stiffness(x), structure.n) for e in structure.elements)
+    assert k.has_canonical_format
+    assert abs(k - reference).max() <= 1e-12 * abs(reference).max()
+    assert stiffness_pattern(with_load_factor(structure, 0.5)) is stiffness_pattern(structure)

@@ -14,7 +14,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.fe.assembly import assemble_matrix, assemble_vector, expand_scalar_matrix
+from quadmodes.fe.assembly import (
+    CsrPattern,
+    assemble_csr,
+    assemble_vector,
+    csr_pattern,
+    expand_scalar_matrix,
+)
 from quadmodes.fe.elements import ElementSet
 from quadmodes.fe.pressure import PressureSet, gas_rank_one, gas_second_order
 
@@ -37,6 +43,9 @@ class Structure:
     mass_scalar: sp.csr_matrix
     fixed: np.ndarray
     groups: Mapping[str, np.ndarray] = field(default_factory=dict)
+    # Stiffness patterns by connectivity (see stiffness_pattern); shared by the copies that
+    # dataclasses.replace makes (load stepping, gas law), whose sets keep their connectivity.
+    pattern_cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n(self) -> int:
@@ -79,11 +88,18 @@ def tangent_stiffness(structure: Structure, x: np.ndarray) -> sp.csr_matrix:
 
     A gas-law pressure adds a global rank-one term given by :func:`tangent_low_rank`.
     """
-    mats = [assemble_matrix(e.conn, e.stiffness(x), structure.n) for e in structure.elements]
-    k = mats[0]
-    for m in mats[1:]:
-        k = k + m
-    return k.tocsr()
+    pattern = stiffness_pattern(structure)
+    return assemble_csr(pattern, [e.stiffness(x) for e in structure.elements])
+
+
+def stiffness_pattern(structure: Structure) -> CsrPattern:
+    """CSR pattern of the tangent of ``structure``'s element sets, computed once per set of
+    connectivities (keyed by their contents) and kept in ``structure.pattern_cache``."""
+    conns = [np.asarray(e.conn) for e in structure.elements]
+    key = (structure.n, *((c.shape, hash(c.tobytes())) for c in conns))
+    if key not in structure.pattern_cache:
+        structure.pattern_cache[key] = csr_pattern(conns, structure.n)
+    return structure.pattern_cache[key]
 
 
 def tangent_low_rank(structure: Structure, x: np.ndarray) -> list[tuple[float, np.ndarray]]:
