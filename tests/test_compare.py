@@ -141,3 +141,45 @@ def test_rotating_bad_input(runner, tmp_path, args, field):
     result = runner.invoke(app, ["rotating", *args, "-o", str(out)])
     assert result.exit_code == 2 and field in result.output
     assert not out.exists()
+
+
+def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatch):
+    """The CLI with the full order faked by the Q run (as above): the new columns appear, Q's
+    dissipated-power ratio against itself is 1, the quasi-steady start follows the rule."""
+    import xarray as xr
+
+    from quadmodes import fullorder
+    from quadmodes.analysis import secular
+    from quadmodes.case.units import ureg
+
+    monkeypatch.setattr(fullorder, "setup_for_run", lambda run: None)
+    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
+    out = tmp_path / "cmp"
+    args = ["compare", "--window", "0.2 s", "--formulations", "rigid,Q", "--no-plots", "-o", str(out)]
+    result = runner.invoke(app, args, env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    for header in ("cone growth", "diss. power", "spin change", "quasi-steady part"):
+        assert header in result.output
+    payload = json.loads((out / "comparison.json").read_text())
+    q = payload["formulations"]["Q"]
+    assert q["dissipated_power_ratio"] == pytest.approx(1.0, rel=1e-12)
+    assert q["dissipated_power_W"] > 0 and payload["formulations"]["rigid"]["dissipated_power_W"] == 0
+    qs = payload["quasi_steady"]
+    from quadmodes.runs import model_cache
+
+    run = load_run_case("paper-41hz-coarse")
+    n = run.reduced.modes
+    m = model_cache.reduced_model_for(run.model_case(), n)
+    tau = 1 / np.min(2 * np.pi * m.frequencies_hz[:n] * m.damping_ratio[:n])
+    assert qs["decay_time_s"] == pytest.approx(tau, rel=1e-12)
+    assert qs["start_s"] == pytest.approx(min(max(0.1, secular.K_DECAY * tau), 0.15))
+    header = (out / "comparison.csv").read_text().splitlines()[0].split(",")
+    assert {"envelope_error", "cone_growth_ratio", "dissipated_power_ratio",
+            "spin_rate_change_ratio", "cone_growth_deg_per_s"} <= set(header)  # fmt: skip
+    with xr.open_dataset(out / "comparison.nc", engine="h5netcdf") as ds:
+        for name in ("cone_growth", "dissipated_power", "spin_rate_slope", "cone_growth_ratio",
+                     "quasi_steady_start"):  # fmt: skip
+            ureg.Unit(ds[name].attrs["units"])
+            assert ds[name].attrs["long_name"]
+        assert float(ds["dissipated_power_ratio"].sel(formulation="Q")) == pytest.approx(1.0)

@@ -19,6 +19,14 @@ Error measures (all relative, dimensionless; the full order is the reference ``F
   ``|Δθ_R(T) − Δθ_F(T)| / max_t |Δθ_F(t)|`` with ``Δθ(t) = θ(t) − θ(0)``: this is what
   dissipation-driven coning growth is about, and it is far more demanding than the angle itself.
 * ``spin_rate_error``: ``max |ω_R − ω_F| / ω_F(0)``; ``spin_rate_change_error`` as for θ.
+* Long-window scores (:mod:`quadmodes.analysis.secular`): straight-line fits over the
+  quasi-steady part ``[t_s, T]`` of the window of the cone angle (secular cone-growth rate,
+  deg/s), of E_d (mean dissipated power, W) and of the spin rate (rad/s²; its change over the
+  interval, rad/s), each with a standard error, and the ratios reduced / full
+  (``cone_growth_ratio``, ``dissipated_power_ratio``, ``spin_rate_change_ratio``; null with a
+  note when the full order's slope is not distinguishable from 0). ``t_s`` follows a rule fixed
+  before fitting (the decay time of the initial-condition transient, ``secular`` docstring) and
+  is the same for every model.
 * ``wall_s``: integration wall time of the model (s; the reduced model's precomputation is
   paid once and cached, so it is reported apart as ``reduce_wall_s``); ``speedup`` = full-order
   wall time / reduced wall time.
@@ -40,6 +48,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
+from quadmodes.analysis import secular
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
 from quadmodes.runs.metrics import peak_envelope
@@ -167,7 +176,8 @@ def errors(rom: Series, ref: Series, period: float) -> dict[str, float]:
 class Comparison:
     """A finished comparison: the run case (with the window as its duration), the full-order
     series, the reduced series by formulation, the error table, the lowest retained frequency
-    (Hz, sets the envelope window), and timing of the shared precomputation (s)."""
+    (Hz, sets the envelope window), timing of the shared precomputation (s) and the long-window
+    scores (:class:`quadmodes.analysis.secular.SecularScores`)."""
 
     run: object
     full: Series
@@ -177,6 +187,7 @@ class Comparison:
     reduce_wall_s: float
     full_order_dt: float
     notes: tuple[str, ...] = ()
+    secular: secular.SecularScores | None = None
 
     def as_json(self) -> dict:
         """The table as the JSON payload of ``quadmodes compare --json`` (undefined numbers,
@@ -199,6 +210,7 @@ class Comparison:
                 "H_relative_drift": _drift(self.full.H_norm),
             },
             "reduce_wall_s": self.reduce_wall_s,
+            "quasi_steady": self.secular.as_json() if self.secular else None,
             "formulations": {k: dict(v) for k, v in self.table.items()},
             "notes": list(self.notes),
         })
@@ -283,8 +295,10 @@ def compare(
             return full_order_for_run(r, dt=dt, progress=progress)
 
     full = series_from_full_order(full_order(run, dt_full))
-    freqs = roms[formulations[-1]].model.frequencies_hz[: run.reduced.modes]
+    model = roms[formulations[-1]].model
+    freqs = model.frequencies_hz[: run.reduced.modes]
     f_low = float(np.min(freqs)) if len(freqs) else 1.0
+    tau = secular.decay_time(freqs, model.damping_ratio[: run.reduced.modes])
     reduced = {name: series_from_run(name, r) for name, r in roms.items()}
     table = {}
     for name, ser in reduced.items():
@@ -294,10 +308,15 @@ def compare(
         row["complete"] = ser.complete
         row["steps_per_s"] = ser.stats.get("n_steps", 0) / ser.wall_s if ser.wall_s > 0 else None
         table[name] = row
+    scores = secular.score(full, reduced, secular.quasi_steady_interval(window, tau))
+    for name in table:
+        table[name].update(scores.row(name))
     notes = []
     if not full.complete:
         notes.append(f"full order stopped early: {full.reason}")
-    return Comparison(run, full, reduced, table, f_low, reduce_wall, dt_full, tuple(notes))
+    notes.extend(scores.notes)
+    return Comparison(run, full, reduced, table, f_low, reduce_wall, dt_full, tuple(notes),
+                      scores)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------
@@ -344,6 +363,8 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
     )  # fmt: skip
     data["full_order_wall_time"] = xr.Variable((), cmp.full.wall_s, {"units": "s",
                                                "description": "full-order wall time"})  # fmt: skip
+    if cmp.secular is not None:
+        data.update(secular.dataset_variables(cmp.secular, models, names))
     ds = xr.Dataset(
         data,
         coords={
@@ -361,6 +382,8 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "full_order_dt_s": cmp.full_order_dt,
             "reduced_dt_s": float(cmp.run.integration.dt),
             "full_order_complete": int(cmp.full.complete),
+            "quasi_steady_rule": cmp.secular.interval.rule if cmp.secular else "",
+            "notes": "\n".join(cmp.notes),
         },
     )
     return ds
