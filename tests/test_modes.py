@@ -17,6 +17,7 @@ from test_run import run_toml, workdir  # noqa: F401  (fixture)
 from typer.testing import CliRunner
 
 from quadmodes.case import CaseError, load_case, run_case_from_toml
+from quadmodes.case.run_sections import DEFAULT_MODE_MARGIN
 from quadmodes.cli.app import app
 from quadmodes.runs import mode_choice, model_cache
 from quadmodes.runs import results as res
@@ -62,7 +63,7 @@ def test_auto_modes_round_trip_and_bad_values(workdir):  # noqa: F811
     assert run.reduced.modes == "auto" and run.reduced.margin == 2.0
     assert run_case_from_toml(run.to_toml(), base_dir=workdir) == run
     default = _auto_run(workdir, 100.0, None)
-    assert default.reduced.mode_margin is None and default.reduced.margin == 1.5
+    assert default.reduced.mode_margin is None and default.reduced.margin == DEFAULT_MODE_MARGIN
     assert "mode_margin" not in default.to_toml()  # existing cases keep their TOML
     for bad, field in [
         ("modes = 0", "reduced.modes"),
@@ -86,18 +87,18 @@ def test_auto_takes_every_mode_below_the_margin_and_keeps_pairs(workdir, spectru
     gaps = np.diff(freqs) / freqs[:-1]
     k = next(i for i in range(max(bending) + 1, len(freqs) - 1) if gaps[i] > 0.1)
     cutoff = 0.5 * (freqs[k] + freqs[k + 1])
-    run, choice = mode_choice.resolve_modes(_auto_run(workdir, cutoff / 1.5, None))
+    run, choice = mode_choice.resolve_modes(_auto_run(workdir, cutoff / DEFAULT_MODE_MARGIN, None))
     assert run.reduced.modes == choice.n_modes == int(np.sum(freqs <= cutoff)) == k + 1
-    assert choice.cutoff_hz == pytest.approx(cutoff) and choice.margin == 1.5
+    assert choice.cutoff_hz == pytest.approx(cutoff) and choice.margin == DEFAULT_MODE_MARGIN
     assert choice.next_hz == pytest.approx(freqs[k + 1], rel=1e-6)
-    assert f"N = {k + 1}" in choice.rule and "1.5 ×" in choice.rule
+    assert f"N = {k + 1}" in choice.rule and f"{DEFAULT_MODE_MARGIN:g} ×" in choice.rule
     # a cutoff inside a close pair: the partner above it is kept too
     p = next(i for i in range(k + 1, len(freqs) - 1) if gaps[i] < 1e-4)
     inside = 0.5 * (freqs[p] + freqs[p + 1])
     _, choice = mode_choice.resolve_modes(_auto_run(workdir, 100.0, inside / 100.0))
     assert int(np.sum(freqs <= inside)) == p + 1 and choice.n_modes == p + 2
     assert _whole(freqs, choice.n_modes) and choice.below_cutoff == p + 1
-    # a slow spin (20 Hz: no mode below 30 Hz) still keeps the first bending pair whole
+    # a slow spin (20 Hz: no mode below the cutoff) still keeps the first bending pair whole
     _, choice = mode_choice.resolve_modes(_auto_run(workdir, 20.0, None))
     assert choice.below_cutoff == 0 and choice.n_modes == max(bending) + 1
 
@@ -105,15 +106,15 @@ def test_auto_takes_every_mode_below_the_margin_and_keeps_pairs(workdir, spectru
 def test_auto_run_states_its_choice_and_has_n_modes(workdir, spectrum):  # noqa: F811
     freqs, _ = spectrum
     (workdir / "small-run.toml").write_text(
-        run_toml(spin='"120 Hz"', duration='"0.01 s"'), encoding="utf-8"
+        run_toml(spin=f'"{180.0 / DEFAULT_MODE_MARGIN!r} Hz"', duration='"0.01 s"'), encoding="utf-8"
     )
     result = _run(workdir, "--modes", "auto", "--json", "--no-plots")
     assert result.exit_code == 0, result.output
     summary = json.loads(result.stdout)
-    expected = int(np.sum(freqs <= 1.5 * 120.0))
+    expected = int(np.sum(freqs <= 180.0))
     assert _whole(freqs, expected)
     assert summary["n_modes"] == expected and summary["modes_requested"] == "auto"
-    assert summary["mode_cutoff_hz"] == pytest.approx(180.0) and summary["mode_margin"] == 1.5
+    assert summary["mode_cutoff_hz"] == pytest.approx(180.0) and summary["mode_margin"] == DEFAULT_MODE_MARGIN
     assert "auto" in summary["mode_rule"]
     ds = res.load_results(workdir / "out" / "small-run" / "results.nc")
     assert ds.sizes["mode"] == expected and ds["modal_coordinates"].shape[1] == expected

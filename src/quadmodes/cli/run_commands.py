@@ -317,7 +317,7 @@ def run_command(
         str | None,
         typer.Option(
             help='elastic modes N (overrides reduced.modes), or "auto": every mode up to '
-            "reduced.mode_margin (1.5) × the spin frequency, pairs whole"
+            "reduced.mode_margin (default 2.5) × the spin frequency, pairs whole"
         ),
     ] = None,
     dt_convergence: DtConvergenceFlag = False,

@@ -9,7 +9,8 @@ Stages::
     Spectrum, N ──pair_whole_counts──▶ [N₁, N₂, …] > N (pure)
 
 The rule of ``"auto"``: every elastic mode whose non-spinning frequency is at most
-``mode_margin`` × the initial spin frequency (``reduced.mode_margin``, default 1.5), then the
+``mode_margin`` × the initial spin frequency (``reduced.mode_margin``, default 2.5: the centrifugal load, quadratic in ω, forces a coning
+body up to about twice the spin frequency), then the
 cut moved up until no degenerate pair is split (the pair test of
 :func:`quadmodes.runs.model_cache.splits_pair`), and never below the first bending pair
 (:func:`quadmodes.runs.initial.bending_pair`).
