@@ -106,7 +106,8 @@ def test_auto_takes_every_mode_below_the_margin_and_keeps_pairs(workdir, spectru
 def test_auto_run_states_its_choice_and_has_n_modes(workdir, spectrum):  # noqa: F811
     freqs, _ = spectrum
     (workdir / "small-run.toml").write_text(
-        run_toml(spin=f'"{180.0 / DEFAULT_MODE_MARGIN!r} Hz"', duration='"0.01 s"'), encoding="utf-8"
+        run_toml(spin=f'"{180.0 / DEFAULT_MODE_MARGIN!r} Hz"', duration='"0.01 s"'),
+        encoding="utf-8",
     )
     result = _run(workdir, "--modes", "auto", "--json", "--no-plots")
     assert result.exit_code == 0, result.output
@@ -114,7 +115,10 @@ def test_auto_run_states_its_choice_and_has_n_modes(workdir, spectrum):  # noqa:
     expected = int(np.sum(freqs <= 180.0))
     assert _whole(freqs, expected)
     assert summary["n_modes"] == expected and summary["modes_requested"] == "auto"
-    assert summary["mode_cutoff_hz"] == pytest.approx(180.0) and summary["mode_margin"] == DEFAULT_MODE_MARGIN
+    assert (
+        summary["mode_cutoff_hz"] == pytest.approx(180.0)
+        and summary["mode_margin"] == DEFAULT_MODE_MARGIN
+    )
     assert "auto" in summary["mode_rule"]
     ds = res.load_results(workdir / "out" / "small-run" / "results.nc")
     assert ds.sizes["mode"] == expected and ds["modal_coordinates"].shape[1] == expected

@@ -118,10 +118,15 @@ def verdict(rows: list[dict], tolerance: float = MODE_TOLERANCE) -> dict:
         text = f"N = {n0}: no larger pair-whole mode count to compare with"
     else:
         s = steps[0]
-        change = "no judged change" if s["worst"] is None else (
-            f"largest change {s['worst_rel_change']:.2g} ({labels[s['worst']]})")
-        text = (f"N = {n0} {'converged' if ok else 'not converged'} at {100 * tolerance:g} %: "
-                f"{change} from N = {s['from']} to {s['to']}")
+        change = (
+            "no judged change"
+            if s["worst"] is None
+            else (f"largest change {s['worst_rel_change']:.2g} ({labels[s['worst']]})")
+        )
+        text = (
+            f"N = {n0} {'converged' if ok else 'not converged'} at {100 * tolerance:g} %: "
+            f"{change} from N = {s['from']} to {s['to']}"
+        )
         if not ok:
             text += f"; first within tolerance: N = {at}" if at else "; none within tolerance"
     return {"tolerance": tolerance, "judged": judged, "converged": ok, "converged_at": at,
