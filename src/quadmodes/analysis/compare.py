@@ -248,7 +248,9 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
     from quadmodes.rom import integrators
     from quadmodes.runs import model_cache, simulate
+    from quadmodes.runs.mode_choice import resolve_modes
 
+    run, _ = resolve_modes(run, progress=progress)  # reduced.modes = "auto" → N
     kernel = integrators.numba_kernel()
     if kernel is not None:  # load the compiled kernel before any timing
         kernel.warm_up()
@@ -285,7 +287,9 @@ def compare(
         )
     if not window > 0:
         raise ValueError("--window: must be a positive duration, e.g. \"1 s\"")
-    run = window_run(run, window)
+    from quadmodes.runs.mode_choice import resolve_modes
+
+    run, _ = resolve_modes(window_run(run, window), progress=progress)  # "auto" → N modes
     dt_full = float(full_order_dt or run.integration.dt)
     roms, reduce_wall = run_reduced(run, formulations, progress)
     if full_order is None:

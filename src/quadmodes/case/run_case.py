@@ -57,6 +57,13 @@ class RunCase(Section):
                         "table or the [spinup] table",
                         table,
                     )
+            if self.reduced.modes == "auto":
+                raise field_error(
+                    "case_rule",
+                    '"auto" needs a free-body run\'s spin rate; a [spinup] takes a whole '
+                    "number of modes, e.g. 2",
+                    "reduced.modes",
+                )
             return self
         for table in ("initial", "integration"):
             if getattr(self, table) is None:

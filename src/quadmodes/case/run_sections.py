@@ -8,11 +8,12 @@ Quantities are stored in SI units: rad/s, rad, m, s.
 from __future__ import annotations
 
 import math
-from typing import Self
+from typing import Annotated, Any, Literal, Self
 
-from pydantic import model_validator
+from pydantic import BeforeValidator, model_validator
 
 from quadmodes.case.fields import (
+    FieldMeta,
     Section,
     choice,
     field_error,
@@ -32,14 +33,62 @@ def _rtol(x: float) -> str | None:
     return None if 0.0 < x < 1.0 else "must satisfy 0 < rtol < 1"
 
 
+#: Default of ``reduced.mode_margin``: with ``modes = "auto"`` every elastic mode up to 2.5 times
+#: the spin frequency is kept. The centrifugal load is quadratic in ω, so a coning body is forced
+#: up to about twice the spin frequency; with 1.5, paper-41hz-coarse leaves out its axial mode
+#: at 84.9 Hz (2.07 × spin), which changes the 120 s dissipated energy by 33 %; with 2.5 the
+#: next larger basis changes it by 0.16 % (docs/paper-cases.md, "Mode convergence").
+DEFAULT_MODE_MARGIN = 2.5
+
+
+def _modes(value: Any) -> int | str:
+    """``reduced.modes``: a whole number of modes (at least 1) or ``"auto"``."""
+    if isinstance(value, str) and value.strip().lower() == "auto":
+        return "auto"
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise field_error("case_value", 'must be a whole number of modes or "auto"; use e.g. 5')
+    if value < 1:
+        raise field_error("case_value", 'must be at least 1 (or "auto"); use e.g. 5')
+    return value
+
+
+def _margin(x: float) -> str | None:
+    return None if x >= 1.0 else "must be at least 1 (modes up to mode_margin × spin frequency)"
+
+
 class RunReduced(Section):
     """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
     formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
     linear modes, "rigid" no elastic modes, "Q4" quadratic modes with the quartic manifold
-    potential)."""
+    potential).
 
-    modes: integer(5, 1) = 5
+    ``modes = "auto"`` keeps every elastic mode whose (non-spinning) frequency is at most
+    ``mode_margin`` × the initial spin frequency (default :data:`DEFAULT_MODE_MARGIN` = 2.5),
+    degenerate pairs whole and at least the first bending pair
+    (:func:`quadmodes.runs.mode_choice.auto_mode_count`); ``mode_margin`` is only read with
+    ``"auto"`` (dimensionless)."""
+
+    modes: Annotated[int | Literal["auto"], BeforeValidator(_modes), FieldMeta("5")] = 5
     formulation: choice("Q", "P", "L", "rigid", "Q4") = "Q"
+    mode_margin: quantity("dimensionless", "2.5", _margin, optional=True) = None
+
+    @model_validator(mode="after")
+    def check_margin(self) -> Self:
+        if self.mode_margin is not None and self.modes != "auto":
+            raise field_error(
+                "case_rule",
+                f'is used only with modes = "auto" (modes = {self.modes}); remove it or set '
+                'modes = "auto"',
+                "mode_margin",
+            )
+        return self
+
+    @property
+    def margin(self) -> float:
+        """``mode_margin``, or :data:`DEFAULT_MODE_MARGIN` when not given."""
+        return DEFAULT_MODE_MARGIN if self.mode_margin is None else float(self.mode_margin)
 
 
 class RunInitial(Section):

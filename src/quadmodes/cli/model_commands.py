@@ -263,6 +263,10 @@ def reduce_command(
         if simulate.is_run_case(case):
             run_case = load_run_case(case)
             model_case = run_case.model_case()
+            if modes is None and run_case.spinup is None:
+                from quadmodes.runs.mode_choice import resolve_modes
+
+                run_case, _ = resolve_modes(run_case, model_case)  # "auto" → N
             n_modes = modes if modes is not None else run_case.reduced.modes
         else:
             model_case = load_model_case(case)

@@ -59,6 +59,8 @@ _RUN_ROWS = [
         "{:.4f} → {:.4f}",
     ),
     ("bending log decrement", "log_decrement", "{:.4f}"),
+    ("retained modes N", "n_modes", "{}"),
+    ("mode choice", "mode_rule", "{}"),
     ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
     ("reduced model valid at this spin", "valid", "{}"),
 ]
@@ -118,6 +120,43 @@ def _dt_table(name: str, rows: list[dict]) -> Table:
     return table
 
 
+def _mode_table(name: str, conv: dict) -> Table:
+    """The ``--mode-convergence`` table: one column per mode count, one row per headline number
+    (value, and its relative change from the previous count in parentheses)."""
+    from quadmodes.runs.mode_convergence import HEADLINES
+
+    rows = conv["rows"]
+    table = Table(
+        "quantity",
+        *(f"N = {r['n_modes']}" for r in rows),
+        title=f"{name}: mode convergence, t = {rows[0]['t_end_s']:.4g} s (relative change "
+        "from the previous N)",
+        box=box.SIMPLE_HEAD,
+    )
+    for key, label, unit, judged in HEADLINES:
+        cells = []
+        for r in rows:
+            v, c = r[key], r[f"rel_change_{key}"]
+            cell = "—" if v is None else f"{v:.5g}"
+            cells.append(cell if c is None else f"{cell} ({c:.1e})")
+        table.add_row(f"{label} ({unit})" + ("" if judged else ", not judged"), *cells)
+    table.add_row("steps", *(str(r["steps"]) for r in rows))
+    table.add_row("run wall time (s)", *(f"{r['wall_s']:.1f}" for r in rows))
+    table.add_row("reduction (s; 0: cached)", *(f"{r['reduce_s']:.1f}" for r in rows))
+    return table
+
+
+def _mode_lines(conv: dict) -> list[str]:
+    """The modes each larger N adds, and the verdict."""
+    lines = []
+    for r in conv["rows"][1:]:
+        added = ", ".join(
+            f"{m['mode']} {m['label']} {m['frequency_hz']:.2f} Hz" for m in r["added_modes"]
+        )
+        lines.append(f"N = {r['n_modes']} adds mode(s) {added}")
+    return [*lines, f"verdict: {conv['text']}"]
+
+
 def _print_run_summaries(summaries: dict[str, dict], spinups: set[str], output_dir: Path) -> None:
     """One summary table a run (and its time-step convergence table), then where it was written."""
     for name, summary in summaries.items():
@@ -132,6 +171,11 @@ def _print_run_summaries(summaries: dict[str, dict], spinups: set[str], output_d
                 _dt_table(name, summary["dt_convergence"]),
                 width=None if out.is_terminal else 132,
             )
+        if summary.get("mode_convergence"):
+            conv = summary["mode_convergence"]
+            out.print(_mode_table(name, conv), width=None if out.is_terminal else 132)
+            for line in _mode_lines(conv):
+                out.print(escape(line), highlight=False, soft_wrap=True)
         out.print(f"results written to {escape(str(output_dir / name))}")
 
 
@@ -177,7 +221,25 @@ def _check_dt_convergence(runs: list) -> None:
             )
 
 
-def _prepare_runs(names: list[str], overrides: dict[str, str | None], dt_convergence: bool) -> list:
+def _check_mode_convergence(runs: list) -> None:
+    """``--mode-convergence`` needs free-body runs with elastic modes: raise UserError
+    otherwise."""
+    for r in runs:
+        if r.spinup is not None:
+            raise UserError(
+                f"--mode-convergence: {r.name} is a hub-driven spin-up; it compares "
+                "free-body runs only"
+            )
+        if r.reduced.formulation == "rigid":
+            raise UserError(
+                f'--mode-convergence: {r.name} has formulation "rigid" (no elastic modes); '
+                "use --formulation Q (or L, P, Q4)"
+            )
+
+
+def _prepare_runs(
+    names: list[str], overrides: dict, dt_convergence: bool, mode_convergence: bool = False
+) -> list:
     """Load the run cases, apply the command-line overrides and prepare the free-body runs
     (reduced model, initial state); spin-ups are returned as their run cases."""
     from quadmodes.case import load_run_case
@@ -186,11 +248,15 @@ def _prepare_runs(names: list[str], overrides: dict[str, str | None], dt_converg
     runs = [simulate.apply_overrides(load_run_case(name), **overrides) for name in names]
     if dt_convergence:
         _check_dt_convergence(runs)
+    if mode_convergence:
+        _check_mode_convergence(runs)
     with progress_bars(True) as bars:
         return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
 
 
-def _execute(setup, target: Path, *, plots: bool, dt_convergence: bool) -> tuple[Any, dict]:
+def _execute(
+    setup, target: Path, *, plots: bool, dt_convergence: bool, mode_convergence: bool = False
+) -> tuple[Any, dict]:
     """Integrate one prepared run (or spin-up) and write its outputs into ``target`` (staged);
     returns the result and its summary."""
     from quadmodes.runs import simulate
@@ -204,10 +270,14 @@ def _execute(setup, target: Path, *, plots: bool, dt_convergence: bool) -> tuple
     _warn_validity(setup.run.name, setup.validity)
     with progress_bars(True) as bars:
         result = simulate.execute(setup, _run_progress(bars))
-        extra = None
+        extra = {}
         if dt_convergence:
             rows = simulate.dt_convergence(setup, result, _run_progress(bars))
-            extra = {"dt_convergence": rows}
+            extra["dt_convergence"] = rows
+        if mode_convergence:
+            from quadmodes.runs.mode_convergence import mode_convergence as convergence
+
+            extra["mode_convergence"] = convergence(setup, result, _run_progress(bars))
     with staged_output(target) as scratch:
         return result, write_outputs(result, scratch, plots=plots, extra=extra)
 
@@ -217,6 +287,10 @@ def _execute(setup, target: Path, *, plots: bool, dt_convergence: bool) -> tuple
 RunOutput = output_path("folder; each run writes DIR/<case name>/", optional=False)
 DtConvergenceFlag = flag(
     "--dt-convergence", "also run at dt/2 and dt/4 and print a convergence table"
+)
+ModeConvergenceFlag = flag(
+    "--mode-convergence",
+    "also run with the next two pair-whole mode counts above N and print a convergence table",
 )
 RunPlotsFlag = flag("--plots/--no-plots", "write PNG figures")
 
@@ -239,7 +313,15 @@ def run_command(
             help='initial spin rate, or the final hub rate Ωs of a spin-up, e.g. "10 rad/s"',
         ),
     ] = None,
+    modes: Annotated[
+        str | None,
+        typer.Option(
+            help='elastic modes N (overrides reduced.modes), or "auto": every mode up to '
+            "reduced.mode_margin (default 2.5) × the spin frequency, pairs whole"
+        ),
+    ] = None,
     dt_convergence: DtConvergenceFlag = False,
+    mode_convergence: ModeConvergenceFlag = False,
     plots: RunPlotsFlag = True,
 ) -> None:
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
@@ -257,10 +339,15 @@ def run_command(
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     overrides = dict(
-        method=method, dt=dt, duration=duration, formulation=formulation, spin_rate=spin_rate
+        method=method,
+        dt=dt,
+        duration=duration,
+        formulation=formulation,
+        spin_rate=spin_rate,
+        modes=modes,
     )
     with one_line_errors():
-        setups = _prepare_runs(names, overrides, dt_convergence)
+        setups = _prepare_runs(names, overrides, dt_convergence, mode_convergence)
     summaries: dict[str, dict] = {}
     spinups: set[str] = set()
     failed: list[str] = []
@@ -272,7 +359,11 @@ def run_command(
         target = output_dir / name
         with one_line_errors(OSError):
             result, summaries[name] = _execute(
-                setup, target, plots=plots, dt_convergence=dt_convergence
+                setup,
+                target,
+                plots=plots,
+                dt_convergence=dt_convergence,
+                mode_convergence=mode_convergence,
             )
         if not result.complete:
             failed.append(name)

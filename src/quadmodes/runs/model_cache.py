@@ -7,19 +7,25 @@ Stages::
 
 The cache folder is ``$QUADMODES_CACHE`` or ``~/.cache/quadmodes``; a file is named
 ``<case>-N<modes>-<key>.nc`` where the key hashes the case TOML, the number of modes and the
-artifact format version (:func:`reduced_key`).
+artifact format version (:func:`reduced_key`). The spectrum of a case (frequencies and labels
+of its lowest modes, :func:`mode_spectrum`, read by ``modes = "auto"`` and
+``--mode-convergence``) is cached beside it as ``<case>-spectrum<count>-<key>.json``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from quadmodes import __version__
 from quadmodes.case import Case, CaseError, Modes
+from quadmodes.io.atomic import write_text
 from quadmodes.rom import artifact
 from quadmodes.rom import reduced as red
 from quadmodes.structure import pipeline
@@ -61,15 +67,24 @@ def cache_path(case: Case, n_modes: int) -> Path:
     return cache_dir() / f"{case.name}-N{int(n_modes)}-{reduced_key(case, n_modes)}.nc"
 
 
-def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
-    """Raise :class:`CaseError` if keeping the lowest ``n_modes`` of the modes (labels,
-    frequencies Hz, one more than kept) separates two members of a degenerate pair."""
-    if len(freqs) <= n_modes:
-        return
+def splits_pair(labels, freqs, n_modes: int) -> bool:
+    """True if keeping the lowest ``n_modes`` of the modes (labels, frequencies Hz ascending)
+    separates two members of a (degenerate) pair: modes ``n_modes`` and ``n_modes + 1`` (1-based)
+    have the same label within :data:`PAIR_TOLERANCE`, or any labels within
+    :data:`DEGENERATE_TOLERANCE`. False when no mode beyond the cut is known."""
+    if not 0 < n_modes < len(freqs):
+        return False
     a, b = n_modes - 1, n_modes
     gap = abs(freqs[b] - freqs[a])
     same_label = labels[a] == labels[b] and gap <= PAIR_TOLERANCE * freqs[a]
-    if same_label or gap <= DEGENERATE_TOLERANCE * freqs[a]:
+    return bool(same_label or gap <= DEGENERATE_TOLERANCE * freqs[a])
+
+
+def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
+    """Raise :class:`CaseError` if keeping the lowest ``n_modes`` of the modes (labels,
+    frequencies Hz, one more than kept) separates two members of a degenerate pair."""
+    if splits_pair(labels, freqs, n_modes):
+        a, b = n_modes - 1, n_modes
         raise CaseError(
             f"reduced.modes = {n_modes} splits the pair {labels[a]} / {labels[b]} at "
             f"{freqs[a]:.2f}/{freqs[b]:.2f} Hz (modes {a + 1} and {b + 1}); keep pairs whole: "
@@ -90,22 +105,53 @@ def _provenance(case: Case, modal, n_modes: int) -> dict:
     }
 
 
+#: The last modal model built in this process: (case key, ModalModel). A reduced model with
+#: more modes of the same case (``run --mode-convergence``, ``modes = "auto"``) reuses its
+#: inflated state and, when it has enough modes, its eigen-solution.
+_LAST_MODAL: list = []
+
+
+def modal_model_for(case: Case, count: int, progress: Progress | None = None):
+    """:class:`quadmodes.structure.pipeline.ModalModel` of ``case`` with at least ``count``
+    elastic modes (when the model has that many). The last one built in this process is
+    reused: as it is if it has ``count`` modes, else its inflated state is kept and only the
+    modes are computed again (no second inflation)."""
+    from quadmodes.structure.labels import label_modes
+    from quadmodes.structure.modes import compute_modes
+
+    count = max(int(count), case.modes.count)
+    key = case.model_copy(update={"modes": Modes(count=1)}).to_toml()
+    last = _LAST_MODAL[0] if _LAST_MODAL and _LAST_MODAL[0][0] == key else None
+    if last is not None and len(last[1].modes.frequencies_hz) >= count:
+        return last[1]
+    if last is not None:
+        old = last[1]
+        if progress:
+            progress("modes", 0.0)
+        modes = compute_modes(old.structure, old.x, count)
+        if progress:
+            progress("modes", 1.0)
+        labels = label_modes(old.structure, old.x, modes.shapes)
+        modal = dataclasses.replace(old, modes=modes, labels=labels)
+    else:
+        work = case.model_copy(update={"modes": Modes(count=count)})
+        modal = pipeline.build_modal_model(work, progress)
+    _LAST_MODAL[:] = [(key, modal)]
+    return modal
+
+
 def build_reduced_model(
     case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None
 ) -> red.ReducedModel:
-    """Modal model of ``case`` (``pipeline.build_modal_model``), its lowest ``n_modes`` elastic
-    modes, and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance.
+    """Modal model of ``case`` (:func:`modal_model_for`), its lowest ``n_modes`` elastic modes,
+    and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance.
 
     Raises :class:`CaseError` (field ``reduced.modes``) if the model has fewer modes or the cut
     splits a degenerate pair."""
     n_modes = int(n_modes)
     if n_modes < 1:
         raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
-    count = max(case.modes.count, n_modes + 1)  # one more, to see whether a pair is split
-    work = (
-        case if count == case.modes.count else case.model_copy(update={"modes": Modes(count=count)})
-    )
-    modal = pipeline.build_modal_model(work, progress)
+    modal = modal_model_for(case, n_modes + 1, progress)  # one more: is a pair split?
     freqs = np.asarray(modal.modes.frequencies_hz, float)
     labels = list(modal.labels)
     if len(freqs) < n_modes:
@@ -164,3 +210,54 @@ def reduced_model_for(
         except OSError as exc:  # a read-only cache is not an error: the run goes on
             info["cache"] = f"not saved ({exc.strerror or type(exc).__name__})"
     return model
+
+
+# ---------------------------------------------------------------------------------------------
+# the spectrum of a case: frequencies and labels of its lowest elastic modes, cached as JSON
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """The lowest elastic modes of a case (not spinning): ``frequencies_hz`` (K,) ascending,
+    ``labels`` (K,). K ≥ the count asked for (a split degenerate set is completed)."""
+
+    frequencies_hz: tuple[float, ...]
+    labels: tuple[str, ...]
+
+
+def spectrum_path(case: Case, count: int) -> Path:
+    """Cache file (JSON) of the spectrum of ``case`` with ``count`` modes."""
+    key = artifact.content_key(case.to_toml() + f"\n# spectrum count = {int(count)}\n")
+    return cache_dir() / f"{case.name}-spectrum{int(count)}-{key}.json"
+
+
+def mode_spectrum(
+    case: Case, count: int, progress: Progress | None = None, *, use_cache: bool = True
+) -> Spectrum:
+    """Frequencies (Hz) and labels of the lowest ``max(count, modes.count)`` elastic modes of
+    ``case``: from the cache file if present, else from :func:`modal_model_for` (and saved)."""
+    count = max(int(count), case.modes.count)
+    path = spectrum_path(case, count)
+    if use_cache and path.is_file():
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            freqs = tuple(float(f) for f in data["frequencies_hz"])
+            labels = tuple(str(s) for s in data["labels"])
+        except (OSError, ValueError, KeyError, TypeError):
+            pass  # corrupt: computed again below
+        else:
+            if len(freqs) == len(labels) >= count:
+                return Spectrum(freqs, labels)
+    modal = modal_model_for(case, count, progress)
+    spec = Spectrum(
+        tuple(float(f) for f in modal.modes.frequencies_hz), tuple(str(s) for s in modal.labels)
+    )
+    if use_cache:
+        text = json.dumps({"case": case.name, "frequencies_hz": spec.frequencies_hz,
+                           "frequencies_hz_units": "Hz", "labels": spec.labels}, indent=1)  # fmt: skip
+        try:
+            write_text(path, text + "\n")
+        except OSError:
+            pass  # a read-only cache is not an error
+    return spec

@@ -142,6 +142,7 @@ def _run_attrs(result, n: int) -> dict:
         attrs["bending_displacement_per_unit"] = largest_nodal_displacement(model, pair[0])
         attrs["bending_displacement_per_unit_units"] = "m per kg^0.5 m (largest node)"
     attrs.update(validity_attrs(getattr(result, "validity", None)))
+    attrs.update(mode_choice_attrs(getattr(result, "mode_choice", None)))
     if not result.complete:
         attrs["incomplete_reason"] = result.reason
     if result.notes:
@@ -162,6 +163,18 @@ def to_dataset(result) -> xr.Dataset:
     ds = xr.Dataset(data, coords=_mode_coords(sol.t, labels, freqs))
     ds.attrs.update(_run_attrs(result, n))
     return ds
+
+
+def mode_choice_attrs(choice) -> dict:
+    """results.nc attributes of a :class:`quadmodes.runs.mode_choice.ModeChoice` (empty if
+    None): ``modes_requested`` ("auto" or N), ``mode_rule`` (one line) and, with "auto",
+    ``mode_margin`` (1) and ``mode_cutoff_hz`` (Hz)."""
+    if choice is None:
+        return {}
+    attrs = {"modes_requested": str(choice.requested), "mode_rule": choice.rule}
+    if choice.cutoff_hz is not None:
+        attrs.update(mode_margin=float(choice.margin), mode_cutoff_hz=float(choice.cutoff_hz))
+    return attrs
 
 
 def validity_attrs(validity) -> dict:
@@ -287,6 +300,11 @@ def summary(ds: xr.Dataset) -> dict:
     else:
         out.update(log_decrement=None, bending_modes=[])
     out.update(validity_summary(ds))
+    out["n_modes"] = int(ds.attrs.get("n_modes", ds.sizes.get("mode", 0)))
+    for key in ("modes_requested", "mode_rule", "mode_margin", "mode_cutoff_hz"):
+        if key in ds.attrs:
+            value = ds.attrs[key]
+            out[key] = str(value) if key in ("modes_requested", "mode_rule") else _float(value)
     if not out["complete"]:
         out["incomplete_reason"] = str(ds.attrs.get("incomplete_reason", ""))
     return out
@@ -297,7 +315,7 @@ def write_outputs(
 ) -> dict:
     """Write ``results.nc``, ``summary.json`` and (if ``plots``) the PNG figures of ``result``
     into ``directory``; returns the summary (with ``extra`` keys merged in, e.g.
-    ``dt_convergence``)."""
+    ``dt_convergence``, ``mode_convergence``)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     ds = to_dataset(result)

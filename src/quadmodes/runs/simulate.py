@@ -33,6 +33,7 @@ from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
 from quadmodes.runs.chunked import MAX_CHUNKS, integrate_in_chunks
 from quadmodes.runs.initial import InitialState, initial_state
+from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
 from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.runs.validity import Validity, initial_validity, rotating_validity
 from quadmodes.structure import pipeline
@@ -66,14 +67,16 @@ class RunResult:
     wall_s: float
     notes: tuple[str, ...] = field(default_factory=tuple)
     validity: Validity | None = None
+    mode_choice: ModeChoice | None = None
 
 
 @dataclass(frozen=True, eq=False)
 class RunSetup:
-    """Everything a run needs before integrating: the run case, its model case, the reduced
-    model (restricted to the run's modes), the system of the run's formulation, the initial
-    state and the :class:`~quadmodes.runs.validity.Validity` of the formulation at the initial
-    angular velocity."""
+    """Everything a run needs before integrating: the run case (with a whole number of modes:
+    ``"auto"`` resolved), its model case, the reduced model (restricted to the run's modes),
+    the system of the run's formulation, the initial state, the
+    :class:`~quadmodes.runs.validity.Validity` of the formulation at the initial angular
+    velocity and the :class:`~quadmodes.runs.mode_choice.ModeChoice` of the modes."""
 
     run: RunCase
     model_case: Case
@@ -81,6 +84,7 @@ class RunSetup:
     system: rsys.ReducedSystem
     initial: InitialState
     validity: Validity | None = None
+    mode_choice: ModeChoice | None = None
 
 
 def _model_for_run(run: RunCase, model: red.ReducedModel) -> red.ReducedModel:
@@ -118,13 +122,14 @@ def prepare(
             field="spinup",
         )
     model_case = model_case if model_case is not None else run.model_case()
+    run, choice = resolve_modes(run, model_case, progress)
     if model is None:
         model = reduced_model_for(model_case, run.reduced.modes, progress)
     model = _model_for_run(run, model)
     system = rsys.reduced_system(model, run.reduced.formulation)
     init = initial_state(system, model, run)
     validity = initial_validity(system, init.y0, run.reduced.formulation)
-    return RunSetup(run, model_case, model, system, init, validity)
+    return RunSetup(run, model_case, model, system, init, validity, choice)
 
 
 def execute(setup: RunSetup, progress: Progress | None = None, max_chunks: int = MAX_CHUNKS):
@@ -150,6 +155,7 @@ def execute(setup: RunSetup, progress: Progress | None = None, max_chunks: int =
         wall_s=chunks.wall_s,
         notes=init.notes,
         validity=setup.validity,
+        mode_choice=setup.mode_choice,
     )
 
 
@@ -185,6 +191,20 @@ def _spinup_overrides(data: dict, method, dt, duration, formulation, save_every,
         data.setdefault("reduced", {})["formulation"] = formulation
 
 
+def _modes_override(data: dict, modes) -> None:
+    """Set ``reduced.modes`` from ``--modes`` (a whole number or "auto"; validated by the case)."""
+    if isinstance(modes, str):
+        text = modes.strip()
+        try:
+            modes = int(text)
+        except ValueError:
+            modes = text
+    reduced = data.setdefault("reduced", {})
+    reduced["modes"] = modes
+    if modes != "auto":
+        reduced.pop("mode_margin", None)  # read only with "auto"
+
+
 def _free_body_overrides(data: dict, method, dt, duration, formulation, save_every, spin_rate):
     """Apply command-line overrides to the TOML data of a free-body run."""
     if spin_rate is not None:
@@ -211,22 +231,26 @@ def apply_overrides(
     formulation: str | None = None,
     save_every: int | None = None,
     spin_rate: str | None = None,
+    modes: int | str | None = None,
 ) -> RunCase:
     """``run`` with command-line overrides (quantity strings such as ``"0.25 ms"``), validated
     like the case file; raises :class:`CaseError` naming the field.
 
     ``spin_rate`` sets ``initial.spin_rate`` (free-body run) or ``spinup.omega_s`` (spin-up);
-    ``duration`` sets ``integration.duration`` or ``spinup.duration``."""
+    ``duration`` sets ``integration.duration`` or ``spinup.duration``; ``modes`` (a whole
+    number, or "auto" for a free-body run) sets ``reduced.modes``."""
     import tomllib
 
     from quadmodes.case import run_case_from_dict
 
     values = (method, dt, duration, formulation, save_every, spin_rate)
-    if all(v is None for v in values):
+    if all(v is None for v in values) and modes is None:
         return run
     data = tomllib.loads(run.to_toml())
     apply = _spinup_overrides if run.spinup is not None else _free_body_overrides
     apply(data, *values)
+    if modes is not None:
+        _modes_override(data, modes)
     return run_case_from_dict(data, source="command line")
 
 
