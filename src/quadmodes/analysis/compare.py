@@ -197,6 +197,8 @@ class Comparison:
                 "spin_rate_start_hz": self.full.spin_rate[0] / (2 * math.pi),
                 "spin_rate_end_hz": self.full.spin_rate[-1] / (2 * math.pi),
                 "H_relative_drift": _drift(self.full.H_norm),
+                "damped_modes": int(self.full.stats.get("damped_modes", 0)),
+                "damping_cutoff_hz": float(self.full.stats.get("damping_cutoff_hz", math.nan)),
             },
             "reduce_wall_s": self.reduce_wall_s,
             "formulations": {k: dict(v) for k, v in self.table.items()},
@@ -282,7 +284,8 @@ def compare(
         def full_order(r, dt):
             return full_order_for_run(r, dt=dt, progress=progress)
 
-    full = series_from_full_order(full_order(run, dt_full))
+    full_sol = full_order(run, dt_full)
+    full = series_from_full_order(full_sol)
     freqs = roms[formulations[-1]].model.frequencies_hz[: run.reduced.modes]
     f_low = float(np.min(freqs)) if len(freqs) else 1.0
     reduced = {name: series_from_run(name, r) for name, r in roms.items()}
@@ -294,7 +297,7 @@ def compare(
         row["complete"] = ser.complete
         row["steps_per_s"] = ser.stats.get("n_steps", 0) / ser.wall_s if ser.wall_s > 0 else None
         table[name] = row
-    notes = []
+    notes = [full_sol.damping] if getattr(full_sol, "damping", "") else []
     if not full.complete:
         notes.append(f"full order stopped early: {full.reason}")
     return Comparison(run, full, reduced, table, f_low, reduce_wall, dt_full, tuple(notes))
@@ -361,6 +364,9 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "full_order_dt_s": cmp.full_order_dt,
             "reduced_dt_s": float(cmp.run.integration.dt),
             "full_order_complete": int(cmp.full.complete),
+            "full_order_damped_modes": int(cmp.full.stats.get("damped_modes", 0)),
+            "full_order_damping_cutoff_hz": float(cmp.full.stats.get("damping_cutoff_hz", math.nan)),
+            "notes": "\n".join(cmp.notes),
         },
     )
     return ds
