@@ -141,3 +141,16 @@ def test_rotating_bad_input(runner, tmp_path, args, field):
     result = runner.invoke(app, ["rotating", *args, "-o", str(out)])
     assert result.exit_code == 2 and field in result.output
     assert not out.exists()
+
+
+def test_comparison_names_the_independent_reference_damping(short_comparison, tmp_path):
+    # 41 Hz spin, retained modes up to 38.4 Hz: default cutoff 3 × 41 Hz, below it 14 FE modes
+    c = short_comparison
+    assert c.full.stats["damped_modes"] > c.run.reduced.modes
+    assert c.full.stats["damping_cutoff_hz"] == pytest.approx(3 * 41.0, rel=3e-3)
+    assert any("independent" in n and "cutoff" in n for n in c.notes)
+    payload = c.as_json()
+    assert payload["full_order"]["damped_modes"] == c.full.stats["damped_modes"]
+    ds = cm.to_dataset(c)
+    assert ds.attrs["full_order_damped_modes"] == c.full.stats["damped_modes"]
+    assert "independent" in ds.attrs["notes"]

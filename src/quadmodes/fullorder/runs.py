@@ -123,7 +123,9 @@ def _setup_for_run(run, model, stretch) -> FullOrderSetup:
         model = model if model is not None else simulate.spinup_model(run, case)
         x_ref = structure.reference
         hub = kane_hub(float(sp.omega_s), float(sp.ramp_time))
-        x0, v0 = initial_state_from_reduced(model, np.zeros(7 + 2 * model.n_modes))
+        y0 = np.zeros(7 + 2 * model.n_modes)
+        y0[0] = 1.0  # identity attitude, at rest
+        x0, v0 = initial_state_from_reduced(model, y0)
         return FullOrderSetup(run, structure, x_ref, model, x0, v0, hub, None,
                               float(sp.duration), float(sp.duration) / max(int(sp.samples) - 1, 1))  # fmt: skip
     x_ref, _ = pipeline.reference_state(case, structure)
