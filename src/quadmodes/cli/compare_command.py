@@ -108,6 +108,9 @@ def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: 
         f"{minutes:.1f} min (checkpoint {checkpoint.name}; Ctrl-C stops, --resume continues)",
         highlight=False,
     )
+    for note in setup.notes:
+        if note.startswith("full-order damping"):
+            err.print(note, highlight=False)
     if est["estimate_s"] > LONG_FULL_ORDER_S and not go_ahead:
         raise UserError(
             f"--window: the full-order run is estimated at {minutes:.0f} min; pass --yes to "
