@@ -5,8 +5,9 @@ full-order transient (``quadmodes.fullorder.full_order_for_run``) with modal dam
 case) on every FE mode below the cutoff c, 1.5c, 2c (c the default,
 :func:`quadmodes.fullorder.damping.default_cutoff`: 3 × max(spin, highest retained mode)), and
 with the old retained-mode damping (the reduced model's 5 modes). For each it prints the number
-of damped modes, the dissipated energy E_d(T) and the cone-angle change Δθ(T) = θ(T) − θ(0),
-and their ratios to the largest cutoff's run; ``--half-dt`` adds the default cutoff at half
+of damped modes, the dissipated energy E_d(T), the cone-angle change Δθ(T) = θ(T) − θ(0), the
+mean dissipated power P and cone-growth rate θ̇ (straight-line fits of E_d and θ over the
+second half of the window, past the start-up), and their ratios to the largest cutoff's run; ``--half-dt`` adds the default cutoff at half
 the step (the reference's convergence in Δt). Nothing is asserted. Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_reference_damping.py --window 0.5
@@ -20,6 +21,8 @@ import math
 import os
 import time
 
+import numpy as np
+
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from quadmodes.fullorder import full_order_for_run, setup_for_run  # noqa: E402
@@ -32,7 +35,10 @@ def run_one(base, window: float, dt: float, damping: str, cutoff: float | None) 
     sol = full_order_for_run(
         base.run, window=window, dt=dt, setup=base, damping=damping, damping_cutoff=cutoff
     )
+    late = sol.t >= 0.5 * sol.t[-1]
     return {
+        "power": float(np.polyfit(sol.t[late], sol.E_d[late], 1)[0]),
+        "rate": float(np.polyfit(sol.t[late], sol.cone_angle[late], 1)[0]),
         "label": damping if cutoff is None else f"{cutoff:.4g} Hz",
         "dt_ms": 1e3 * sol.dt,
         "modes": int(sol.stats["damped_modes"]),
@@ -66,13 +72,16 @@ def main() -> None:
         rows[-1]["label"] += " (dt/2)"
     ref = max((r for r in rows if r["label"].endswith("Hz")), key=lambda r: r["modes"])
     print(f"ratios to the {ref['label']} run ({ref['modes']} damped modes)")
-    print(f"{'damping':>16} {'dt ms':>6} {'modes':>5} {'E_d(T) J':>11} {'E_d ratio':>9} "
-          f"{'dθ(T) deg':>10} {'dθ ratio':>8} {'wall s':>7}")  # fmt: skip
+    print(f"{'damping':>16} {'dt ms':>6} {'modes':>5} {'E_d(T) J':>10} {'ratio':>7} "
+          f"{'dθ(T) deg':>10} {'ratio':>7} {'P W':>9} {'ratio':>7} {'θ̇ deg/s':>9} {'ratio':>7} "
+          f"{'wall s':>7}")  # fmt: skip
     for r in rows:
-        print(f"{r['label']:>16} {r['dt_ms']:6.3g} {r['modes']:5d} {r['E_d']:11.5g} "
-              f"{r['E_d'] / ref['E_d']:9.4f} {math.degrees(r['dtheta']):10.5f} "
-              f"{r['dtheta'] / ref['dtheta']:8.4f} {r['wall']:7.1f}"
-              + ("" if r["complete"] else "  (stopped early)"))  # fmt: skip
+        print(f"{r['label']:>16} {r['dt_ms']:6.3g} {r['modes']:5d} {r['E_d']:10.5g} "
+              f"{r['E_d'] / ref['E_d']:7.4f} {math.degrees(r['dtheta']):10.5f} "
+              f"{r['dtheta'] / ref['dtheta']:7.4f} {r['power']:9.5g} "
+              f"{r['power'] / ref['power']:7.4f} {math.degrees(r['rate']):9.5f} "
+              f"{r['rate'] / ref['rate']:7.4f} {r['wall']:7.1f}"
+              + ("" if r["complete"] else "  (stopped early)"), flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":
