@@ -152,7 +152,7 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     from quadmodes.analysis import secular
     from quadmodes.case.units import ureg
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run: None)
+    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
     monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
@@ -183,3 +183,16 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
             ureg.Unit(ds[name].attrs["units"])
             assert ds[name].attrs["long_name"]
         assert float(ds["dissipated_power_ratio"].sel(formulation="Q")) == pytest.approx(1.0)
+
+
+def test_comparison_names_the_independent_reference_damping(short_comparison, tmp_path):
+    # 41 Hz spin, retained modes up to 38.4 Hz: default cutoff 3 × 41 Hz, below it 14 FE modes
+    c = short_comparison
+    assert c.full.stats["damped_modes"] > c.run.reduced.modes
+    assert c.full.stats["damping_cutoff_hz"] == pytest.approx(3 * 41.0, rel=3e-3)
+    assert any("independent" in n and "cutoff" in n for n in c.notes)
+    payload = c.as_json()
+    assert payload["full_order"]["damped_modes"] == c.full.stats["damped_modes"]
+    ds = cm.to_dataset(c)
+    assert ds.attrs["full_order_damped_modes"] == c.full.stats["damped_modes"]
+    assert "independent" in ds.attrs["notes"]

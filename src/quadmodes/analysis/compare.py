@@ -208,6 +208,8 @@ class Comparison:
                 "spin_rate_start_hz": self.full.spin_rate[0] / (2 * math.pi),
                 "spin_rate_end_hz": self.full.spin_rate[-1] / (2 * math.pi),
                 "H_relative_drift": _drift(self.full.H_norm),
+                "damped_modes": int(self.full.stats.get("damped_modes", 0)),
+                "damping_cutoff_hz": float(self.full.stats.get("damping_cutoff_hz", math.nan)),
             },
             "reduce_wall_s": self.reduce_wall_s,
             "quasi_steady": self.secular.as_json() if self.secular else None,
@@ -298,7 +300,8 @@ def compare(
         def full_order(r, dt):
             return full_order_for_run(r, dt=dt, progress=progress)
 
-    full = series_from_full_order(full_order(run, dt_full))
+    full_sol = full_order(run, dt_full)
+    full = series_from_full_order(full_sol)
     model = roms[formulations[-1]].model
     freqs = model.frequencies_hz[: run.reduced.modes]
     f_low = float(np.min(freqs)) if len(freqs) else 1.0
@@ -315,7 +318,7 @@ def compare(
     scores = secular.score(full, reduced, secular.quasi_steady_interval(window, tau))
     for name in table:
         table[name].update(scores.row(name))
-    notes = []
+    notes = [full_sol.damping] if getattr(full_sol, "damping", "") else []
     if not full.complete:
         notes.append(f"full order stopped early: {full.reason}")
     notes.extend(scores.notes)
@@ -387,6 +390,8 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "reduced_dt_s": float(cmp.run.integration.dt),
             "full_order_complete": int(cmp.full.complete),
             "quasi_steady_rule": cmp.secular.interval.rule if cmp.secular else "",
+            "full_order_damped_modes": int(cmp.full.stats.get("damped_modes", 0)),
+            "full_order_damping_cutoff_hz": float(cmp.full.stats.get("damping_cutoff_hz", math.nan)),
             "notes": "\n".join(cmp.notes),
         },
     )

@@ -8,7 +8,8 @@ Modules: :mod:`~quadmodes.fullorder.kinematics` (frames, reduced → full state 
 diagnostics, hub drive, centrifugal stretch), :mod:`~quadmodes.fullorder.integrator` (the time
 stepping loop and its solution), with :mod:`~quadmodes.fullorder.setup` (what is computed once;
 the run state), :mod:`~quadmodes.fullorder.step` (step force, damping force, predictor,
-residual), :mod:`~quadmodes.fullorder.newton` (step Jacobian, reused factorisation,
+residual), :mod:`~quadmodes.fullorder.damping` (the damping basis: independent or retained
+modes), :mod:`~quadmodes.fullorder.newton` (step Jacobian, reused factorisation,
 backtracking), :mod:`~quadmodes.fullorder.sampling` (the sampled series) and
 :mod:`~quadmodes.fullorder.checkpoint` (checkpoints, resume); and
 :mod:`~quadmodes.fullorder.runs` (run cases, Kane spin-up, wall-time estimate).
@@ -35,13 +36,18 @@ Choices (and why)
   the largest correction is below ``newton_tol × body size``. Predictor: the last two states'
   body frames extrapolated (exact for steady rotation; uses no velocity or acceleration, which
   carry the unresolved stiff components).
-* **Damping**: ``f_d = W C Wᵀ v`` with ``W = Π M 𝒬 Φ`` — Φ the retained modes, C the reduced
-  model's modal damping (``diag 2ζω``), Q the mass-weighted best-fit (mean-axes) rotation at x½,
-  Π the M-orthogonal projector off the rigid motions Ψ(x½) about the CoM. So ``Wᵀv`` is the
-  modal velocity of the elastic part of the motion, f_d has zero net force and moment (H is
-  untouched) and ``v½ᵀ f_d ≥ 0``; ``E_d = Σ Δt v½ᵀ f_d``. Its rank-N contribution to the
-  Newton matrix is left out (relative size ζωΔt ≲ 10⁻², a contraction factor). A clamped body
-  uses the hub rotation and the velocity relative to the hub, without the projection.
+* **Damping**: ``f_d = W C Wᵀ v`` with ``W = Π M 𝒬 Φ_d``, ``C = diag 2ζω`` — Φ_d, by default
+  (:mod:`~quadmodes.fullorder.damping`, "independent"), every prestressed FE mode below a
+  cutoff (default 3 × max(spin, highest retained mode), degenerate pairs whole; computed once
+  per model and cutoff and cached beside the reduced models), so the reference does not depend
+  on the reduced basis it judges and damps the modes the reduced model leaves out; "retained"
+  (the old reference, a baseline) uses the reduced model's Φ and C. Q the mass-weighted
+  best-fit (mean-axes) rotation at x½, Π the M-orthogonal projector off the rigid motions
+  Ψ(x½) about the CoM. So ``Wᵀv`` is the modal velocity of the elastic part of the motion, f_d
+  has zero net force and moment (H is untouched) and ``v½ᵀ f_d ≥ 0``; ``E_d = Σ Δt v½ᵀ f_d``.
+  Its rank-K contribution to the Newton matrix is left out (relative size ζωΔt ≲ 10⁻², a
+  contraction factor). A clamped body uses the hub rotation and the velocity relative to the
+  hub, without the projection (its independent basis: the clamped modes below the cutoff).
 * **Steady rotation under the scheme.** The midpoint's steady rotation at Ω has end velocities
   ``κ Ω × r``, ``κ = tan(φ/2)/(φ/2)``, φ = ΩΔt (and, with ``f(x½)``, end configurations expanded
   by 1/cos(φ/2)). The initial state is mapped to that discrete form (otherwise every element

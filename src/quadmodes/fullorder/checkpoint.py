@@ -2,7 +2,8 @@
 history in one .npz (written atomically), and the resume from one.
 
 Entries (format :data:`CHECKPOINT_VERSION`): version, n, dt (s), t0 (s), step, x, v (n,3),
-E_d_now (J), axis_prev (3,), n_newton, n_factor, wall_s (s), ``series_<name>`` per sampled
+E_d_now (J), axis_prev (3,), n_newton, n_factor, wall_s (s), damped_modes (the size of the
+damping basis; checked on resume), ``series_<name>`` per sampled
 series (:data:`~quadmodes.fullorder.sampling.SERIES`), prev_c (3,), prev_R (3,3), prev_b (n,3):
 the body frame of the previous state.
 """
@@ -42,13 +43,17 @@ def checkpoint_data(
         "version": CHECKPOINT_VERSION, "n": problem.n, "dt": problem.h, "t0": problem.t0,
         "step": state.step, "x": state.x, "v": state.v, "E_d_now": state.e_d,
         "axis_prev": samples.axis_prev, "n_newton": state.n_newton, "n_factor": state.n_factor,
-        "wall_s": wall_s,
+        "wall_s": wall_s, "damped_modes": _damped_modes(problem),
     }  # fmt: skip
     for k in SERIES:
         data[f"series_{k}"] = np.asarray(samples.series[k])
     for k, arr in zip(("prev_c", "prev_R", "prev_b"), state.frame_prev, strict=True):
         data[k] = arr  # the predictor's history
     return data
+
+
+def _damped_modes(problem: FullOrderProblem) -> int:
+    return 0 if problem.damping is None else problem.damping.n_modes
 
 
 def resume_from(path: Path, problem: FullOrderProblem, samples: SampledSeries) -> RunState:
@@ -62,6 +67,11 @@ def resume_from(path: Path, problem: FullOrderProblem, samples: SampledSeries) -
         or not math.isclose(float(data["t0"]), problem.t0, abs_tol=1e-12)
     ):
         raise ValueError(f"checkpoint {path}: made for another model, t0 or time step")
+    if "damped_modes" in data and int(data["damped_modes"]) != _damped_modes(problem):
+        raise ValueError(
+            f"checkpoint {path}: made with {int(data['damped_modes'])} damped modes, this run "
+            f"has {_damped_modes(problem)}; resume with the same damping cutoff"
+        )
     state = RunState(
         step=int(data["step"]),
         x=data["x"].copy(),

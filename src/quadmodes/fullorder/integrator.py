@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +17,7 @@ import numpy as np
 import quadmodes.fullorder.kinematics as kin
 from quadmodes.fe.model import Structure
 from quadmodes.fullorder.checkpoint import checkpoint_data, resume_from, write_checkpoint
+from quadmodes.fullorder.damping import DampingModes
 from quadmodes.fullorder.newton import FullOrderNewtonError, NewtonMatrix, solve_step
 from quadmodes.fullorder.sampling import SampledSeries
 from quadmodes.fullorder.setup import (
@@ -43,7 +44,8 @@ class FullOrderSolution:
     between H and that axis; axis (k,3) the tracked axis (inertial). modal_coordinates (k,N)
     √kg·m (N = 0 without a model). tip (k,3) m hub-frame tip displacement (hub-driven) or None.
     status 0 ok, 1 stopped early (message says why); dt s; stats: n_steps, n_newton, n_factor,
-    wall_s, newton_per_step, factor_per_step."""
+    wall_s, newton_per_step, factor_per_step, damped_modes (K), damping_cutoff_hz (Hz; NaN for
+    the retained modes or without damping). damping: one line naming the damping basis."""
 
     t: np.ndarray
     H: np.ndarray
@@ -62,6 +64,7 @@ class FullOrderSolution:
     message: str
     dt: float
     stats: dict = field(default_factory=dict)
+    damping: str = ""
 
     @property
     def E_balance(self) -> np.ndarray:
@@ -78,7 +81,7 @@ def integrate_full_order(
     dt: float,
     *,
     model: ReducedModel | None = None,
-    damping: bool = True,
+    damping: bool | DampingModes = True,
     save_every: int = 1,
     hub: kin.HubDrive | None = None,
     spin_axis: np.ndarray | None = None,
@@ -96,8 +99,9 @@ def integrate_full_order(
     structure, x_ref (n,3): the FE model and its reference (inflated equilibrium) state; V is
     measured from x_ref and the body reference X is x_ref about its CoM (free) or the hub point.
     t_span (s): (t0, t1); the step is ``span / ceil(span/dt)``. model: the reduced model whose
-    modes give the damping (its C) and the modal coordinates (None: no damping, N = 0).
-    damping: apply the modal damping force. save_every: sample every so many steps (and the
+    modes give the modal coordinates (None: N = 0) and, with ``damping=True``, the damping.
+    damping: the modal damping basis (:class:`~quadmodes.fullorder.damping.DampingModes`, e.g.
+    the independent one), True: the model's retained modes and C, False: none. save_every: sample every so many steps (and the
     last). hub: prescribed rotation of the clamped DOFs (needed iff the structure has fixed
     DOFs; default for a clamped structure: a fixed clamp). spin_axis (3,): nominal spin axis in
     the initial body frame for the axis tracking (default: the minor axis of the initial
@@ -127,9 +131,13 @@ def integrate_full_order(
         problem, state, samples, max_newton=max_newton, save_every=save_every, checkpoint=ck,
         checkpoint_every=checkpoint_every, progress=progress, start=start,
     )  # fmt: skip
+    modes = problem.damping
     stats = {"n_newton": state.n_newton, "n_factor": state.n_factor, "n_steps": state.step,
-             "wall_s": state.wall_before + time.perf_counter() - start}  # fmt: skip
-    return _solution(samples.series, status, message, problem.h, stats, problem.hub)
+             "wall_s": state.wall_before + time.perf_counter() - start,
+             "damped_modes": 0 if modes is None else modes.n_modes,
+             "damping_cutoff_hz": float("nan") if modes is None else modes.cutoff_hz}  # fmt: skip
+    sol = _solution(samples.series, status, message, problem.h, stats, problem.hub)
+    return replace(sol, damping="full-order damping: none" if modes is None else modes.describe())
 
 
 def _run_steps(

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from quadmodes.case import RunCase, load_case, load_run_case
 from quadmodes.fe.model import Structure, centre_of_mass
+from quadmodes.fullorder import damping as fdamp
 from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
 from quadmodes.fullorder.kinematics import (
     HubDrive,
@@ -33,7 +34,9 @@ KANE_DT = 5e-3
 class FullOrderSetup:
     """What a full-order run of a run case integrates: the structure, its reference state x_ref
     (n,3) m, the reduced model (modes, damping), the initial state (x0, v0) (n,3), the hub drive
-    (spin-up) or None, the nominal spin axis (body frame) and the run's time step/sampling."""
+    (spin-up) or None, the nominal spin axis (body frame) and the run's time step/sampling;
+    damping_choice ("independent", "retained" or "none") and, for "independent", its basis
+    ``damping`` (None when the case's damping ratio is 0: undamped)."""
 
     run: RunCase
     structure: Structure
@@ -46,11 +49,55 @@ class FullOrderSetup:
     duration: float
     sample_interval: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    damping_choice: str = "retained"
+    damping: fdamp.DampingModes | None = None
+
+    def integrator_damping(self) -> bool | fdamp.DampingModes:
+        """The ``damping`` argument of :func:`integrate_full_order` for this setup."""
+        if self.damping_choice == "independent":
+            return self.damping if self.damping is not None else False
+        return self.damping_choice == "retained"
+
+
+def damping_choice(damping) -> str:
+    """``damping`` as one of :data:`~quadmodes.fullorder.damping.CHOICES` (True: independent,
+    False/None: none). Raises ValueError naming the choices."""
+    if damping is True:
+        return "independent"
+    if damping is False or damping is None:
+        return "none"
+    if damping not in fdamp.CHOICES:
+        raise ValueError(f"damping: {damping!r}; choose from {', '.join(fdamp.CHOICES)}")
+    return str(damping)
+
+
+def with_damping(st: FullOrderSetup, damping="independent", cutoff_hz: float | None = None):
+    """``st`` with its full-order damping chosen (:func:`damping_choice`): for "independent"
+    every FE mode of the setup's structure about x_ref below ``cutoff_hz`` (Hz; default
+    :func:`~quadmodes.fullorder.damping.default_cutoff` of the spin and the retained modes),
+    with the case's damping ratio, from the cache (:func:`~quadmodes.fullorder.damping.
+    independent_damping_for`); a note names the basis."""
+    from quadmodes.runs.model_cache import damping_ratio_of
+
+    choice = damping_choice(damping)
+    case = st.run.model_case()
+    zeta = damping_ratio_of(case)
+    notes = tuple(n for n in st.notes if not n.startswith("full-order damping"))
+    if choice != "independent" or zeta == 0.0:
+        modes = fdamp.retained_damping(st.model) if choice == "retained" else None
+        line = modes.describe() if modes is not None else "full-order damping: none"
+        return replace(st, damping_choice=choice, damping=None, notes=(*notes, line))
+    if cutoff_hz is None:
+        spin = st.run.spinup.omega_s if st.run.spinup is not None else st.run.initial.spin_rate
+        cutoff_hz = fdamp.default_cutoff(float(spin) / (2 * np.pi), st.model.frequencies_hz)
+    modes = fdamp.independent_damping_for(case, st.structure, st.x_ref, float(cutoff_hz), zeta)
+    return replace(st, damping_choice=choice, damping=modes, notes=(*notes, modes.describe()))
 
 
 def setup_for_run(
-    run: RunCase | str, model: ReducedModel | None = None, stretch: bool = True
-) -> FullOrderSetup:
+    run: RunCase | str, model: ReducedModel | None = None, stretch: bool = True, *,
+    damping="independent", damping_cutoff: float | None = None,
+) -> FullOrderSetup:  # fmt: skip
     """Structure, inflated reference, reduced model (from the cache) and initial state of a run
     case exactly as ``quadmodes run`` builds them (:func:`quadmodes.runs.simulate.prepare`), mapped to
     the full order by :func:`initial_state_from_reduced` (centre of mass at the reference's).
@@ -58,7 +105,14 @@ def setup_for_run(
     ``stretch`` (free-body runs): add the quasi-static centrifugal displacement of the initial
     spin outside the retained modes (:func:`~quadmodes.fullorder.kinematics.centrifugal_stretch`),
     rotated with the body, and its rigid-rotation velocity ω × u_c; the retained modal
-    coordinates are those of the reduced state."""
+    coordinates are those of the reduced state. ``damping``, ``damping_cutoff`` (Hz): the
+    full order's damping (:func:`with_damping`; default the independent basis)."""
+    st = _setup_for_run(run, model, stretch)
+    return with_damping(st, damping, damping_cutoff)
+
+
+def _setup_for_run(run, model, stretch) -> FullOrderSetup:
+    """:func:`setup_for_run` without the damping choice."""
     from quadmodes.runs import simulate
 
     run = load_run_case(run) if isinstance(run, str) else run
@@ -69,7 +123,9 @@ def setup_for_run(
         model = model if model is not None else simulate.spinup_model(run, case)
         x_ref = structure.reference
         hub = kane_hub(float(sp.omega_s), float(sp.ramp_time))
-        x0, v0 = initial_state_from_reduced(model, np.zeros(7 + 2 * model.n_modes))
+        y0 = np.zeros(7 + 2 * model.n_modes)
+        y0[0] = 1.0  # identity attitude, at rest
+        x0, v0 = initial_state_from_reduced(model, y0)
         return FullOrderSetup(run, structure, x_ref, model, x0, v0, hub, None,
                               float(sp.duration), float(sp.duration) / max(int(sp.samples) - 1, 1))  # fmt: skip
     x_ref, _ = pipeline.reference_state(case, structure)
@@ -95,7 +151,8 @@ def full_order_for_run(
     *,
     dt: float | None = None,
     window: float | None = None,
-    damping: bool = True,
+    damping: bool | str = "independent",
+    damping_cutoff: float | None = None,
     save_every: int | None = None,
     model: ReducedModel | None = None,
     stretch: bool = True,
@@ -111,8 +168,20 @@ def full_order_for_run(
     ``save_every`` is given. ``stretch``: see :func:`setup_for_run`. ``progress(stage, fraction)`` with stage "full order". Other
     keyword ``options`` go to :func:`integrate_full_order` (newton_tol, checkpoint, ...).
     ``setup``: a :func:`setup_for_run` result already built for ``run`` (skips the inflation and
-    the initial-state mapping)."""
-    st = setup if setup is not None else setup_for_run(run, model, stretch)
+    the initial-state mapping). ``damping``: "independent" (default: every FE mode below
+    ``damping_cutoff`` Hz, :func:`with_damping`), "retained" (the reduced model's modal damping
+    on its retained modes, the old reference, a baseline) or "none" (True/False: independent /
+    none); a ``setup`` built with another choice or cutoff gets this one."""
+    if setup is None:
+        st = setup_for_run(run, model, stretch, damping=damping, damping_cutoff=damping_cutoff)
+    else:
+        st = setup
+        choice = damping_choice(damping)
+        same_cut = damping_cutoff is None or (
+            st.damping is not None and st.damping.cutoff_hz == float(damping_cutoff)
+        )
+        if choice != st.damping_choice or not same_cut:
+            st = with_damping(st, choice, damping_cutoff)
     run = st.run
     if dt is None:
         dt = KANE_DT if st.hub is not None else float(run.integration.dt)
@@ -122,7 +191,7 @@ def full_order_for_run(
     frac = (lambda f: progress("full order", f)) if progress else None
     return integrate_full_order(
         st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, model=st.model,
-        damping=damping, save_every=save_every, hub=st.hub, spin_axis=st.spin_axis,
+        damping=st.integrator_damping(), save_every=save_every, hub=st.hub, spin_axis=st.spin_axis,
         progress=frac, **options,
     )  # fmt: skip
 
@@ -171,7 +240,8 @@ def estimate_for_run(
         dt = KANE_DT if st.hub is not None else float(st.run.integration.dt)
     window = st.duration if window is None else float(window)
     return estimate_wall_time(st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt,
-                              n_probe, model=st.model, hub=st.hub, spin_axis=st.spin_axis)  # fmt: skip
+                              n_probe, model=st.model, hub=st.hub, spin_axis=st.spin_axis,
+                              damping=st.integrator_damping())  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------
@@ -252,5 +322,7 @@ __all__ = [
     "full_order_for_run",
     "kane_full_order",
     "refined_extreme",
+    "damping_choice",
     "setup_for_run",
+    "with_damping",
 ]

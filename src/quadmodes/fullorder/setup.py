@@ -15,6 +15,7 @@ import scipy.sparse as sp
 
 import quadmodes.fullorder.kinematics as kin
 from quadmodes.fe.model import Structure, centre_of_mass, mass_matrix, strain_energy
+from quadmodes.fullorder.damping import DampingModes, retained_damping
 from quadmodes.rom.reduced import ReducedModel
 
 
@@ -53,6 +54,8 @@ class FullOrderProblem:
     ms: sp.csr_matrix
     m_full: sp.csc_matrix
     c: np.ndarray | None
+    MPhi_d: np.ndarray | None
+    damping: DampingModes | None
     t0: float
     h: float
     n_steps: int
@@ -79,14 +82,15 @@ def setup_problem(
     dt: float,
     *,
     model: ReducedModel | None,
-    damping: bool,
+    damping: bool | DampingModes,
     hub: kin.HubDrive | None,
     newton_tol: float,
     energy_momentum: bool,
     rotation_map: bool,
 ) -> FullOrderProblem:
     """:class:`FullOrderProblem` of :func:`~quadmodes.fullorder.integrator.integrate_full_order`
-    (same arguments; a clamped structure without a hub gets a fixed clamp). Raises ValueError for
+    (same arguments; a clamped structure without a hub gets a fixed clamp; ``damping``: see
+    :func:`damping_modes`). Raises ValueError for
     a hub on a free structure, a model whose X is not x_ref's, or a bad time grid."""
     x_ref = np.asarray(x_ref, float)
     tr = structure.translational.astype(float)
@@ -103,20 +107,40 @@ def setup_problem(
     body = kin.make_body(
         structure.mass_scalar, structure.translational, big_x, model, hub is not None
     )
-    c = None
-    if damping and model is not None and model.n_modes and np.any(model.C):
-        c = np.asarray(model.C, float)
+    modes = damping_modes(damping, model, big_x.shape)
+    c = None if modes is None else modes.C
+    mphi_d = None if modes is None else np.stack([structure.mass_scalar @ p for p in modes.shapes])
     m_full = mass_matrix(structure).tocsc()
     n_steps, h = step_count(t_span, dt)
     scale = float(np.max(np.linalg.norm(big_x[tr > 0], axis=1)))
     return FullOrderProblem(
         structure=structure, body=body, hub=hub, point=point, X=big_x, tr=tr,
         fixed_rows=np.flatnonzero(structure.fixed.any(axis=1)), free=structure.free_dofs,
-        ms=structure.mass_scalar, m_full=m_full, c=c, t0=float(t_span[0]), h=h,
-        n_steps=n_steps, scale=scale, tol=newton_tol * scale,
+        ms=structure.mass_scalar, m_full=m_full, c=c, MPhi_d=mphi_d, damping=modes,
+        t0=float(t_span[0]), h=h, n_steps=n_steps, scale=scale, tol=newton_tol * scale,
         v_ref=strain_energy(structure, x_ref), energy_momentum=energy_momentum,
         mapped=rotation_map and hub is None,
     )  # fmt: skip
+
+
+def damping_modes(
+    damping: bool | DampingModes, model: ReducedModel | None, shape: tuple
+) -> DampingModes | None:
+    """The damping basis of a problem: ``damping`` itself (a :class:`DampingModes`), the
+    reduced model's retained modes and C for ``True`` (none without a model or with C = 0), or
+    None for ``False`` and for a basis without modes or damping. Raises ValueError for shapes
+    of another structure (``shape`` = (n, 3))."""
+    if isinstance(damping, DampingModes):
+        modes = damping
+    elif damping and model is not None and model.n_modes:
+        modes = retained_damping(model)
+    else:
+        return None
+    if modes.shapes.shape[1:] != tuple(shape):
+        raise ValueError(
+            f"damping: mode shapes {modes.shapes.shape[1:]} do not fit the structure {shape}"
+        )
+    return modes if modes.n_modes and np.any(modes.C) else None
 
 
 @dataclass(frozen=True, eq=False)

@@ -97,6 +97,7 @@ def damping_force(
     hub_rotation: np.ndarray | None = None,
     hub_omega: np.ndarray | None = None,
     hub_point: np.ndarray | None = None,
+    mphi: np.ndarray | None = None,
 ) -> np.ndarray:
     """Modal damping force f_d (n,3) N at state (x, v) (the force in ``M a + f_d + f = 0``).
 
@@ -105,20 +106,22 @@ def damping_force(
     (``Π = I − MΨ(ΨᵀMΨ)⁻¹Ψᵀ``): ``Wᵀv`` is the modal velocity of the elastic part of v, f_d has
     zero net force and zero moment about the CoM (H is untouched) and ``vᵀ f_d ≥ 0``.
     Clamped body: ``W = M 𝒬 Φ`` with Q the hub rotation, applied to the velocity relative to
-    the hub (the clamp reactions take the net load). ``c`` (N,N) 1/s: the ROM's C."""
-    n_modes = body.n_modes
+    the hub (the clamp reactions take the net load). ``c`` (K,K) 1/s: the modal damping of the
+    modes Φ_d with ``mphi`` (K,n,3) = ``M_s Φ_d`` (default: the body's retained modes)."""
+    mphi = body.MPhi if mphi is None else mphi
+    n_modes = mphi.shape[0]
     n = x.shape[0]
     if hub_rotation is None:
         p = kin.centre(body, x)
         rot = kin.best_fit_rotation(body, x, p)
-        w = (body.MPhi @ rot.T).reshape(n_modes, 3 * n).T
+        w = (mphi @ rot.T).reshape(n_modes, 3 * n).T
         psi = rigid_basis(body, x, p).reshape(3 * n, 6)
         mpsi = (body.ms @ psi.reshape(n, 18)).reshape(3 * n, 6)
         g6 = psi.T @ mpsi
         w = w - mpsi @ (np.linalg.pinv(g6, rcond=1e-12, hermitian=True) @ (psi.T @ w))
         vel = v.ravel()
     else:
-        w = (body.MPhi @ hub_rotation.T).reshape(n_modes, 3 * n).T
+        w = (mphi @ hub_rotation.T).reshape(n_modes, 3 * n).T
         r = x - np.outer(body.t, hub_point)
         vel = (v - np.cross(hub_omega, r)).ravel()
     return (w @ (c @ (w.T @ vel))).reshape(n, 3)
@@ -130,10 +133,11 @@ def step_damping(problem: FullOrderProblem, t: float, xh: np.ndarray, vh: np.nda
     if problem.c is None:
         return np.zeros_like(xh)
     if problem.hub is None:
-        return damping_force(problem.body, problem.c, xh, vh)
+        return damping_force(problem.body, problem.c, xh, vh, mphi=problem.MPhi_d)
     hub = problem.hub
     return damping_force(
-        problem.body, problem.c, xh, vh, hub.rotation(t), hub.angular_velocity(t), problem.point
+        problem.body, problem.c, xh, vh, hub.rotation(t), hub.angular_velocity(t), problem.point,
+        mphi=problem.MPhi_d,
     )
 
 
