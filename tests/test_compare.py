@@ -196,3 +196,22 @@ def test_comparison_names_the_independent_reference_damping(short_comparison, tm
     ds = cm.to_dataset(c)
     assert ds.attrs["full_order_damped_modes"] == c.full.stats["damped_modes"]
     assert "independent" in ds.attrs["notes"]
+
+
+def test_compare_interrupted_exits_130_and_keeps_no_partial_output(runner, tmp_path, monkeypatch):
+    """Ctrl-C in the full-order run: exit status 130 (not the one-line-error status 2), the
+    message says how to resume, and no output folder is left."""
+    from quadmodes import fullorder
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(fullorder, "full_order_for_run", interrupted)
+    out = tmp_path / "cmp"
+    args = ["compare", "--window", "0.2 s", "--formulations", "rigid", "--no-plots", "-o", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 130, result.output
+    assert "--resume" in result.output and "error:" not in result.output
+    assert not out.exists()

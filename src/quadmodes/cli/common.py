@@ -57,9 +57,13 @@ def fail(exc: BaseException) -> NoReturn:
 
 @contextlib.contextmanager
 def one_line_errors(*also: type[BaseException]) -> Iterator[None]:
-    """Turn the user errors (and the exception types ``also``) raised inside into ``fail``."""
+    """Turn the user errors (and the exception types ``also``) raised inside into ``fail``.
+    A deliberate ``typer.Exit`` (e.g. 130 after Ctrl-C) passes through: click's Exit is a
+    RuntimeError, which ``also`` often names."""
     try:
         yield
+    except typer.Exit:
+        raise
     except (*user_errors(), *also) as exc:
         fail(exc)
 
