@@ -66,9 +66,10 @@ def run_amplitude(run, model, scale) -> tuple[float, float]:
     return float(np.max(np.linalg.norm(s * scale, axis=1))), time.perf_counter() - t0
 
 
-def one_ray(ctx, model, q4, scale, d, radii) -> np.ndarray:
+def one_ray(ctx, model, q4, scale, d, radii, minimisers=None):
     """Energies ``(len(radii), 5)`` [Q, Q4, QE, W_red, W_c] (J) along ``s = r D⁻¹ d``, and
-    ``(len(radii), 2)`` [W_c converged, Newton iterations]."""
+    ``(len(radii), 2)`` [W_c converged, Newton iterations]; the W_c minimisers y are appended
+    to the list ``minimisers`` if given."""
     out = np.zeros((len(radii), 5))
     info = np.zeros((len(radii), 2))
     ys, rs, eta = [], [], None
@@ -90,6 +91,8 @@ def one_ray(ctx, model, q4, scale, d, radii) -> np.ndarray:
             wc.value,
         ]
         info[j] = [wc.converged and wr.converged, wc.iterations]
+    if minimisers is not None:
+        minimisers.extend(ys)
     return out, info
 
 
@@ -111,7 +114,8 @@ def ray_barriers(model, scale, dirs) -> np.ndarray:
 
 
 def band_table(radii, energies, r41, r_max) -> list[tuple[str, list[str]]]:
-    """Rows (band, [median/max |rel. error| per candidate]) of ``energies`` (rays, amps, 5)."""
+    """Rows (band, [median / 90th percentile / max of |rel. error| per candidate]) of
+    ``energies`` (rays, amplitudes, 5)."""
     edges = [(0.0, r41), (r41, 2 * r41), (2 * r41, r_max * (1 + 1e-12))]
     wc = energies[..., 4]
     rows = []
@@ -122,7 +126,10 @@ def band_table(radii, energies, r41, r_max) -> list[tuple[str, list[str]]]:
         cells = []
         for c in range(4):
             err = np.abs(energies[:, sel, c] - wc[:, sel]) / np.abs(wc[:, sel])
-            cells.append(f"{100 * np.median(err):.3g} % / {100 * err.max():.3g} %")
+            cells.append(
+                f"{100 * np.median(err):.3g} / {100 * np.percentile(err, 90):.3g} / "
+                f"{100 * err.max():.3g} %"
+            )
         rows.append((f"({1e3 * lo:.1f}, {1e3 * min(hi, r_max):.1f}] mm", cells))
     return rows
 
@@ -148,6 +155,55 @@ def figure(path, radii, energies, r41, r_b):
     fig.savefig(path, dpi=120)
 
 
+def projected_chart(structure, model):
+    """``model`` with ``g⊥ = g − Φ ΦᵀM g`` (the M-projection of x − x0 on Φ is then s) and the
+    Q4 tensors of :func:`quadmodes.rom.reduced.manifold_potential_tensors` for g⊥."""
+    from dataclasses import replace
+
+    from quadmodes.fe.model import mass_matrix
+    from quadmodes.rom.reduced import manifold_potential_tensors
+
+    n = model.n_modes
+    phi = model.Phi.reshape(n, -1)
+    g = model.G.reshape(n * n, -1)
+    a = (mass_matrix(structure) @ g.T).T @ phi.T  # (N², N): ΦᵀMg
+    g_perp = (g - a @ phi).reshape(model.G.shape)
+    v3, v4 = manifold_potential_tensors(structure, model.X, model.Phi, g_perp)
+    return replace(model, G=g_perp, V3=v3, V4=v4)
+
+
+def compressed_fraction(structure, x) -> float:
+    """Fraction of membrane elements whose minor principal stress resultant is ≤ 0 at ``x``."""
+    from quadmodes.fe.membrane import MembraneSet
+
+    mem = [e for e in structure.elements if isinstance(e, MembraneSet)]
+    minor = np.concatenate([e.principal_stress_resultants(x)[:, 0] for e in mem])
+    return float(np.mean(minor <= 0.0))
+
+
+def named_rays(ctx, model, q4, scale, radii, structure) -> None:
+    """Energies along ``±e_k`` (each mode alone, both signs) at every 3rd amplitude, with the
+    compressed membrane fraction at the quadratic-manifold point and at the W_c minimiser."""
+    print("| ray | r (mm) | Q | Q4 | QE | W_red | W_c | compressed: QM / W_c |")
+    print("|---|---|---|---|---|---|---|---|")
+    _, s_b = dyn.potential_barrier(q4)
+    rays = [(f"{'+-'[sign < 0]}{model.labels[k]} ({k})", sign * np.eye(model.n_modes)[k])
+            for k in range(model.n_modes) for sign in (1.0, -1.0)]
+    if np.any(s_b):
+        r_b = float(np.linalg.norm(s_b * scale))
+        rays.append((f"Q4 barrier direction (r_b = {1e3 * r_b:.2f} mm)", s_b * scale / r_b))
+    for name, d in rays:
+        ys = []
+        e, _ = one_ray(ctx, model, q4, scale, d, radii, ys)
+        for j in range(2, len(radii), 3):
+            u = me.manifold_displacement(ctx, radii[j] * d / scale)
+            y = ys[j]
+            cf = [compressed_fraction(structure, ctx.x0 + v.reshape(-1, 3)) for v in (u, u + y)]
+            cells = " | ".join(f"{v:.4g}" for v in e[j])
+            print(f"| {name} | {1e3 * radii[j]:.1f} | {cells} "
+                  f"| {cf[0]:.2f} / {cf[1]:.2f} |", flush=True)
+
+
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--case", default="paper-41hz-coarse", help="run case")
@@ -161,6 +217,16 @@ def parse_args():
     p.add_argument("--markdown", help="write the table to this file")
     p.add_argument("--figure", help="write the error figure (PNG)")
     p.add_argument("--npz", help="save the raw energies")
+    p.add_argument("--from-npz", help="no computation: report the energies saved by --npz")
+    p.add_argument(
+        "--chart", choices=("manifold", "projected"), default="manifold",
+        help="projected: quadratic modes with their retained-mode part removed (g⊥ = g − Φ ΦᵀMg, "
+        "so s is the M-projection) and Q4 recomputed for them (a what-if, not the project's model)",
+    )
+    p.add_argument(
+        "--named", action="store_true",
+        help="instead: the rays ±(each mode) with the wrinkled (compressed) membrane fraction",
+    )
     return p.parse_args()
 
 
@@ -170,6 +236,11 @@ def main() -> None:
     model_case = run.model_case()
     model = reduced_model_for(model_case, args.modes)
     scale = modal_scale(model)
+    if args.from_npz:
+        z = np.load(args.from_npz)
+        finish(args, model, float(z["r41"]), float(z["radii"][-1]), z["radii"], z["energies"],
+               z["info"], float("nan"), me.quartic_system(model), scale, z["dirs"], final=True)
+        return
     if args.r41 is None:
         r41, wall = run_amplitude(run, model, scale)
         print(f"Q4 run {args.case} N={args.modes} over {args.duration}: r41 = {r41:.5g} m "
@@ -181,8 +252,13 @@ def main() -> None:
     structure = pipeline.with_gas_law(
         model_case, pipeline.structure_for_case(model_case), model.X
     )
+    if args.chart == "projected":
+        model = projected_chart(structure, model)
     ctx = me.energy_context(structure, model.X, model)
     q4 = me.quartic_system(model)
+    if args.named:
+        named_rays(ctx, model, q4, scale, radii, structure)
+        return
     rng = np.random.default_rng(args.seed)
     dirs = rng.standard_normal((args.rays, args.modes))
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
@@ -205,7 +281,7 @@ def finish(args, model, r41, r_max, radii, energies, info, wall, q4, scale, dirs
     r_b_rays = ray_barriers(model, scale, dirs)
     report(args, model, r41, r_max, radii, energies, info, wall, v_b, s_b, scale, r_b_rays,
            final)
-    if args.npz:
+    if args.npz and not args.from_npz:
         np.savez(args.npz, radii=radii, energies=energies, info=info, dirs=dirs, r41=r41)
     if args.figure:
         figure(args.figure, radii, energies, r41, float(np.min(r_b_rays)))
@@ -221,6 +297,8 @@ def report(args, model, r41, r_max, radii, energies, info, wall, v_b, s_b, scale
         f"{len(radii)} amplitudes r = {1e3 * radii[0]:.2f} … {1e3 * r_max:.2f} mm, seed "
         f"{args.seed}; r41 = {1e3 * r41:.2f} mm; wall {wall:.0f} s "
         f"({wall / len(energies):.1f} s per ray)",
+        "",
+        "|V − W_c|/W_c, median / 90th percentile / max over the samples of each band:",
         "",
         "| band of r | " + " | ".join(NAMES) + " |",
         "|---|" + "---|" * len(NAMES),
