@@ -284,10 +284,15 @@ def condensed_energy(
 ) -> Condensed:
     """``W_c(s) = min_y Π̃(x_QM(s) + y)`` (J) over ``y`` ``(m,)`` with ``[Φ Ψ]ᵀ M y = 0``.
 
-    Bordered Newton ``[[K, MB], [BᵀM, 0]] [Δy; λ] = [−r; 0]`` (one factorisation per
-    iteration, :func:`quadmodes.structure.bordered.bordered_solver`) with an energy line search.
-    Where the constrained tangent is indefinite (the Newton step does not descend) ``K`` is
-    shifted by ``μM``, μ rising tenfold from 1e-3 of the largest retained ω², until it does.
+    Bordered Newton ``[[K, MB], [BᵀM, 0]] [Δy; λ] = [−r; 0]``
+    (:func:`quadmodes.structure.bordered.bordered_solver`; the factorisation is kept while the
+    decrement falls tenfold per iteration) with an energy line search. Where the constrained
+    tangent is indefinite (the Newton step does not descend) ``K`` is shifted by ``μM``, μ
+    rising tenfold from 1e-3 of the largest retained ω², until it does. Stops when the predicted
+    decrease ½|r·Δy| is below ENERGY_RTOL·|W| (or ENERGY_ATOL); with a shift (or a kept
+    factorisation) that is the decrease predicted by the matrix used, a lower estimate.
+    The minimum found is the one reached from the start (the energy is not convex where the
+    membrane goes into compression).
     ``y0`` must be feasible (e.g. the minimiser at a smaller amplitude on the same ray, or
     ``G⊥η`` of :func:`condensed_quadratic_mode_energy`; see :func:`best_start`); default 0, the
     quadratic-manifold point."""
