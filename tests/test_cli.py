@@ -392,3 +392,24 @@ def test_console_script_error(tmp_path):
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and "material.thickness" in lines[0]
     assert not out_dir.exists()
+
+
+def test_cache_key_follows_the_mesh_file_contents(tmp_path):
+    """A mesh file changed under the same name (every coordinate doubled) must not reuse the
+    reduced model, spectrum or damping modes built from the old file; the same bytes give the
+    same key."""
+    from quadmodes.case import load_case as load
+    from quadmodes.fullorder.damping import damping_key
+    from quadmodes.runs import model_cache
+
+    surface = sphere_surface(0.127, 0.0508)
+    write_surface(tmp_path / "body.vtu", surface)
+    path = _write_case(tmp_path, _sphere_toml(geometry='shape = "file"\nfile = "body.vtu"'))
+    case = load(str(path))
+    keys = (model_cache.reduced_key(case, 5), damping_key(case, 100.0))
+    assert model_cache.reduced_key(load(str(path)), 5) == keys[0]
+    write_surface(tmp_path / "body.vtu", TriangleSurface(2.0 * surface.points, surface.triangles))
+    changed = load(str(path))
+    assert changed.to_toml() == case.to_toml()  # the case text alone cannot tell them apart
+    assert model_cache.reduced_key(changed, 5) != keys[0]
+    assert damping_key(changed, 100.0) != keys[1]

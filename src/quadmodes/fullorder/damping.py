@@ -135,7 +135,7 @@ def modes_below(
 def damping_key(case: Case, cutoff_hz: float) -> str:
     """Content key of the damping modes of ``case`` below ``cutoff_hz`` (Hz)."""
     return artifact.content_key(
-        case.to_toml()
+        model_cache.model_inputs(case)
         + f"\n# damping.cutoff_hz = {float(cutoff_hz)!r}\n"
         + f"# damping.format_version = {DAMPING_FORMAT_VERSION}\n"
     )

@@ -15,6 +15,7 @@ of its lowest modes, :func:`mode_spectrum`, read by ``modes = "auto"`` and
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 from collections.abc import Callable
@@ -51,12 +52,26 @@ def damping_ratio_of(case: Case) -> float:
     return float(section.damping_ratio) if section is not None else 0.0
 
 
+def model_inputs(case: Case) -> str:
+    """Everything that determines the structural model of ``case``, as text for a cache key:
+    the case in SI (its TOML) and, for a mesh-file geometry, the SHA-256 of the file's bytes (a
+    changed mesh under the same file name must not reuse models built from the old one)."""
+    text = case.to_toml()
+    geometry = getattr(case, "geometry", None)
+    mesh_file = getattr(geometry, "file", None)
+    if mesh_file:
+        path = Path(mesh_file)
+        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else "missing"
+        text += f"\n# geometry.file sha256 = {digest}\n"
+    return text
+
+
 def reduced_key(case: Case, n_modes: int) -> str:
     """Content key of the reduced model of ``case`` with ``n_modes`` modes (includes the
     package version and the artifact format version, so that files of another format are not
     cache hits)."""
     return artifact.content_key(
-        case.to_toml()
+        model_inputs(case)
         + f"\n# reduced.modes = {int(n_modes)}\n"
         + f"# artifact.format_version = {artifact.FORMAT_VERSION}\n"
     )
@@ -228,7 +243,7 @@ class Spectrum:
 
 def spectrum_path(case: Case, count: int) -> Path:
     """Cache file (JSON) of the spectrum of ``case`` with ``count`` modes."""
-    key = artifact.content_key(case.to_toml() + f"\n# spectrum count = {int(count)}\n")
+    key = artifact.content_key(model_inputs(case) + f"\n# spectrum count = {int(count)}\n")
     return cache_dir() / f"{case.name}-spectrum{int(count)}-{key}.json"
 
 
