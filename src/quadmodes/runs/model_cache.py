@@ -135,7 +135,7 @@ def modal_model_for(case: Case, count: int, progress: Progress | None = None):
     from quadmodes.structure.modes import compute_modes
 
     count = max(int(count), case.modes.count)
-    key = case.model_copy(update={"modes": Modes(count=1)}).to_toml()
+    key = model_inputs(case.model_copy(update={"modes": Modes(count=1)}))
     last = _LAST_MODAL[0] if _LAST_MODAL and _LAST_MODAL[0][0] == key else None
     if last is not None and len(last[1].modes.frequencies_hz) >= count:
         return last[1]
