@@ -50,20 +50,25 @@ def _plan(
     case: str,
     window: str,
     full_dt: str | None,
-    modes: int | None,
+    modes: str | None,
     spin_rate: str | None,
     formulations: str,
     damping_cutoff: str | None = None,
 ) -> ComparisonPlan:
     """Load the run case and check the options; raises UserError (or a case/quantity error)."""
     from quadmodes.analysis import compare as cmp
-    from quadmodes.case import load_run_case, parse_quantity
+    from quadmodes.case import CaseError, load_run_case, parse_quantity
     from quadmodes.runs import simulate
 
     run = load_run_case(case)
     if run.spinup is not None:
         raise UserError(f"{case}: a hub-driven spin-up; compare needs a free-body run case")
-    run = simulate.apply_overrides(run, spin_rate=spin_rate)
+    try:  # the same overrides and checks as ``run`` (modes: N or "auto")
+        run = simulate.apply_overrides(run, spin_rate=spin_rate, modes=modes)
+    except CaseError as exc:
+        if exc.field != "reduced.modes":
+            raise
+        raise UserError(f"--modes: {exc.detail}") from None
     t_window = parse_quantity(window, "time", "--window")
     dt_full = parse_quantity(full_dt, "time", "--full-dt") if full_dt else run.integration.dt
     if not t_window > 0:
@@ -73,10 +78,6 @@ def _plan(
     names = parse_formulations(
         formulations, cmp.AVAILABLE, use="rigid, L, P, Q, Q4", none="(none given)"
     )
-    if modes is not None:
-        if modes < 1:
-            raise UserError("--modes: must be at least 1")
-        run = run.model_copy(update={"reduced": run.reduced.model_copy(update={"modes": modes})})
     cutoff = None
     if damping_cutoff is not None:
         cutoff = parse_quantity(damping_cutoff, "frequency", "--damping-cutoff", "150 Hz")
@@ -203,7 +204,8 @@ def compare_command(
         str | None, typer.Option("--full-dt", help="full-order step (default: the run's dt)")
     ] = None,
     modes: Annotated[
-        int | None, typer.Option(help="retained modes of the reduced model (default: the run's)")
+        str | None,
+        typer.Option(help='retained modes N (default: the run\'s), or "auto" as for run'),
     ] = None,
     spin_rate: Annotated[
         str | None, typer.Option("--spin-rate", help='initial spin rate, e.g. "20 Hz"')
