@@ -287,7 +287,7 @@ def paper_coarse():
 
 def full_order_modal_coordinates(structure, x0, model, spin, axis):
     """Full-order relative equilibrium projected on the modes (quadratic modes subtracted)."""
-    from quadmodes.analysis import rotating_equilibrium as sp
+    from quadmodes.structure import spinning as sp
 
     eq = sp.relative_equilibrium(structure, x0, spin, axis)
     d = eq.x - np.outer(model.translational, model.weights @ eq.x / model.weights.sum()) - model.X

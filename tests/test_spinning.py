@@ -8,17 +8,17 @@ import pytest
 
 from quadmodes.analysis.campbell import campbell
 from quadmodes.analysis.rotating_comparison import case_state, rotating_frequency_comparison
-from quadmodes.analysis.rotating_equilibrium import (
-    centrifugal_force,
-    relative_equilibrium,
-    rotating_residual,
-)
 from quadmodes.analysis.rotating_matching import rotation_and_modal_parts
 from quadmodes.analysis.rotating_modes import rotating_roots
 from quadmodes.fe.build import build_beam_structure
 from quadmodes.fe.model import centre_of_mass, inertia_tensor
 from quadmodes.runs.model_cache import build_reduced_model
 from quadmodes.runs.spinup import KANE_BEAM, KANE_REFERENCE_CHORDWISE
+from quadmodes.structure.spinning import (
+    centrifugal_force,
+    relative_equilibrium,
+    rotating_residual,
+)
 
 SPINS_HZ = (0.0, 20.0, 41.0)
 

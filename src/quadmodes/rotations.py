@@ -184,3 +184,12 @@ def polar_rotation(a: np.ndarray) -> np.ndarray:
     u, _, vt = np.linalg.svd(a)
     d = np.sign(np.linalg.det(u @ vt)) or 1.0
     return (u * np.array([1.0, 1.0, d])) @ vt
+
+
+def unit_axis(axis) -> np.ndarray:
+    """The unit vector (3,) along ``axis``; raises ValueError for a zero or malformed axis."""
+    e = np.asarray(axis, float)
+    norm = np.linalg.norm(e)
+    if e.shape != (3,) or not norm > 0.0:
+        raise ValueError("axis: give a non-zero 3-vector")
+    return e / norm

@@ -257,7 +257,9 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     if kernel is not None:  # load the compiled kernel before any timing
         kernel.warm_up()
     start = time.perf_counter()
-    model = model_cache.reduced_model_for(run.model_case(), run.reduced.modes, progress)
+    model = model_cache.reduced_model_for(
+        run.model_case(), run.reduced.modes, progress, spin=run.reference_spin
+    )
     reduce_wall = time.perf_counter() - start
     results = {}
     for name in formulations:

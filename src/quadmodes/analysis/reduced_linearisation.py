@@ -31,11 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes.analysis.spin_axis import unit_axis
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
+from quadmodes.rotations import unit_axis
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ def relative_equilibrium(
         w_old, s_old = w, s
         if n:
             k = rf.rotating_frame_matrices(sys, w)[2]
-            f = 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
+            f = 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w) - sys.F1
             s = _static_solve(sys, k, f, s) if sys.quartic else np.linalg.solve(k, f)
         jt = dy.inertia_tensor(sys, s, "rot")
         lam, vec = np.linalg.eigh(0.5 * (jt + jt.T))

@@ -2,7 +2,7 @@
 spin rate and branch (:func:`rotating_frequency_comparison`, ``quadmodes rotating``).
 
 Per spin rate: the full-order relative equilibrium (continued from the previous rate,
-:mod:`quadmodes.analysis.rotating_equilibrium`), its roots near every reduced root
+:mod:`quadmodes.structure.spinning`), its roots near every reduced root
 (:mod:`quadmodes.analysis.rotating_modes`), their assignment to the reduced branches by MAC
 (:mod:`quadmodes.analysis.rotating_matching`), and one :class:`ComparisonRow` per branch plus
 rows for the full-order roots in the searched band that no branch claimed.
@@ -18,7 +18,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from quadmodes.analysis.campbell import CampbellResult, campbell
-from quadmodes.analysis.rotating_equilibrium import SpinningEquilibrium, relative_equilibrium
 from quadmodes.analysis.rotating_matching import (
     comparison_vectors,
     full_order_comparison_vectors,
@@ -26,8 +25,10 @@ from quadmodes.analysis.rotating_matching import (
     match_branches,
 )
 from quadmodes.analysis.rotating_modes import RotatingRoots, rotating_roots
-from quadmodes.analysis.spin_axis import principal_axis, unit_axis
+from quadmodes.analysis.spin_axis import principal_axis
 from quadmodes.fe.model import centre_of_mass
+from quadmodes.rotations import unit_axis
+from quadmodes.structure.spinning import SpinningEquilibrium, relative_equilibrium
 
 Progress = Callable[[str, float], None]
 

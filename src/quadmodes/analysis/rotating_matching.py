@@ -10,8 +10,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from quadmodes.analysis.rotating_modes import RotatingRoots
-from quadmodes.analysis.spin_axis import unit_axis
 from quadmodes.fe.model import Structure, mass_matrix, rigid_body_modes
+from quadmodes.rotations import unit_axis
 
 
 def rotation_and_modal_parts(

@@ -1,5 +1,5 @@
 """Full-order rotating-frame eigenproblem: the roots of ``(λ²M + λG + K) q = 0`` linearised
-about a relative equilibrium (:mod:`quadmodes.analysis.rotating_equilibrium`, whose docstring
+about a relative equilibrium (:mod:`quadmodes.structure.spinning`, whose docstring
 derives M, G = 2Ω M Ê and K = K_T − Ω² M P̂).
 
 **Eigenproblem.** ``K`` is indefinite for a free spinning body (−Ω² m on transverse translations,
@@ -25,10 +25,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from quadmodes.analysis.rotating_equilibrium import gyroscopic_matrix, rotating_stiffness
-from quadmodes.analysis.spin_axis import unit_axis
 from quadmodes.fe.model import Structure, mass_matrix, rigid_body_modes, tangent_low_rank
 from quadmodes.linalg.factor import lu_factor, with_rank_one_terms
+from quadmodes.rotations import unit_axis
+from quadmodes.structure.spinning import gyroscopic_matrix, rotating_stiffness
 
 #: Relative offset of a shift from its target frequency (keeps K + σG + σ²M regular).
 SHIFT_OFFSET = 3e-3

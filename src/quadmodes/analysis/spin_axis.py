@@ -7,15 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadmodes.rom.reduced import ReducedModel
-
-
-def unit_axis(axis) -> np.ndarray:
-    """The unit vector (3,) along ``axis``; raises ValueError for a zero or malformed axis."""
-    e = np.asarray(axis, float)
-    norm = np.linalg.norm(e)
-    if e.shape != (3,) or not norm > 0.0:
-        raise ValueError("axis: give a non-zero 3-vector")
-    return e / norm
+from quadmodes.rotations import unit_axis
 
 
 def principal_axis(model: ReducedModel, index: int) -> np.ndarray:

@@ -57,6 +57,13 @@ class RunCase(Section):
                         "table or the [spinup] table",
                         table,
                     )
+            if self.reduced.reference == "spinning":
+                raise field_error(
+                    "case_rule",
+                    'is for free-body runs (about the spin of [initial]); a [spinup] is expanded '
+                    'about the state at rest: use "rest"',
+                    "reduced.reference",
+                )
             if self.reduced.modes == "auto":
                 raise field_error(
                     "case_rule",
@@ -101,6 +108,14 @@ class RunCase(Section):
             raise CaseError(
                 f"model = {toml_value(self.model)}: {exc}", source=f"{self.name}", field="model"
             ) from None
+
+    @property
+    def reference_spin(self) -> float:
+        """Spin (rad/s) of the state the reduced model is expanded about: the initial spin rate
+        with ``reduced.reference = "spinning"``, else 0 (the prestressed state at rest)."""
+        if self.reduced.reference != "spinning" or self.initial is None:
+            return 0.0
+        return float(self.initial.spin_rate)
 
     def to_toml(self) -> str:
         """This run case as TOML text in SI units (see :func:`run_case_to_toml`)."""

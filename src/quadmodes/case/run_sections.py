@@ -68,11 +68,19 @@ class RunReduced(Section):
     ``mode_margin`` × the initial spin frequency (default :data:`DEFAULT_MODE_MARGIN` = 2.5),
     degenerate pairs whole and at least the first bending pair
     (:func:`quadmodes.runs.mode_choice.auto_mode_count`); ``mode_margin`` is only read with
-    ``"auto"`` (dimensionless)."""
+    ``"auto"`` (dimensionless).
+
+    ``reference``: the state the model is expanded about. ``"rest"``: the prestressed (inflated)
+    state at rest, as the seed does. ``"spinning"``: the finite-element model's own centrifugal
+    relative equilibrium at the initial spin rate about the minor principal axis, with the modes
+    of its rotating-frame stiffness and the modal damping projected from the modes at rest
+    (:mod:`quadmodes.rom.spinning_reduction`); the steady centrifugal stretch is then in the
+    reference instead of in the modal coordinates."""
 
     modes: Annotated[int | Literal["auto"], BeforeValidator(_modes), FieldMeta("5")] = 5
     formulation: choice("Q", "P", "L", "rigid", "Q4") = "Q"
     mode_margin: quantity("dimensionless", "2.5", _margin, optional=True) = None
+    reference: choice("rest", "spinning") = "rest"
 
     @model_validator(mode="after")
     def check_margin(self) -> Self:

@@ -31,11 +31,8 @@ from quadmodes.io.atomic import atomic_path
 from quadmodes.rom import artifact
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.runs import model_cache
-from quadmodes.structure.labels import label_modes
-from quadmodes.structure.modes import compute_modes
+from quadmodes.structure.damping import CUTOFF_FACTOR, default_cutoff, modes_below, pairs_whole
 
-#: Default cutoff: this factor times the larger of the spin and the highest retained frequency.
-CUTOFF_FACTOR = 3.0
 #: Format version of the cached damping-mode files.
 DAMPING_FORMAT_VERSION = 1
 #: Damping choices of the full order (``False``/``"none"``: undamped).
@@ -91,45 +88,10 @@ def retained_damping(model: ReducedModel) -> DampingModes:
     )  # fmt: skip
 
 
-def default_cutoff(spin_hz: float, retained_hz) -> float:
-    """Default cutoff (Hz): :data:`CUTOFF_FACTOR` × max(spin, highest retained frequency)."""
-    top = float(np.max(retained_hz)) if len(retained_hz) else 0.0
-    return CUTOFF_FACTOR * max(abs(float(spin_hz)), top)
 
 
-def pairs_whole(frequencies_hz, labels, cutoff_hz: float) -> int:
-    """Number K of the ascending modes to keep: all below ``cutoff_hz`` plus the partner of a
-    pair that the cutoff would split. Modes are grouped from the bottom into pairs by the
-    reduced models' rule (same label within :data:`~quadmodes.runs.model_cache.PAIR_TOLERANCE`,
-    or any two within :data:`~quadmodes.runs.model_cache.DEGENERATE_TOLERANCE`)."""
-    f = np.asarray(frequencies_hz, float)
-    k, i = 0, 0
-    while i < len(f) and f[i] <= cutoff_hz:
-        size = 1
-        if i + 1 < len(f):
-            gap = abs(f[i + 1] - f[i])
-            same = labels[i] == labels[i + 1] and gap <= model_cache.PAIR_TOLERANCE * f[i]
-            size = 2 if same or gap <= model_cache.DEGENERATE_TOLERANCE * f[i] else 1
-        i += size
-        k = i
-    return k
 
 
-def modes_below(
-    structure: Structure, x: np.ndarray, cutoff_hz: float, count: int = 16
-) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Every elastic mode of ``structure`` about ``x`` (n,3) below ``cutoff_hz`` (pairs whole):
-    ``(frequencies Hz (K,), shapes (K,n,3), labels)``. :func:`compute_modes` with a request
-    doubled from ``count`` until a mode beyond the kept ones is found."""
-    n_free = structure.free_dofs.size
-    while True:
-        m = compute_modes(structure, x, count)
-        f = np.asarray(m.frequencies_hz, float)
-        labels = label_modes(structure, x, m.shapes)
-        k = pairs_whole(f, labels, cutoff_hz)
-        if k < len(f) or count >= n_free - 12:
-            return f[:k], m.shapes[:k], labels[:k]
-        count *= 2
 
 
 def damping_key(case: Case, cutoff_hz: float) -> str:

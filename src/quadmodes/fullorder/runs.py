@@ -36,7 +36,10 @@ class FullOrderSetup:
     (n,3) m, the reduced model (modes, damping), the initial state (x0, v0) (n,3), the hub drive
     (spin-up) or None, the nominal spin axis (body frame) and the run's time step/sampling;
     damping_choice ("independent", "retained" or "none") and, for "independent", its basis
-    ``damping`` (None when the case's damping ratio is 0: undamped)."""
+    ``damping`` (None when the case's damping ratio is 0: undamped). x_rest (n,3) m: the
+    prestressed state at rest, about which the independent damping modes are taken (None: x_ref;
+    differs from x_ref when the reduced model is expanded about a spinning state, whose
+    relative equilibrium is then x_ref)."""
 
     run: RunCase
     structure: Structure
@@ -51,6 +54,7 @@ class FullOrderSetup:
     notes: tuple[str, ...] = field(default_factory=tuple)
     damping_choice: str = "retained"
     damping: fdamp.DampingModes | None = None
+    x_rest: np.ndarray | None = None
 
     def integrator_damping(self) -> bool | fdamp.DampingModes:
         """The ``damping`` argument of :func:`integrate_full_order` for this setup."""
@@ -90,7 +94,8 @@ def with_damping(st: FullOrderSetup, damping="independent", cutoff_hz: float | N
     if cutoff_hz is None:
         spin = st.run.spinup.omega_s if st.run.spinup is not None else st.run.initial.spin_rate
         cutoff_hz = fdamp.default_cutoff(float(spin) / (2 * np.pi), st.model.frequencies_hz)
-    modes = fdamp.independent_damping_for(case, st.structure, st.x_ref, float(cutoff_hz), zeta)
+    x_rest = st.x_ref if st.x_rest is None else st.x_rest
+    modes = fdamp.independent_damping_for(case, st.structure, x_rest, float(cutoff_hz), zeta)
     return replace(st, damping_choice=choice, damping=modes, notes=(*notes, modes.describe()))
 
 
@@ -132,7 +137,10 @@ def _setup_for_run(run, model, stretch) -> FullOrderSetup:
     structure = pipeline.with_gas_law(case, structure, x_ref)
     setup = simulate.prepare(run, model, model_case=case)
     y0 = setup.initial.y0
-    x0, v0 = initial_state_from_reduced(setup.model, y0, p=centre_of_mass(structure, x_ref))
+    x_rest, centre = x_ref, centre_of_mass(structure, x_ref)
+    if setup.model.reference_spin:  # the model's reference is the spinning relative equilibrium
+        x_ref = np.asarray(setup.model.X) + np.outer(structure.translational, centre)
+    x0, v0 = initial_state_from_reduced(setup.model, y0, p=centre)
     notes = setup.initial.notes
     if stretch and np.any(y0[4:7]):
         u_c = centrifugal_stretch(structure, x_ref, y0[4:7], setup.model)
@@ -143,7 +151,7 @@ def _setup_for_run(run, model, stretch) -> FullOrderSetup:
     integ = run.integration
     return FullOrderSetup(run, structure, x_ref, setup.model, x0, v0, None,
                           setup.initial.spin_axis, float(integ.duration),
-                          float(integ.dt) * int(integ.save_every), notes)  # fmt: skip
+                          float(integ.dt) * int(integ.save_every), notes, x_rest=x_rest)  # fmt: skip
 
 
 def full_order_for_run(

@@ -7,7 +7,9 @@ kept in global attributes. Files are written atomically and checked on load.
 Format 2 adds the manifold-potential tensors V3, V4 and the global attribute
 ``manifold_potential`` (1 if they were computed). Format-1 files still load, with V3 = V4 = 0
 and ``manifold_potential = False``: formulations Q, P, L and rigid are unchanged, "Q4" refuses
-such a model (rebuild it with ``quadmodes reduce``).
+such a model (rebuild it with ``quadmodes reduce``). Format 3 adds the linear potential
+coefficient F1, the reference spin axis and the attribute ``reference_spin_rad_s`` of a model
+expanded about a spinning state; older files load as models about the state at rest (F1 = 0).
 """
 
 from __future__ import annotations
@@ -24,9 +26,10 @@ from quadmodes.io.atomic import atomic_path
 from quadmodes.rom.reduced import ReducedModel
 
 FORMAT = "quadmodes-reduced-model"
-FORMAT_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+FORMAT_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
 _V2_VARIABLES = ("V3", "V4")  # absent from format-1 files
+_V3_VARIABLES = ("F1", "reference_axis")  # absent from format-1 and -2 files
 
 
 class ArtifactError(ValueError):
@@ -64,6 +67,8 @@ _VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
         "J kg-2 m-4",
         "quartic manifold-potential coefficients (symmetric): V4_mnpq s_m s_n s_p s_q",
     ),
+    "F1": (("mode",), "J kg-0.5 m-1", "linear potential coefficient Phi^T f(X) (spinning reference)"),
+    "reference_axis": (("xyz",), "1", "spin axis of the reference state (body frame)"),
 }
 
 
@@ -89,6 +94,7 @@ def to_dataset(model: ReducedModel) -> xr.Dataset:
         "mass_kg": float(model.mass),
         "free": int(model.free),
         "manifold_potential": int(model.manifold_potential),
+        "reference_spin_rad_s": float(model.reference_spin),
         "conventions": "SI; modal coordinates s in kg^0.5 m",
     }
     attrs.update({f"provenance_{k}": str(v) for k, v in model.provenance.items()})
@@ -126,7 +132,10 @@ def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
             f"{ds.attrs.get('format_version')}, this version reads formats "
             f"{', '.join(map(str, READABLE_VERSIONS))}; rebuild it with `quadmodes reduce`"
         )
-    expected = [v for v in _VARIABLES if version >= 2 or v not in _V2_VARIABLES]
+    expected = [
+        v for v in _VARIABLES
+        if (version >= 2 or v not in _V2_VARIABLES) and (version >= 3 or v not in _V3_VARIABLES)
+    ]  # fmt: skip
     missing = [v for v in expected if v not in ds]
     if missing:
         raise ArtifactError(f"{path}: incomplete reduced-model file (missing {missing[0]}); rebuild")
@@ -143,5 +152,6 @@ def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
         manifold_potential=version >= 2 and bool(int(ds.attrs.get("manifold_potential", 0))),
         labels=tuple(str(v) for v in ds["label"].values),
         provenance=provenance,
+        reference_spin=float(ds.attrs.get("reference_spin_rad_s", 0.0)),
         **values,
     )

@@ -36,7 +36,7 @@ class BackwardEulerStep:
             flat.WtE,
             flat.Wt,
         )
-        self.Lam, self.C = sys.Lam, sys.C
+        self.Lam, self.C, self.F1 = sys.Lam, sys.C, sys.F1
         self.LC = np.hstack([sys.Lam, sys.C])
         self.z1 = np.ones(n + 1)
         self.y1 = np.empty(2 * n)
@@ -73,7 +73,7 @@ class BackwardEulerStep:
         yv = self.y1
         yv[:n] = z1[1:]
         yv[n:] = sd1
-        b[3:] += pe @ x - self.LC @ yv
+        b[3:] += pe @ x - self.LC @ yv - self.F1
         if self.quartic:
             b[3:] -= potential_nonlinear_force(self.sys, z1[1:])
         dxv = x - self.x0

@@ -74,9 +74,9 @@ def kinetic_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
 
 
 def potential_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
-    """V = ½ sᵀΛs (…) J; for "Q4" plus ``V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q``."""
+    """V = F1·s + ½ sᵀΛs (…) J; for "Q4" plus ``V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q``."""
     s = split_state(sys, y)[2]
-    v = 0.5 * np.einsum("...m,mn,...n->...", s, sys.Lam, s)
+    v = 0.5 * np.einsum("...m,mn,...n->...", s, sys.Lam, s) + s @ sys.F1
     if sys.quartic:
         ss = np.einsum("...m,...n->...mn", s, s)
         v = v + np.einsum("...mn,...p,mnp->...", ss, s, sys.V3)
@@ -85,8 +85,8 @@ def potential_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
 
 
 def potential_gradient(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
-    """∂V/∂s (N,) J/(√kg·m) at one s (N,): ``Λs`` (+ ``3 V3·ss + 4 V4·sss`` for "Q4")."""
-    g = sys.Lam @ s
+    """∂V/∂s (N,) J/(√kg·m) at one s (N,): ``F1 + Λs`` (+ ``3 V3·ss + 4 V4·sss`` for "Q4")."""
+    g = sys.Lam @ s + sys.F1
     return g + potential_nonlinear_force(sys, s) if sys.quartic else g
 
 
@@ -218,7 +218,7 @@ def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
     b[1] -= wz * hx - wx * hz
     b[2] -= wx * hy - wy * hx
     pe = p if sys.same_rows else ((z @ sys.flat.YtE).reshape(n * m3, m3) @ nu).reshape(n, m3)
-    b[3:] += pe @ nu - sys.Lam @ s - sys.C @ sd  # ∂T/∂s_k = νᵀ (½∂𝕄/∂s_k) ν
+    b[3:] += pe @ nu - sys.Lam @ s - sys.F1 - sys.C @ sd  # ∂T/∂s_k = νᵀ (½∂𝕄/∂s_k) ν
     if sys.quartic:
         b[3:] -= potential_nonlinear_force(sys, s)
     if torque is not None:

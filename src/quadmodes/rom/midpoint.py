@@ -30,7 +30,7 @@ class MidpointStep:
 
     Formulation "Q4" (quartic manifold potential): the potential force is the average vector
     field ``∫₀¹ ∂V/∂s(s₀ + τ(s₁ − s₀)) dτ``, exact by Simpson's rule since ∂V/∂s is cubic:
-    ``Λs½ + (n(s₀) + 4 n(s½) + n(s₁))/6`` with n = ∂V/∂s − Λs. It is a discrete gradient,
+    ``F1 + Λs½ + (n(s₀) + 4 n(s½) + n(s₁))/6`` with n = ∂V/∂s − Λs − F1. It is a discrete gradient,
     ``(s₁ − s₀)·F_V = V(s₁) − V(s₀)`` exactly, so the potential adds no energy error: the energy
     error is that of the kinetic terms, as for Q (bounded, O(Δt²), no drift).
 
@@ -45,7 +45,7 @@ class MidpointStep:
         flat = sys.flat
         self.Mt, self.Yt, self.YtE, self.WtE = flat.Mt, flat.Yt, flat.YtE, flat.WtE
         self.LC = np.hstack([sys.Lam, sys.C])  # F_s contribution −[Λ C]·(s, ṡ)
-        self.C, self.Lam = sys.C, sys.Lam
+        self.C, self.Lam, self.F1 = sys.C, sys.Lam, sys.F1
         self.hC = 0.5 * dt * sys.C
         self.z1 = np.ones(n + 1)  # z at t1 (z[0] = 1)
         self.zm = np.ones(n + 1)  # z at t½
@@ -107,7 +107,7 @@ class MidpointStep:
         ym[:n] = zm[1:]
         ym[n:] = numid[3:]
         pm = ((zm @ self.YtE).reshape(n * m3, m3) @ numid).reshape(n, m3)
-        f = pm @ numid - self.LC @ ym
+        f = pm @ numid - self.LC @ ym - self.F1
         if self.quartic:  # average vector field of the cubic and quartic potential (Simpson)
             nl = potential_nonlinear_force
             f -= (self.n0 + 4.0 * nl(self.sys, zm[1:]) + nl(self.sys, z1[1:])) / 6.0

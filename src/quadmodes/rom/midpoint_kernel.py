@@ -344,11 +344,11 @@ def _residual(x, arrays, dt, consts, wk, r):
     """Residual r (3+N,) of the step equations at ν₁ = x (3+N,). Returns False if the iterate
     is non-finite. Mirrors :meth:`quadmodes.rom.midpoint.MidpointStep.residual`.
 
-    ``arrays`` = (Mt, MtE, Λ, C, 3V3, 4V4) of :func:`_arrays`; ``consts`` = (ν₀, h₀, p₀, sb1,
+    ``arrays`` = (Mt, MtE, Λ, C, 3V3, 4V4, F1) of :func:`_arrays`; ``consts`` = (ν₀, h₀, p₀, sb1,
     sbm, n0) of the step (n0 (N,) = 3V3·s₀s₀ + 4V4·s₀s₀s₀ for Q4, ``v3g.shape[1] > 0``); ``wk``
     of :func:`_work_arrays`: on return it holds z₁, z½, 𝕄(s₁), ν½, θ = −Δt ω½, exp(θ̂) h₀ and
     P_E(z½, ν½) for :func:`_jacobian`."""
-    mt, mte, lam, cmat, v3g, v4g = arrays
+    mt, mte, lam, cmat, v3g, v4g, _ = arrays
     x0, h0, p0, sb1, sbm, n0 = consts
     z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y, nm, n1, hm, h1 = wk
     quartic = v3g.shape[1] > 0
@@ -395,7 +395,7 @@ def _residual(x, arrays, dt, consts, wk, r):
 def _jacobian(x, arrays, dt, wk, jm):
     """Jacobian ``jm`` (3+N, 3+N) of the residual with respect to ν₁ = x, from the intermediates
     that :func:`_residual` left in ``wk`` at the same x."""
-    mt, mte, lam, cmat, v3g, v4g = arrays
+    mt, mte, lam, cmat, v3g, v4g, _ = arrays
     z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y, nm, n1, hm, h1 = wk
     n = lam.shape[0]
     m3 = n + 3
@@ -443,7 +443,9 @@ def _linearise(m, z, x_prev, s, xg, arrays, dt, consts, wk, r, jm, piv):
     Jacobian."""
     x, h0, p0, sb1, sbm, n0 = consts
     _begin(m, dt, x, s, h0, p0, sb1, sbm)
-    v3g, v4g = arrays[4], arrays[5]
+    v3g, v4g, f1 = arrays[4], arrays[5], arrays[6]
+    for k in range(f1.shape[0]):  # the constant potential force F1 folded into p₀ − Δt F1
+        p0[k] -= dt * f1[k]
     if v3g.shape[1] > 0:
         _nl_force(v3g, v4g, z, n0)  # z = (1, s₀)
     for a in range(x.shape[0]):
@@ -573,7 +575,7 @@ def _store(out, ed_out, k, q, x, s, e_d):
 
 @_jit
 def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, max_newton,
-                 out, ed_out, last, info, finfo, v3g, v4g):  # fmt: skip
+                 out, ed_out, last, info, finfo, v3g, v4g, f1):  # fmt: skip
     """Run ``n_steps`` midpoint steps of size ``dt`` (s) from ``y0`` (7+2N,) = [q, ω, s, ṡ].
 
     Inputs: mt, mte ((N+1)², (3+N)²) flattened mass tensors (momenta, energy); lam (N,N) 1/s²,
@@ -584,11 +586,12 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     SINGULAR), failing step, its Newton iterations, n_newton, n_jac, n_res, steps done],
     finfo (float64, 2) = [relative Newton update at failure, E_d of the last accepted state].
     v3g (N, N²), v4g (N, N³): 3V3 and 4V4 of formulation Q4, or (N, 0) arrays (no quartic
-    potential). Returns the number of samples written.
+    potential). f1 (N,) J/(√kg·m): the linear potential coefficient F1 (zeros for a model about
+    the state at rest). Returns the number of samples written.
     """
     n = lam.shape[0]
     m3 = n + 3
-    arrays = (mt, mte, lam, cmat, v3g, v4g)
+    arrays = (mt, mte, lam, cmat, v3g, v4g, f1)
     # state: q, s, ν = (ω, ṡ) and the previous ν for the linear-extrapolation predictor
     q = y0[0:4].copy()
     s = y0[7 : 7 + n].copy()
@@ -656,7 +659,7 @@ def _arrays(sys):
     """Arrays of ``sys`` (a ReducedSystem) in the kernel's layout, always with the same types and
     ranks, so one compiled specialisation serves every formulation and N: Mt, MtE ((N+1)²,
     (3+N)²); Λ, C (N,N); weights √diag(J0, μ) (3+N,) of the Newton convergence test; 3V3
-    (N, N²) and 4V4 (N, N³) for "Q4", else (N, 0) arrays."""
+    (N, N²) and 4V4 (N, N³) for "Q4", else (N, 0) arrays; F1 (N,)."""
     f = np.ascontiguousarray
     n = sys.n_modes
     quartic = getattr(sys, "quartic", False)
@@ -669,6 +672,7 @@ def _arrays(sys):
         f(newton_weights(sys)),
         f(flat.V3g, dtype=np.float64) if quartic else np.zeros((n, 0)),
         f(flat.V4g, dtype=np.float64) if quartic else np.zeros((n, 0)),
+        f(sys.F1, dtype=np.float64),
     )
 
 
@@ -679,7 +683,7 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="
     indices to sample, starting at 0; newton_tol; max_newton; t0 (s, for messages). Returns
     ``(ys (K, 7+2N), dissipated (K,), steps done, stats, status, message)`` with the same
     sampling, counters and failure messages as the numpy driver."""
-    mt, mte, lam, cmat, wt, v3g, v4g = _arrays(sys)
+    mt, mte, lam, cmat, wt, v3g, v4g, f1 = _arrays(sys)
     y0 = np.ascontiguousarray(y0, dtype=np.float64)
     idx = np.ascontiguousarray(save_idx, dtype=np.int64)
     out = np.empty((len(idx), len(y0)))
@@ -689,7 +693,7 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="
     finfo = np.zeros(2)
     k_save = run_midpoint(mt, mte, lam, cmat, wt, y0, int(n_steps), float(dt), idx,
                           float(newton_tol), int(max_newton), out, ed_out, last, info,
-                          finfo, v3g, v4g)  # fmt: skip
+                          finfo, v3g, v4g, f1)  # fmt: skip
     status, step, its, n_newton, n_jac, n_res, done = (int(v) for v in info)
     msg = "ok"
     out, ed_out = out[:k_save], ed_out[:k_save]
@@ -713,5 +717,6 @@ def warm_up() -> float:
     y0 = np.array([1.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3])
     idx = np.array([0, 2], np.int64)
     run_midpoint(mt, mt, e, e, np.ones(3), y0, 2, 1e-3, idx, 1e-13, 25, np.empty((2, 7)),
-                 np.empty(2), np.empty(7), np.zeros(7, np.int64), np.zeros(2), e, e)  # fmt: skip
+                 np.empty(2), np.empty(7), np.zeros(7, np.int64), np.zeros(2), e, e,
+                 np.zeros(0))  # fmt: skip
     return time.perf_counter() - start

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
+    internal_force,
     mass_matrix,
     rigid_body_modes,
     second_order_force,
@@ -35,6 +36,7 @@ from quadmodes.fe.model import (
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
+from quadmodes.structure.spinning import centrifugal_softening
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,16 @@ class ReducedModel:
     ``V(s) = ½ sᵀΛs + V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q``. They default to zeros;
     ``manifold_potential`` is True only when they were computed (formulation "Q4" needs it).
     Mode coordinates s are in √kg·m, so that T = ½ ṡᵀ μ ṡ and V = ½ sᵀ Λ s (J) to second order.
+
+    Expanded about a spinning state (``reference_spin`` ≠ 0 rad/s about ``reference_axis`` (3,),
+    body frame): X is the full order's centrifugal relative equilibrium at that spin
+    (:func:`quadmodes.structure.spinning.relative_equilibrium`), the modes are those of the
+    rotating-frame stiffness ``K_T − Ω²MP̂`` on the frame conditions, and the potential gets the
+    linear term ``F1·s`` (F1 (N,) J/(√kg·m) = Φᵀ f(X), the internal force that balances the
+    centrifugal load there) and ``Λ = ΦᵀK_TΦ + 2 f·g^{mn}``: ``V(s) = F1·s + ½ sᵀΛs (+ V3, V4)``
+    is then the strain energy of the manifold about that state to second (fourth) order, and at
+    the reference spin s = 0 is a relative equilibrium of the reduced equations. F1 is zero for
+    a model about the state at rest.
     """
 
     mass: float
@@ -85,9 +97,16 @@ class ReducedModel:
     V4: np.ndarray | None = None
     manifold_potential: bool = False
     provenance: dict = field(default_factory=dict)
+    F1: np.ndarray | None = None
+    reference_spin: float = 0.0
+    reference_axis: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.frequencies_hz)
+        if self.F1 is None:
+            object.__setattr__(self, "F1", np.zeros(n))
+        if self.reference_axis is None:
+            object.__setattr__(self, "reference_axis", np.array([0.0, 0.0, 1.0]))
         if self.V3 is None:
             object.__setattr__(self, "V3", np.zeros((n, n, n)))
         if self.V4 is None:
@@ -135,6 +154,8 @@ class ReducedModel:
             z((0, n, 3)),
             z((0, 0, n, 3)),
             provenance=dict(self.provenance),
+            reference_spin=self.reference_spin,
+            reference_axis=self.reference_axis,
         )
 
     def select(self, modes: np.ndarray) -> ReducedModel:
@@ -168,6 +189,9 @@ class ReducedModel:
             self.V4[np.ix_(i, i, i, i)],
             self.manifold_potential,
             dict(self.provenance),
+            self.F1[i],
+            self.reference_spin,
+            self.reference_axis,
         )
 
 
@@ -190,15 +214,22 @@ def cross_form(p: np.ndarray) -> np.ndarray:
     )
 
 
-def quadratic_modes(structure: Structure, x: np.ndarray, shapes: np.ndarray, progress=None):
+def quadratic_modes(
+    structure: Structure, x: np.ndarray, shapes: np.ndarray, progress=None, softening=None
+):
     """Quadratic modes ``g^{mn}`` ``(N, N, n, 3)`` (symmetric in m, n) about state ``x``.
 
     Free body: bordered solve ``[[K, MΨ], [ΨᵀM, 0]]`` (inertia relief + CoM/mean-axis frame);
-    clamped body: ``K_ff g_f = −B_f``.
+    clamped body: ``K_ff g_f = −B_f``. ``K`` is the tangent, minus ``softening`` (3n, 3n) N/m if
+    given (the centrifugal softening ``Ω²MP̂`` of a spinning reference state: the second-order
+    static response in the rotating frame).
     """
     n_modes = shapes.shape[0]
     free = structure.free_dofs
-    k = tangent_stiffness(structure, x)[free][:, free]
+    k = tangent_stiffness(structure, x)
+    if softening is not None:
+        k = (k - softening).tocsr()
+    k = k[free][:, free]
     low_rank = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
     if structure.is_free:
         constraint = (mass_matrix(structure) @ rigid_body_modes(structure, x))[free]
@@ -308,8 +339,15 @@ def reduce(
     damping_ratio: float | np.ndarray,
     progress=None,
     provenance: dict | None = None,
+    *,
+    spinning: SpinningReference | None = None,
+    damping_matrix: np.ndarray | None = None,
 ) -> ReducedModel:
-    """Build the :class:`ReducedModel` from the prestressed state ``x`` and retained modes."""
+    """Build the :class:`ReducedModel` from the prestressed state ``x`` and retained modes.
+
+    ``spinning``: the model is expanded about a spinning state (``x`` its relative equilibrium,
+    ``shapes`` modes of its rotating-frame stiffness; :class:`ReducedModel`). ``damping_matrix``
+    (N, N) 1/s: the modal damping (default ``diag(2ζω)``)."""
     n_modes = shapes.shape[0]
     ms = structure.mass_scalar
     t = structure.translational.astype(float)
@@ -317,22 +355,21 @@ def reduce(
         xr = x - np.outer(t, centre_of_mass(structure, x))
     else:
         xr = x.copy()
-    g = quadratic_modes(structure, x, shapes, progress)
+    softening = None if spinning is None else spinning.softening(structure)
+    g = quadratic_modes(structure, x, shapes, progress, softening)
     w = ms @ t
     p_xx = mass_product(ms, xr, xr)
     p_xu = mass_product(ms, shapes, xr)  # P(u, X): (N,3,3); transpose for P(X, u)
     p_x_u = np.swapaxes(p_xu, -1, -2)
     p_uu = np.einsum("mia,nib->mnab", shapes, np.stack([ms @ s for s in shapes]))
     p_xg = np.swapaxes(mass_product(ms, g, xr), -1, -2)  # P(X, g)
-    k = tangent_stiffness(structure, x)
-    m_full = mass_matrix(structure)
     phi = shapes.reshape(n_modes, -1).T
-    mu = phi.T @ (m_full @ phi)
-    lam = phi.T @ (k @ phi)
-    for coef, vec in tangent_low_rank(structure, x):
-        lam += coef * np.outer(phi.T @ vec, phi.T @ vec)
+    mu = phi.T @ (mass_matrix(structure) @ phi)
+    lam, f1 = potential_quadratic_part(structure, x, shapes, g, spinning is not None)
     omega = 2.0 * np.pi * np.asarray(frequencies_hz)
     zeta = np.broadcast_to(np.asarray(damping_ratio, float), omega.shape).copy()
+    if damping_matrix is None:
+        damping_matrix = np.diag(2.0 * zeta * omega * np.diag(mu))
     polynomial = has_polynomial_potential(structure)
     if polynomial:
         v3, v4 = manifold_potential_tensors(structure, x, shapes, g, progress)
@@ -354,8 +391,8 @@ def reduce(
         S1=np.einsum("i,kia->ka", w, shapes),
         S2=np.einsum("i,mnia->mna", w, g),
         mu=mu,
-        Lam=0.5 * (lam + lam.T),
-        C=np.diag(2.0 * zeta * omega * np.diag(mu)),
+        Lam=lam,
+        C=np.asarray(damping_matrix, float),
         X=xr,
         translational=structure.translational.copy(),
         weights=w,
@@ -365,4 +402,45 @@ def reduce(
         V4=v4,
         manifold_potential=polynomial,
         provenance=dict(provenance or {}),
+        F1=f1,
+        reference_spin=0.0 if spinning is None else float(spinning.spin),
+        reference_axis=None if spinning is None else np.asarray(spinning.axis, float),
     )
+
+
+def potential_quadratic_part(
+    structure: Structure, x: np.ndarray, shapes: np.ndarray, g: np.ndarray, loaded: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(Λ (N,N) 1/s², F1 (N,) J/(√kg·m))``: the second- and first-order coefficients of the
+    strain energy on the manifold ``x + Φs + Σ s_m s_n g^{mn}`` about ``x`` (n,3),
+    ``Λ = ΦᵀK_TΦ + 2 f·g^{mn}`` and ``F1 = Φᵀf`` with ``f`` the internal force at ``x`` on the
+    free DOFs (pressure included): zero at an equilibrium at rest, the centrifugal load at a
+    spinning relative equilibrium. ``loaded=False``: ``x`` is an equilibrium at rest, f is taken
+    as zero (its Newton residual is not kept) and F1 = 0."""
+    n_modes = shapes.shape[0]
+    phi = shapes.reshape(n_modes, -1).T
+    lam = phi.T @ (tangent_stiffness(structure, x) @ phi)
+    for coef, vec in tangent_low_rank(structure, x):
+        lam += coef * np.outer(phi.T @ vec, phi.T @ vec)
+    if not loaded:
+        return 0.5 * (lam + lam.T), np.zeros(n_modes)
+    force = internal_force(structure, x)
+    force[structure.fixed] = 0.0
+    f = force.ravel()
+    if np.abs(f).max(initial=0.0) > 0.0:
+        lam += 2.0 * (g.reshape(n_modes, n_modes, -1) @ f)
+    f1 = phi.T @ f
+    return 0.5 * (lam + lam.T), f1
+
+
+@dataclass(frozen=True)
+class SpinningReference:
+    """The spinning state a reduced model is expanded about: ``spin`` (rad/s) about the unit
+    ``axis`` (3,) through the centre of mass (free body) or the hub point (clamped)."""
+
+    spin: float
+    axis: np.ndarray
+
+    def softening(self, structure: Structure) -> sp.csr_matrix:
+        """Centrifugal softening ``Ω² M_s ⊗ (I − e eᵀ)`` (3n, 3n) N/m."""
+        return centrifugal_softening(structure, self.spin, self.axis)

@@ -81,7 +81,9 @@ class ReducedSystem:
     "P" only). c (N,3) √kg·m. mu (N,N) 1, Lam (N,N) 1/s², C (N,N) 1/s. quat_gain (1/s): gain of
     the quaternion norm-drift correction ``k (1 − |q|²) q`` in :func:`quadmodes.rom.dynamics.rhs`.
     V3 (N,N,N), V4 (N,N,N,N) J/(√kg·m)^k: symmetric cubic and quartic potential coefficients,
-    used only when ``quartic`` (formulation "Q4"); None means zeros.
+    used only when ``quartic`` (formulation "Q4"); None means zeros. F1 (N,) J/(√kg·m): linear
+    potential coefficient (a model expanded about a spinning state), ``V = F1·s + ½ sᵀΛs + …``;
+    None means zeros.
     ``flat``: the :class:`FlatTensors` for fast matrix products.
     """
 
@@ -100,6 +102,7 @@ class ReducedSystem:
     quat_gain: float = 1.0
     V3: np.ndarray | None = None
     V4: np.ndarray | None = None
+    F1: np.ndarray | None = None
     n_modes: int = field(init=False)
     quartic: bool = field(init=False)
     same_rows: bool = field(init=False, repr=False)
@@ -112,6 +115,7 @@ class ReducedSystem:
         put(self, "quartic", self.formulation == "Q4")
         put(self, "V3", np.zeros((n, n, n)) if self.V3 is None else np.asarray(self.V3, float))
         put(self, "V4", np.zeros((n,) * 4) if self.V4 is None else np.asarray(self.V4, float))
+        put(self, "F1", np.zeros(n) if self.F1 is None else np.asarray(self.F1, float))
         put(self, "same_rows", self.J2_rot is self.J2 and self.D_rot is self.D)
         put(self, "flat", flat_tensors(self))
 
@@ -228,6 +232,7 @@ def reduced_system(
         quat_gain=float(quat_gain),
         V3=f(model.V3, float) if formulation == "Q4" else None,
         V4=f(model.V4, float) if formulation == "Q4" else None,
+        F1=f(getattr(model, "F1", None) if model.n_modes else np.zeros(0), float),
     )
 
 
@@ -235,7 +240,7 @@ def with_damping(sys: ReducedSystem, C: np.ndarray) -> ReducedSystem:
     """``sys`` with the modal damping matrix replaced by ``C`` (N,N) 1/s."""
     return ReducedSystem(
         sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam,
-        np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4,
+        np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4, sys.F1,
     )  # fmt: skip
 
 

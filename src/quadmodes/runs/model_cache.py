@@ -29,15 +29,13 @@ from quadmodes.case import Case, CaseError, Modes
 from quadmodes.io.atomic import write_text
 from quadmodes.rom import artifact
 from quadmodes.rom import reduced as red
+from quadmodes.rom.spinning_reduction import reduce_spinning, spinning_modes
 from quadmodes.structure import pipeline
+from quadmodes.structure.labels import DEGENERATE_TOLERANCE, PAIR_TOLERANCE
 
 Progress = Callable[[str, float], None]
 
 DEFAULT_MODES = 5
-#: Two modes with the same label within this relative frequency gap form a (degenerate) pair.
-PAIR_TOLERANCE = 0.05
-#: Modes this close in frequency (relative) are degenerate, whatever their labels.
-DEGENERATE_TOLERANCE = 1e-3
 
 
 def cache_dir() -> Path:
@@ -66,20 +64,23 @@ def model_inputs(case: Case) -> str:
     return text
 
 
-def reduced_key(case: Case, n_modes: int) -> str:
-    """Content key of the reduced model of ``case`` with ``n_modes`` modes (includes the
-    package version and the artifact format version, so that files of another format are not
-    cache hits)."""
+def reduced_key(case: Case, n_modes: int, spin: float = 0.0) -> str:
+    """Content key of the reduced model of ``case`` with ``n_modes`` modes, expanded about the
+    state spinning at ``spin`` (rad/s; 0: at rest) (includes the package version and the
+    artifact format version, so that files of another format are not cache hits)."""
+    reference = f"# reduced.reference_spin = {float(spin)!r}\n" if spin else ""
     return artifact.content_key(
         model_inputs(case)
         + f"\n# reduced.modes = {int(n_modes)}\n"
+        + reference
         + f"# artifact.format_version = {artifact.FORMAT_VERSION}\n"
     )
 
 
-def cache_path(case: Case, n_modes: int) -> Path:
-    """Cache file of the reduced model of ``case`` with ``n_modes`` modes."""
-    return cache_dir() / f"{case.name}-N{int(n_modes)}-{reduced_key(case, n_modes)}.nc"
+def cache_path(case: Case, n_modes: int, spin: float = 0.0) -> Path:
+    """Cache file of the reduced model of ``case`` with ``n_modes`` modes (about ``spin``)."""
+    tag = f"-spin{spin / (2 * np.pi):.6g}Hz".replace(".", "p") if spin else ""
+    return cache_dir() / f"{case.name}-N{int(n_modes)}{tag}-{reduced_key(case, n_modes, spin)}.nc"
 
 
 def splits_pair(labels, freqs, n_modes: int) -> bool:
@@ -108,7 +109,7 @@ def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
         )
 
 
-def _provenance(case: Case, modal, n_modes: int) -> dict:
+def _provenance(case: Case, modal, n_modes: int, spin: float = 0.0) -> dict:
     """Provenance of the reduced model: case, its TOML, node and mode counts, version, key."""
     return {
         "case": case.name,
@@ -116,7 +117,7 @@ def _provenance(case: Case, modal, n_modes: int) -> dict:
         "n_nodes": int(modal.structure.n),
         "n_modes": n_modes,
         "quadmodes_version": __version__,
-        "content_key": reduced_key(case, n_modes),
+        "content_key": reduced_key(case, n_modes, spin),
     }
 
 
@@ -156,16 +157,20 @@ def modal_model_for(case: Case, count: int, progress: Progress | None = None):
 
 
 def build_reduced_model(
-    case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None
+    case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None, spin: float = 0.0
 ) -> red.ReducedModel:
     """Modal model of ``case`` (:func:`modal_model_for`), its lowest ``n_modes`` elastic modes,
-    and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance.
+    and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance; with
+    ``spin`` ≠ 0 (rad/s) the model is expanded about the spinning state instead
+    (:func:`_build_spinning`).
 
     Raises :class:`CaseError` (field ``reduced.modes``) if the model has fewer modes or the cut
     splits a degenerate pair."""
     n_modes = int(n_modes)
     if n_modes < 1:
         raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
+    if spin:
+        return _build_spinning(case, n_modes, float(spin), progress)
     modal = modal_model_for(case, n_modes + 1, progress)  # one more: is a pair split?
     freqs = np.asarray(modal.modes.frequencies_hz, float)
     labels = list(modal.labels)
@@ -195,14 +200,16 @@ def reduced_model_for(
     *,
     use_cache: bool = True,
     info: dict | None = None,
+    spin: float = 0.0,
 ) -> red.ReducedModel:
-    """The reduced model of ``case`` with ``n_modes`` modes, from the cache if present.
+    """The reduced model of ``case`` with ``n_modes`` modes, expanded about the state spinning at
+    ``spin`` (rad/s; 0: at rest), from the cache if present.
 
-    The cache file is keyed by ``artifact.content_key(case TOML + n_modes)``; a missing, corrupt
-    or mismatching file is (re)built and saved. ``info`` (optional dict) receives ``cache``
-    ("hit", "miss", "rebuilt" or "off") and ``path``."""
+    The cache file is keyed by ``artifact.content_key(case TOML + n_modes + spin)``; a missing,
+    corrupt or mismatching file is (re)built and saved. ``info`` (optional dict) receives
+    ``cache`` ("hit", "miss", "rebuilt" or "off") and ``path``."""
     info = {} if info is None else info
-    path = cache_path(case, n_modes)
+    path = cache_path(case, n_modes, spin)
     info["path"] = str(path)
     info["cache"] = "off" if not use_cache else "miss"
     if use_cache and path.is_file():
@@ -212,19 +219,42 @@ def reduced_model_for(
             info["cache"] = "rebuilt"
         else:
             if (
-                model.provenance.get("content_key") == reduced_key(case, n_modes)
+                model.provenance.get("content_key") == reduced_key(case, n_modes, spin)
                 and model.n_modes == n_modes
             ):
                 info["cache"] = "hit"
                 return model
             info["cache"] = "rebuilt"
-    model = build_reduced_model(case, n_modes, progress)
+    model = build_reduced_model(case, n_modes, progress, spin)
     if use_cache:
         try:
             artifact.save_reduced_model(model, path)
         except OSError as exc:  # a read-only cache is not an error: the run goes on
             info["cache"] = f"not saved ({exc.strerror or type(exc).__name__})"
     return model
+
+
+def _build_spinning(case: Case, n_modes: int, spin: float, progress) -> red.ReducedModel:
+    """:func:`build_reduced_model` about the centrifugal relative equilibrium at ``spin``
+    (rad/s) about the minor principal axis (:mod:`quadmodes.rom.spinning_reduction`)."""
+    modal = modal_model_for(case, 1, progress)  # the inflated state at rest
+    if progress:
+        progress("spinning state", 0.0)
+    try:
+        eq, modes, labels = spinning_modes(modal.structure, modal.x, n_modes + 1, spin)
+    except ValueError as exc:
+        raise CaseError(str(exc), field="reduced.reference") from None
+    if progress:
+        progress("spinning state", 1.0)
+    freqs = np.asarray(modes.frequencies_hz, float)
+    if len(freqs) < n_modes:
+        raise CaseError(f"reduced.modes = {n_modes}: only {len(freqs)} modes found about the "
+                        "spinning state; use fewer", field="reduced.modes")  # fmt: skip
+    _check_pair_not_split(labels, freqs, n_modes)
+    return reduce_spinning(
+        modal.structure, modal.x, eq, freqs[:n_modes], modes.shapes[:n_modes], labels[:n_modes],
+        damping_ratio_of(case), progress, _provenance(case, modal, n_modes, spin),
+    )  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------

@@ -124,7 +124,7 @@ def prepare(
     model_case = model_case if model_case is not None else run.model_case()
     run, choice = resolve_modes(run, model_case, progress)
     if model is None:
-        model = reduced_model_for(model_case, run.reduced.modes, progress)
+        model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin)
     model = _model_for_run(run, model)
     system = rsys.reduced_system(model, run.reduced.formulation)
     init = initial_state(system, model, run)

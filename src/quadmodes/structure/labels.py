@@ -11,6 +11,11 @@ import numpy as np
 
 from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor
 
+#: Two modes with the same label within this relative frequency gap form a (degenerate) pair.
+PAIR_TOLERANCE = 0.05
+#: Modes this close in frequency (relative) are degenerate, whatever their labels.
+DEGENERATE_TOLERANCE = 1e-3
+
 END_BODY_SHARE = 0.5  # an end body carrying this share of the kinetic energy names the mode
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from quadmodes.fe.model import (
@@ -72,12 +73,20 @@ def compute_modes(
     count: int,
     degeneracy_rtol: float = 2e-3,
     shift_hz: float | None = None,
+    softening: sp.spmatrix | None = None,
 ) -> ModalResult:
     """Lowest ``count`` elastic modes about state ``x`` (plus partners of a split degenerate set).
 
     ``shift_hz``: shift-invert point (negative shift ``−(2π f)²``); default 1 % of a crude estimate
     is not needed: a shift of −(2π·1 Hz)² keeps ``K − σM`` non-singular for a free body.
+    ``softening`` (3n, 3n) N/m: a symmetric matrix subtracted from the tangent, e.g. the
+    centrifugal softening ``Ω² M P̂`` of :func:`quadmodes.structure.spinning.centrifugal_softening`
+    for the modes of a spinning state. Rigid motions are then no longer eigenvectors (the
+    transverse ones meet the centrifugal load), so a free body's eigenproblem is solved on the
+    subspace ``Ψᵀ M φ = 0`` (bordered shift-invert) and no rigid modes are reported.
     """
+    if softening is not None:
+        return _constrained_modes(structure, x, count, degeneracy_rtol, shift_hz, softening)
     free = structure.free_dofs
     n_rigid = rigid_projector_basis(structure, x).shape[1] if structure.is_free else 0
     k = tangent_stiffness(structure, x)[free][:, free]
@@ -118,7 +127,12 @@ def compute_modes(
     else:
         rigid_lam = np.zeros(0)
         elastic, lam_e, overlap_e = full, lam, np.zeros(len(lam))
-    # keep degenerate partners of the last requested mode
+    return _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degeneracy_rtol)
+
+
+def _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degeneracy_rtol):
+    """:class:`ModalResult` of the ascending eigenpairs ``(lam_e (k,) 1/s², elastic (3n, k))``:
+    the lowest ``count`` plus the degenerate partners of the last one, mass-normalised."""
     n_keep = min(count, len(lam_e))
     while n_keep < len(lam_e) and abs(
         lam_e[n_keep] - lam_e[n_keep - 1]
@@ -136,3 +150,28 @@ def compute_modes(
         rigid_frequencies_hz=rigid_f,
         rigid_overlap=overlap_e,
     )
+
+
+def _constrained_modes(structure, x, count, degeneracy_rtol, shift_hz, softening) -> ModalResult:
+    """Modes of ``K_T(x) − softening`` with a free body's frame conditions ``Ψᵀ M φ = 0`` imposed
+    in the shift-invert operator (its null space is then the rigid motions, whose eigenvalues
+    move to infinity and are never returned)."""
+    free = structure.free_dofs
+    k = (tangent_stiffness(structure, x) - softening).tocsr()[free][:, free]
+    m = mass_matrix(structure)[free][:, free]
+    sigma = -((2.0 * np.pi * (shift_hz if shift_hz is not None else 1.0)) ** 2)
+    low_rank = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
+    constraint = None
+    if structure.is_free:
+        constraint = (mass_matrix(structure) @ rigid_projector_basis(structure, x))[free]
+    solve = bordered_solver((k - sigma * m).tocsr(), constraint, low_rank)
+    op_inv = spla.LinearOperator(k.shape, matvec=solve, dtype=float)
+    n_request = min(count + 4, k.shape[0] - 1)
+    lam, vec = spla.eigsh(k, k=n_request, M=m, sigma=sigma, which="LM", OPinv=op_inv, tol=1e-12)
+    order = np.argsort(lam)
+    full = np.zeros((3 * structure.n, len(lam)))
+    full[free] = vec[:, order]
+    if structure.is_free:  # the frame conditions to round-off
+        full = remove_rigid_part(structure, x, full)
+    return _modal_result(structure, full, lam[order], np.zeros(0), np.zeros(len(lam)), count,
+                         degeneracy_rtol)  # fmt: skip

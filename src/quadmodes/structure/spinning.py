@@ -1,7 +1,8 @@
-"""Full-order rotating-frame analysis: the centrifugal relative equilibrium of the finite-element
-model spinning at a constant rate, its linearised (gyroscopic) eigenproblem, and the comparison
-of those frequencies with the reduced model's (:mod:`quadmodes.analysis.campbell`). This
-module: the frame, its operators and the relative equilibrium; the eigenproblem is in
+"""The spinning prestressed state: the centrifugal relative equilibrium of the finite-element
+model turning at a constant rate, and the rotating-frame operators about it. The reduced model
+can be expanded about this state (``reduced.reference = "spinning"``,
+:mod:`quadmodes.rom.reduced`), and the full-order rotating-frame analysis linearises about it:
+the eigenproblem is in
 :mod:`quadmodes.analysis.rotating_modes`, the comparison in
 :mod:`quadmodes.analysis.rotating_comparison`.
 
@@ -43,7 +44,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.analysis.spin_axis import unit_axis
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
@@ -54,7 +54,7 @@ from quadmodes.fe.model import (
     tangent_stiffness,
 )
 from quadmodes.fe.pressure import PressureSet, enclosed_volume
-from quadmodes.rotations import skew
+from quadmodes.rotations import skew, unit_axis
 from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.prestress import ConvergenceError, backtracking_step
 

@@ -1,0 +1,73 @@
+"""The modal damping of a structure: ζ of critical on every prestressed FE mode below a cutoff,
+the definition shared by the full-order reference (:mod:`quadmodes.fullorder.damping`) and by a
+reduced model whose basis is not a set of those modes (expanded about a spinning state,
+:func:`projected_damping`).
+
+With the damping modes ``φ_k`` (mass-normalised, ω_k below the cutoff) the damping operator is
+``C_FE = Σ_k 2ζω_k (Mφ_k)(Mφ_k)ᵀ`` (N s/m); a reduced basis Φ (mass-normalised) sees
+``C = Aᵀ diag(2ζω) A``, ``A = Φ_dᵀ M Φ`` (1/s) — its Galerkin projection, equal to ``diag(2ζω)``
+when Φ is a subset of the damping modes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from quadmodes.fe.model import Structure, mass_matrix
+from quadmodes.structure.labels import DEGENERATE_TOLERANCE, PAIR_TOLERANCE, label_modes
+from quadmodes.structure.modes import compute_modes
+
+#: Default cutoff: this factor times the larger of the spin and the highest retained frequency.
+CUTOFF_FACTOR = 3.0
+
+def default_cutoff(spin_hz: float, retained_hz) -> float:
+    """Default cutoff (Hz): :data:`CUTOFF_FACTOR` × max(spin, highest retained frequency)."""
+    top = float(np.max(retained_hz)) if len(retained_hz) else 0.0
+    return CUTOFF_FACTOR * max(abs(float(spin_hz)), top)
+
+def pairs_whole(frequencies_hz, labels, cutoff_hz: float) -> int:
+    """Number K of the ascending modes to keep: all below ``cutoff_hz`` plus the partner of a
+    pair that the cutoff would split. Modes are grouped from the bottom into pairs by the
+    reduced models' rule (same label within :data:`~quadmodes.runs.PAIR_TOLERANCE`,
+    or any two within :data:`~quadmodes.runs.DEGENERATE_TOLERANCE`)."""
+    f = np.asarray(frequencies_hz, float)
+    k, i = 0, 0
+    while i < len(f) and f[i] <= cutoff_hz:
+        size = 1
+        if i + 1 < len(f):
+            gap = abs(f[i + 1] - f[i])
+            same = labels[i] == labels[i + 1] and gap <= PAIR_TOLERANCE * f[i]
+            size = 2 if same or gap <= DEGENERATE_TOLERANCE * f[i] else 1
+        i += size
+        k = i
+    return k
+
+def modes_below(
+    structure: Structure, x: np.ndarray, cutoff_hz: float, count: int = 16
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Every elastic mode of ``structure`` about ``x`` (n,3) below ``cutoff_hz`` (pairs whole):
+    ``(frequencies Hz (K,), shapes (K,n,3), labels)``. :func:`compute_modes` with a request
+    doubled from ``count`` until a mode beyond the kept ones is found."""
+    n_free = structure.free_dofs.size
+    while True:
+        m = compute_modes(structure, x, count)
+        f = np.asarray(m.frequencies_hz, float)
+        labels = label_modes(structure, x, m.shapes)
+        k = pairs_whole(f, labels, cutoff_hz)
+        if k < len(f) or count >= n_free - 12:
+            return f[:k], m.shapes[:k], labels[:k]
+        count *= 2
+
+
+def projected_damping(
+    structure: Structure, shapes: np.ndarray, damping_hz: np.ndarray, damping_shapes: np.ndarray,
+    zeta: float,
+) -> np.ndarray:  # fmt: skip
+    """Modal damping matrix ``C = Aᵀ diag(2ζω_d) A`` (N, N) 1/s of the basis ``shapes`` (N, n, 3)
+    (1/√kg), ``A = Φ_dᵀ M Φ`` (K, N), for the damping modes ``damping_shapes`` (K, n, 3) at
+    ``damping_hz`` (K,) Hz with ratio ``zeta``."""
+    m = mass_matrix(structure)
+    phi = shapes.reshape(shapes.shape[0], -1).T
+    a = damping_shapes.reshape(damping_shapes.shape[0], -1) @ (m @ phi)
+    c = a.T @ (2.0 * float(zeta) * 2.0 * np.pi * np.asarray(damping_hz, float)[:, None] * a)
+    return 0.5 * (c + c.T)
