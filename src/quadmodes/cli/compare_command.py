@@ -182,13 +182,15 @@ def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bo
             raise typer.Exit(code=(signals or {}).get("exit", 130)) from None
 
 
-def _rerun_hint(case: str, options: dict[str, str | None], target: Path, plots: bool) -> str:
+def _rerun_hint(case: str, options: dict[str, str | None], target: Path, plots: bool,
+                as_json: bool = False) -> str:  # fmt: skip
     """The compare command line with the options given (to repeat with --resume)."""
     parts = ["quadmodes", "compare", case, "-o", str(target)]
     for option, value in options.items():
         if value is not None:
             parts += [option, value]
-    return shlex.join([*parts, *([] if plots else ["--no-plots"])])
+    flags = [*([] if plots else ["--no-plots"]), *(["--json"] if as_json else [])]
+    return shlex.join([*parts, *flags])
 
 
 def _ratio(value) -> str:
@@ -289,8 +291,9 @@ def compare_command(
                 output_dir, as_json=as_json, resume=resume, restart=restart, yes=yes,
                 plots=plots, signals=signals,
             )  # fmt: skip
-        except KeyboardInterrupt:  # outside the integrations: nothing new is written
-            err.print("stopped; nothing was written", highlight=False)
+        except KeyboardInterrupt:  # outside the integrations (setup, writing)
+            message = signals.get("stopped", lambda: "stopped; nothing was written")()
+            err.print(escape(message), highlight=False, soft_wrap=True)
             raise typer.Exit(code=signals["exit"]) from None
     if as_json:
         sys.stdout.write(json.dumps(payload, indent=2) + "\n")
@@ -309,15 +312,17 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
         checkpoint = _checkpoint_for(target, resume, restart)
-        # inflation, initial state and damping modes, once for the estimate and the run
-        setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)
-        _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
         options = {"--window": window, "--full-dt": full_dt, "--modes": modes,
                    "--spin-rate": spin_rate, "--formulations": formulations,
                    "--damping-cutoff": damping_cutoff}  # fmt: skip
+        hint = _rerun_hint(case, options, target, plots, as_json)
+        signals["stopped"] = lambda: _stopped_message(checkpoint, hint)
+        # inflation, initial state and damping modes, once for the estimate and the run
+        setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)
+        _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
         result = _run_comparison(
-            plan, setup, checkpoint, resume=resume, bars_shown=not as_json,
-            rerun_hint=_rerun_hint(case, options, target, plots), signals=signals,
+            plan, setup, checkpoint, resume=resume, bars_shown=not as_json, rerun_hint=hint,
+            signals=signals,
         )  # fmt: skip
         with staged_output(target) as scratch:
             payload = cmp.write_comparison(result, scratch, plots=plots)

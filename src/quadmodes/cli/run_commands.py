@@ -24,18 +24,19 @@ from quadmodes.cli.common import (
     output_path,
     progress_bars,
     sigterm_as_interrupt,
-    staged_output,
 )
 from quadmodes.cli.run_files import (
     RunFolders,
     check_folders,
     checkpoint_interval,
     commit_run,
+    commit_spinup,
     resume_hint,
     resume_point,
     run_folders,
     save_partial,
     stop,
+    stopped_message,
 )
 
 
@@ -339,14 +340,12 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
 
 
 def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
-    """Integrate a hub-driven spin-up (not checkpointed) and write its outputs (staged)."""
+    """Integrate a hub-driven spin-up (not checkpointed) and write its outputs (data first)."""
     from quadmodes.runs import simulate
-    from quadmodes.runs.results import write_spinup_outputs
 
     result = simulate.simulate_spinup(run)
     _warn_validity(run.name, result.validity)
-    with staged_output(folders.target) as scratch:
-        return result, write_spinup_outputs(result, scratch, plots=opts.plots)
+    return result, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals)
 
 
 def _run_all(setups: list, output_dir: Path, opts: _Options):
@@ -454,16 +453,17 @@ def run_command(
     with sigterm_as_interrupt() as signals:
         opts = _Options(plots, resume, 0.0, dt_convergence, mode_convergence,
                         resume_hint(case, output_dir, overrides, flags), signals)  # fmt: skip
+        all_folders: list[RunFolders] = []
         try:
             with one_line_errors():
                 opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every))
                 runs = _load_runs(names, overrides, dt_convergence, mode_convergence)
-                check_folders([run_folders(output_dir, r.name) for r in runs], resume=resume,
-                              restart=restart)  # fmt: skip
+                all_folders = [run_folders(output_dir, r.name) for r in runs]
+                check_folders(all_folders, resume=resume, restart=restart)
                 setups = _prepare_runs(runs)
             summaries, spinups, failed = _run_all(setups, output_dir, opts)
         except KeyboardInterrupt:
-            raise stop("stopped; nothing of the unfinished run was written", opts.exit_code) from None
+            raise stop(stopped_message(all_folders, opts.hint), opts.exit_code) from None
     if as_json:
         payload = next(iter(summaries.values())) if case is not None else summaries
         sys.stdout.write(json.dumps(payload, indent=2) + "\n")

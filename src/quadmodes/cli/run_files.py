@@ -132,16 +132,40 @@ def _others(target: Path) -> list[str]:
 
 
 def commit_run(result, folders: RunFolders, extra: dict, *, plots: bool, signals: dict) -> dict:
-    """Move the data of ``result`` into its folder (staged: old figures removed, results.nc and
-    summary.json replaced together), drop its partial folder, then draw the figures; Ctrl-C
-    while drawing keeps the data and exits with status ``signals["exit"]`` (130; 143 after
-    SIGTERM). Returns the summary."""
+    """Move the data of free-body run ``result`` into its folder, then draw its figures
+    (:func:`commit`). Returns the summary."""
     from quadmodes.io.plots import write_plots
     from quadmodes.runs.results import write_run_data
 
+    def data(scratch: Path):
+        return write_run_data(result, scratch, extra)
+
+    return commit(folders, data, write_plots, plots=plots, signals=signals)
+
+
+def commit_spinup(result, folders: RunFolders, *, plots: bool, signals: dict) -> dict:
+    """:func:`commit_run` for a hub-driven spin-up (``tip_deflection.png``)."""
+    from quadmodes.io.plots import plot_tip_deflection
+    from quadmodes.runs.results import spinup_dataset, write_spinup_outputs
+
+    def data(scratch: Path):
+        return spinup_dataset(result), write_spinup_outputs(result, scratch, plots=False)
+
+    def draw(ds, target: Path):
+        plot_tip_deflection(ds, target / "tip_deflection.png")
+
+    return commit(folders, data, draw, plots=plots, signals=signals)
+
+
+def commit(folders: RunFolders, data, draw, *, plots: bool, signals: dict) -> dict:
+    """Write the data (``data(scratch) -> (dataset, summary)``) into a staging folder and move
+    them into the result folder (old figures removed, the data files replaced together), drop
+    the partial folder, then draw the figures (``draw(dataset, folder)``) if ``plots``. Ctrl-C
+    while drawing keeps the data and exits with status ``signals["exit"]`` (130; 143 after
+    SIGTERM). Returns the summary."""
     target = folders.target
     with staged_output(target) as scratch:
-        ds, info = write_run_data(result, scratch, extra)
+        ds, info = data(scratch)
         old_figures = _remove_old_figures(target)
     shutil.rmtree(folders.partial, ignore_errors=True)
     if old_figures and not plots:
@@ -152,11 +176,19 @@ def commit_run(result, folders: RunFolders, extra: dict, *, plots: bool, signals
         note(f"note: {target} also holds files this run did not write: {', '.join(others)}")
     if plots:
         try:
-            write_plots(ds, target)
+            draw(ds, target)
         except KeyboardInterrupt:
             raise stop(f"stopped while drawing the figures; the data are saved in {target} "
                        f"({', '.join(DATA_FILES)}); the figures are incomplete", signals["exit"]) from None  # fmt: skip
     return info
+
+
+def stopped_message(all_folders: list[RunFolders], hint: str) -> str:
+    """What an interruption outside the integration leaves: the checkpoints to continue."""
+    kept = [str(f.partial) for f in all_folders if f.has_checkpoint]
+    if kept:
+        return f"stopped; checkpoints kept in {', '.join(kept)}: continue with {hint} --resume"
+    return "stopped; nothing of the unfinished run was written"
 
 
 def resume_point(setup, folders: RunFolders, resume: bool):
