@@ -30,8 +30,10 @@ from quadmodes.cli.app import app
 from quadmodes.runs import results as res
 
 DRIVER = r'''
-import os, sys, time
+import os, signal, sys, time
 from pathlib import Path
+
+signal.signal(signal.SIGINT, signal.default_int_handler)  # even if started with SIGINT ignored
 
 def wait(marker):
     if marker:
@@ -328,6 +330,10 @@ def test_compare_restart_discards_the_checkpoint(tmp_path, monkeypatch):
             "-o", str(tmp_path / "cmp")]  # fmt: skip
     both = _cli(*args, "--resume", "--restart")
     assert both.exit_code == 2 and checkpoint.read_bytes() == b"old"
+    damaged = _cli(*args, "--resume")
+    assert damaged.exit_code == 2 and checkpoint.read_bytes() == b"old"
+    lines = damaged.stderr.strip().splitlines()
+    assert len(lines) == 1 and "damaged" in lines[0] and "--restart" in lines[0]
     restarted = _cli(*args, "--restart")  # then "interrupted" before any new checkpoint
     assert restarted.exit_code == 130 and "discarded" in restarted.stderr
     assert not checkpoint.exists()

@@ -88,6 +88,23 @@ def _plan(
     return ComparisonPlan(cmp.window_run(run, t_window), t_window, dt_full, names, cutoff)
 
 
+def _check_readable(checkpoint: Path) -> None:
+    """UserError unless ``checkpoint`` reads as a full-order checkpoint (a truncated or foreign
+    file would end in a zip or pickle traceback)."""
+    import zipfile
+
+    from quadmodes.fullorder.checkpoint import read_checkpoint
+
+    try:
+        data = read_checkpoint(checkpoint)
+        int(data["step"]), int(data["n"])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise UserError(
+            f"--resume: {checkpoint} is damaged or not a full-order checkpoint "
+            f"({type(exc).__name__}); start again with --restart"
+        ) from None
+
+
 def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
     """The full-order checkpoint beside ``target``: it must exist to resume; without --resume
     an existing one is discarded only with --restart (else UserError)."""
@@ -96,6 +113,8 @@ def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
         raise UserError("--restart: discards the checkpoint that --resume continues; pass one")
     if resume and not checkpoint.exists():
         raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
+    if resume:
+        _check_readable(checkpoint)
     if not resume and checkpoint.exists():
         if not restart:
             raise UserError(

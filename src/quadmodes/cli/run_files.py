@@ -71,6 +71,7 @@ def _clean_leftovers(folders: RunFolders) -> None:
         tmp.unlink(missing_ok=True)
     if not folders.has_checkpoint:
         shutil.rmtree(folders.partial, ignore_errors=True)
+        note(f"note: removed {folders.partial} (partial results without a checkpoint to resume)")
 
 
 def check_folders(all_folders: list[RunFolders], *, resume: bool, restart: bool) -> None:
