@@ -17,6 +17,7 @@ run continues from it with the same chunks, which gives the uninterrupted result
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -95,22 +96,27 @@ def _integrate_chunk(system, y: np.ndarray, ta: float, tb: float, integ, h: floa
     return sol, None
 
 
+@dataclass(frozen=True, eq=False)
 class ChunkProgress:
     """Where a chunked run stands after its last whole chunk (what a checkpoint holds).
 
-    steps: steps done; chunk: steps per chunk; t, y, e_d: the kept samples so far as pieces
-    (each chunk's first sample repeats the previous chunk's last and is dropped); stats: the
-    summed work counters; y_last (7+2N,): the state at step ``steps``; e_d_offset (J): the
-    dissipated energy there; stop: why the run must stop (None: go on).
+    steps: steps done; chunk: steps per chunk; t (s), y, e_d (J): the kept samples so far as
+    tuples of pieces (each chunk's first sample repeats the previous chunk's last and is
+    dropped); stats: the summed work counters; y_last (7+2N,): the state at step ``steps``;
+    e_d_offset (J): the dissipated energy there; stop: why the run must stop (None: go on).
 
     Every update returns a new object, so that a Ctrl-C arriving at any point leaves the
     caller with a consistent one (a single assignment replaces it)."""
 
-    def __init__(self, *, steps, chunk, t, y, e_d, stats, y_last, e_d_offset, stop=None):
-        self.steps, self.chunk = int(steps), int(chunk)
-        self.t, self.y, self.e_d = tuple(t), tuple(y), tuple(e_d)
-        self.stats = dict(stats)
-        self.y_last, self.e_d_offset, self.stop = y_last, float(e_d_offset), stop
+    steps: int
+    chunk: int
+    t: tuple
+    y: tuple
+    e_d: tuple
+    stats: dict
+    y_last: np.ndarray
+    e_d_offset: float
+    stop: _Stop | None = None
 
     @classmethod
     def start(cls, y0: np.ndarray, chunk: int) -> ChunkProgress:
@@ -148,9 +154,7 @@ class ChunkProgress:
 
     def stopped(self, stop: _Stop) -> ChunkProgress:
         """This progress ended by ``stop`` (e.g. an integrator breakdown in the next chunk)."""
-        return ChunkProgress(steps=self.steps, chunk=self.chunk, t=self.t, y=self.y,
-                             e_d=self.e_d, stats=self.stats, y_last=self.y_last,
-                             e_d_offset=self.e_d_offset, stop=stop)  # fmt: skip
+        return dataclasses.replace(self, stop=stop)
 
     def merged(self, y0: np.ndarray, n_state: int):
         """(t, y, E_d) of all chunks; the initial state alone if nothing usable was kept."""
