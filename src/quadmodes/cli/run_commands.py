@@ -334,8 +334,9 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
         try:
             extra = _extras(setup, result, opts, _run_progress(bars))
         except KeyboardInterrupt:
-            raise stop(f"{name}: stopped during the convergence runs; its integration is saved in "
-                       f"{folders.checkpoint}; {again} (it is not repeated)", opts.exit_code) from None  # fmt: skip
+            kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
+                    "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
+            raise stop(f"{name}: stopped during the convergence runs; {kept}", opts.exit_code) from None
     return result, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals)
 
 
