@@ -337,3 +337,22 @@ def test_compare_restart_discards_the_checkpoint(tmp_path, monkeypatch):
     restarted = _cli(*args, "--restart")  # then "interrupted" before any new checkpoint
     assert restarted.exit_code == 130 and "discarded" in restarted.stderr
     assert not checkpoint.exists()
+
+
+def test_compare_draws_after_the_data_and_a_no_plots_rerun_removes_figures(tmp_path, monkeypatch):
+    from test_compare import _reduced_as_reference
+
+    from quadmodes import fullorder
+
+    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
+    out = tmp_path / "cmp"
+    args = ["compare", "--window", "0.05 s", "--formulations", "Q", "-o", str(out)]
+    assert _cli(*args).exit_code == 0
+    figures = sorted(p.name for p in out.glob("*.png"))
+    assert figures and (out / "comparison.json").is_file()
+    again = _cli(*args, "--no-plots")
+    assert again.exit_code == 0, again.output
+    assert not list(out.glob("*.png")) and figures[0] in again.stderr
+    assert (out / "comparison.nc").is_file()

@@ -27,6 +27,8 @@ from quadmodes.cli.common import (
     sigterm_as_interrupt,
     staged_output,
 )
+from quadmodes.cli.run_files import note as print_note
+from quadmodes.cli.run_files import remove_old_figures, stop
 
 #: Full-order runs estimated longer than this (s) need --yes.
 LONG_FULL_ORDER_S = 1800.0
@@ -343,7 +345,18 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
             plan, setup, checkpoint, resume=resume, bars_shown=not as_json, rerun_hint=hint,
             signals=signals,
         )  # fmt: skip
-        with staged_output(target) as scratch:
-            payload = cmp.write_comparison(result, scratch, plots=plots)
+        with staged_output(target) as scratch:  # the data first, then the figures
+            payload = cmp.write_comparison(result, scratch, plots=False)
+            old_figures = remove_old_figures(target)
         checkpoint.unlink(missing_ok=True)
+    if old_figures and not plots:
+        print_note(f"note: removed {len(old_figures)} figure(s) of an earlier comparison from "
+             f"{target} (--no-plots): {', '.join(old_figures)}")  # fmt: skip
+    if plots:
+        try:
+            cmp.plot_comparison(result, target)
+        except KeyboardInterrupt:
+            raise stop(f"stopped while drawing the figures; the data are saved in {target} "
+                       "(comparison.nc, .json, .csv); the figures are incomplete",
+                       signals["exit"]) from None  # fmt: skip
     return payload, plan, target

@@ -115,7 +115,7 @@ def stop(message: str, code: int) -> typer.Exit:
     return typer.Exit(code=code)
 
 
-def _remove_old_figures(target: Path) -> list[str]:
+def remove_old_figures(target: Path) -> list[str]:
     """Remove the figures of an earlier run from ``target``; returns their names."""
     names = []
     if target.is_dir():
@@ -167,7 +167,7 @@ def commit(folders: RunFolders, data, draw, *, plots: bool, signals: dict) -> di
     target = folders.target
     with staged_output(target) as scratch:
         ds, info = data(scratch)
-        old_figures = _remove_old_figures(target)
+        old_figures = remove_old_figures(target)
     shutil.rmtree(folders.partial, ignore_errors=True)
     if old_figures and not plots:
         note(f"note: removed {len(old_figures)} figure(s) of an earlier run from {target} "
