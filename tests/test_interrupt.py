@@ -356,3 +356,13 @@ def test_compare_draws_after_the_data_and_a_no_plots_rerun_removes_figures(tmp_p
     assert again.exit_code == 0, again.output
     assert not list(out.glob("*.png")) and figures[0] in again.stderr
     assert (out / "comparison.nc").is_file()
+    # Ctrl-C while drawing: exit 130, the data are kept
+    from quadmodes.analysis import compare as cm
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cm, "plot_comparison", interrupted)
+    stopped = _cli(*args)
+    assert stopped.exit_code == 130 and "the data are saved" in stopped.stderr
+    assert json.loads((out / "comparison.json").read_text())["full_order"]["complete"]
