@@ -8,7 +8,10 @@ with status 2; results are written to a scratch folder and moved into place only
 from __future__ import annotations
 
 import contextlib
+import glob
+import os
 import shutil
+import signal
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -91,32 +94,123 @@ def progress_bars(enabled: bool = True) -> Iterator[ProgressCallback]:
         yield update
 
 
+def _staging_owner(folder: Path, prefix: str) -> int | None:
+    """The process id in the name of staging folder ``folder`` (``<prefix><pid>-<random>``)."""
+    head = folder.name[len(prefix):].partition("-")[0]
+    return int(head) if head.isdigit() else None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # e.g. another user's process
+        return True
+    return True
+
+
+def clean_stale_staging(directory: Path) -> list[Path]:
+    """Remove the hidden staging folders ``.<name>.partial-<pid>-…/`` beside ``directory`` left
+    by a process that no longer runs (e.g. killed while writing); returns those removed (a note
+    on stderr names each)."""
+    directory = Path(directory).resolve()
+    prefix = f".{directory.name}.partial-"
+    removed = []
+    if not directory.parent.is_dir():
+        return removed
+    for folder in sorted(directory.parent.glob(f"{glob.escape(prefix)}*")):
+        pid = _staging_owner(folder, prefix)
+        if not folder.is_dir() or (pid is not None and pid != os.getpid() and _alive(pid)):
+            continue
+        shutil.rmtree(folder, ignore_errors=True)
+        removed.append(folder)
+        err.print(f"note: removed the left-over staging folder {escape(str(folder))} (an "
+                  "earlier run stopped while writing)", highlight=False, soft_wrap=True)  # fmt: skip
+    return removed
+
+
 @contextlib.contextmanager
 def staged_output(directory: Path | None) -> Iterator[Path | None]:
-    """Write into a scratch folder beside ``directory``; move files in only on success."""
+    """Write into a hidden scratch folder ``.<name>.partial-<pid>-…/`` beside ``directory``; move
+    the files in only on success. Left-over scratch folders of dead processes are removed
+    first (:func:`clean_stale_staging`)."""
     if directory is None:
         yield None
         return
     directory = directory.resolve()
     created = [p for p in directory.parents if not p.exists()]  # deepest first
     directory.parent.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix=f".{directory.name}.partial-", dir=directory.parent))
+    clean_stale_staging(directory)
+    prefix = f".{directory.name}.partial-{os.getpid()}-"
+    scratch = Path(tempfile.mkdtemp(prefix=prefix, dir=directory.parent))
     done = False
     try:
         yield scratch
-        directory.mkdir(exist_ok=True)
-        for item in scratch.iterdir():
-            target = directory / item.name
-            if target.is_dir():
-                shutil.rmtree(target)
-            item.replace(target)
-        done = True
+        with deferred_interrupts():  # never half the new files beside half the old ones
+            directory.mkdir(exist_ok=True)
+            for item in scratch.iterdir():
+                target = directory / item.name
+                if target.is_dir():
+                    shutil.rmtree(target)
+                item.replace(target)
+            done = True
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
         if not done:  # a failed run leaves no folders behind: remove the parents it made
             for folder in created:
                 with contextlib.suppress(OSError):
                     folder.rmdir()
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[None]:
+    """Inside, Ctrl-C and SIGTERM are held and delivered at the end (a few renames that must not
+    be cut in half). Outside the main thread nothing is held."""
+    held: list[int] = []
+
+    def hold(signum, frame):
+        held.append(signum)
+
+    try:
+        previous = {s: signal.signal(s, hold) for s in (signal.SIGINT, signal.SIGTERM)}
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if held:
+            signal.raise_signal(held[0])
+
+
+#: Exit status after Ctrl-C (128 + SIGINT) and after SIGTERM (128 + SIGTERM).
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[dict]:
+    """Inside, SIGTERM raises KeyboardInterrupt like Ctrl-C (so a run saves its checkpoint);
+    yields a dict whose ``"exit"`` is the exit status to use after an interrupt (130, or 143
+    after SIGTERM). Outside the main thread nothing is installed."""
+    state = {"exit": EXIT_INTERRUPTED}
+
+    def handler(signum, frame):
+        state["exit"] = EXIT_TERMINATED
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread
+        yield state
+        return
+    try:
+        yield state
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def load_model_case(case: str):

@@ -4,6 +4,7 @@ with the full-order run estimated first and checkpointed as it goes."""
 from __future__ import annotations
 
 import json
+import shlex
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,8 +24,11 @@ from quadmodes.cli.common import (
     output_path,
     parse_formulations,
     progress_bars,
+    sigterm_as_interrupt,
     staged_output,
 )
+from quadmodes.cli.run_files import note as print_note
+from quadmodes.cli.run_files import remove_old_figures, stop
 
 #: Full-order runs estimated longer than this (s) need --yes.
 LONG_FULL_ORDER_S = 1800.0
@@ -86,13 +90,41 @@ def _plan(
     return ComparisonPlan(cmp.window_run(run, t_window), t_window, dt_full, names, cutoff)
 
 
-def _checkpoint_for(target: Path, resume: bool) -> Path:
-    """The full-order checkpoint beside ``target``: it must exist to resume, else it is removed."""
+def _check_readable(checkpoint: Path) -> None:
+    """UserError unless ``checkpoint`` reads as a full-order checkpoint (a truncated or foreign
+    file would end in a zip or pickle traceback)."""
+    import zipfile
+
+    from quadmodes.fullorder.checkpoint import read_checkpoint
+
+    try:
+        data = read_checkpoint(checkpoint)
+        int(data["step"]), int(data["n"])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise UserError(
+            f"--resume: {checkpoint} is damaged or not a full-order checkpoint "
+            f"({type(exc).__name__}); start again with --restart"
+        ) from None
+
+
+def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
+    """The full-order checkpoint beside ``target``: it must exist to resume; without --resume
+    an existing one is discarded only with --restart (else UserError)."""
     checkpoint = target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
+    if resume and restart:
+        raise UserError("--restart: discards the checkpoint that --resume continues; pass one")
     if resume and not checkpoint.exists():
         raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
+    if resume:
+        _check_readable(checkpoint)
     if not resume and checkpoint.exists():
+        if not restart:
+            raise UserError(
+                f"{checkpoint} holds an interrupted full-order run; continue it with --resume, "
+                "or pass --restart to discard it"
+            )
         checkpoint.unlink()
+        err.print(f"note: discarded {escape(str(checkpoint))} (--restart)", highlight=False)
     return checkpoint
 
 
@@ -119,18 +151,45 @@ def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: 
         )
 
 
+#: Full-order steps between two checkpoints (the factorisation is renewed after each, so a
+#: resumed run repeats the uninterrupted one only with the same value).
+FULL_ORDER_CHECKPOINT_EVERY = 500
+
+
+def _complete_or_raise(sol):
+    """``sol`` if the full-order run reached the end of the window; an interrupted one raises
+    KeyboardInterrupt, any other early stop RuntimeError (never scored as a reference)."""
+    if sol.status == 0:
+        return sol
+    message = " ".join(str(sol.message).split())
+    if message.startswith("interrupted"):
+        raise KeyboardInterrupt
+    raise RuntimeError(f"full order stopped early ({message}); nothing is scored against it")
+
+
+def _stopped_message(checkpoint: Path, rerun_hint: str) -> str:
+    """What Ctrl-C leaves: the checkpoint to resume from, or nothing."""
+    if checkpoint.is_file():
+        return (f"stopped; the full-order checkpoint is kept at {checkpoint}: continue with "
+                f"{rerun_hint} --resume")  # fmt: skip
+    return ("stopped before the first full-order checkpoint (every "
+            f"{FULL_ORDER_CHECKPOINT_EVERY} steps); nothing to resume")  # fmt: skip
+
+
 def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bool,
-                    bars_shown: bool, rerun_hint: str):  # fmt: skip
-    """The reduced runs and the checkpointed full-order run; Ctrl-C keeps the checkpoint and
-    says how to continue (``rerun_hint``: the command line without --resume)."""
+                    bars_shown: bool, rerun_hint: str, signals: dict | None = None):  # fmt: skip
+    """The reduced runs and the checkpointed full-order run; Ctrl-C (in either) keeps the
+    checkpoint, says how to continue (``rerun_hint``: the command line without --resume) and
+    exits with status ``signals["exit"]`` (130, 143 after SIGTERM; see
+    :func:`~quadmodes.cli.common.sigterm_as_interrupt`)."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.fullorder import full_order_for_run
 
     def full(r, dt):
-        return full_order_for_run(
+        return _complete_or_raise(full_order_for_run(
             r, dt=dt, progress=bars, setup=setup, checkpoint=checkpoint,
-            checkpoint_every=500, resume=resume,
-        )  # fmt: skip
+            checkpoint_every=FULL_ORDER_CHECKPOINT_EVERY, resume=resume,
+        ))  # fmt: skip
 
     with progress_bars(bars_shown) as bars:
         try:
@@ -139,11 +198,20 @@ def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bo
                 full_order_dt=plan.full_dt_s, full_order=full, progress=bars,
             )  # fmt: skip
         except KeyboardInterrupt:
-            err.print(
-                f"stopped; the full-order checkpoint is kept at {checkpoint}: continue with "
-                f"{rerun_hint} --resume"
-            )
-            raise typer.Exit(code=130) from None
+            err.print(escape(_stopped_message(checkpoint, rerun_hint)), highlight=False,
+                      soft_wrap=True)  # fmt: skip
+            raise typer.Exit(code=(signals or {}).get("exit", 130)) from None
+
+
+def _rerun_hint(case: str, options: dict[str, str | None], target: Path, plots: bool,
+                as_json: bool = False) -> str:  # fmt: skip
+    """The compare command line with the options given (to repeat with --resume)."""
+    parts = ["quadmodes", "compare", case, "-o", str(target)]
+    for option, value in options.items():
+        if value is not None:
+            parts += [option, value]
+    flags = [*([] if plots else ["--no-plots"]), *(["--json"] if as_json else [])]
+    return shlex.join([*parts, *flags])
 
 
 def _ratio(value) -> str:
@@ -193,6 +261,7 @@ def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None
 CompareCase = case_argument("run case (built-in name or TOML file)")
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
+RestartFlag = flag("--restart", "discard the checkpoint of an interrupted full-order run")
 YesFlag = flag("--yes", "run a full-order window estimated over 30 min")
 ComparePlotsFlag = flag("--plots/--no-plots", "write overlay PNGs")
 
@@ -221,6 +290,7 @@ def compare_command(
     output_dir: CompareOutput = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the table as JSON")] = False,
     resume: ResumeFlag = False,
+    restart: RestartFlag = False,
     yes: YesFlag = False,
     plots: ComparePlotsFlag = True,
 ) -> None:
@@ -231,8 +301,30 @@ def compare_command(
     and overlay plots. The full order's damping is modal damping (the case's ζ) on every FE mode
     below --damping-cutoff, independent of the reduced basis.
 
-    The full-order run is estimated first and checkpointed as it goes: Ctrl-C stops it, and the
-    same command with --resume continues from the checkpoint."""
+    The full-order run is estimated first and checkpointed as it goes: Ctrl-C (or SIGTERM) stops
+    it with exit status 130 (143) and keeps the checkpoint, and the same command with --resume
+    continues from it; without --resume an existing checkpoint is discarded only with --restart.
+    A full-order run that did not reach the end of the window is never scored."""
+    with sigterm_as_interrupt() as signals:
+        try:
+            payload, plan, target = _compare(
+                case, window, full_dt, modes, spin_rate, formulations, damping_cutoff,
+                output_dir, as_json=as_json, resume=resume, restart=restart, yes=yes,
+                plots=plots, signals=signals,
+            )  # fmt: skip
+        except KeyboardInterrupt:  # outside the integrations (setup, writing)
+            message = signals.get("stopped", lambda: "stopped; nothing was written")()
+            err.print(escape(message), highlight=False, soft_wrap=True)
+            raise typer.Exit(code=signals["exit"]) from None
+    if as_json:
+        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
+        return
+    _print_comparison(payload, plan, target)
+
+
+def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff, output_dir,
+             *, as_json, resume, restart, yes, plots, signals):  # fmt: skip
+    """The body of :func:`compare_command`: returns (payload, plan, output folder)."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.fullorder import setup_for_run
 
@@ -240,18 +332,31 @@ def compare_command(
     with one_line_errors(RuntimeError):
         plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
-        checkpoint = _checkpoint_for(target, resume)
+        checkpoint = _checkpoint_for(target, resume, restart)
+        options = {"--window": window, "--full-dt": full_dt, "--modes": modes,
+                   "--spin-rate": spin_rate, "--formulations": formulations,
+                   "--damping-cutoff": damping_cutoff}  # fmt: skip
+        hint = _rerun_hint(case, options, target, plots, as_json)
+        signals["stopped"] = lambda: _stopped_message(checkpoint, hint)
         # inflation, initial state and damping modes, once for the estimate and the run
         setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)
         _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
         result = _run_comparison(
-            plan, setup, checkpoint, resume=resume, bars_shown=not as_json,
-            rerun_hint=f"quadmodes compare {case} --window '{window}'",
+            plan, setup, checkpoint, resume=resume, bars_shown=not as_json, rerun_hint=hint,
+            signals=signals,
         )  # fmt: skip
-        with staged_output(target) as scratch:
-            payload = cmp.write_comparison(result, scratch, plots=plots)
+        with staged_output(target) as scratch:  # the data first, then the figures
+            payload = cmp.write_comparison(result, scratch, plots=False)
+            old_figures = remove_old_figures(target)
         checkpoint.unlink(missing_ok=True)
-    if as_json:
-        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
-        return
-    _print_comparison(payload, plan, target)
+    if old_figures and not plots:
+        print_note(f"note: removed {len(old_figures)} figure(s) of an earlier comparison from "
+             f"{target} (--no-plots): {', '.join(old_figures)}")  # fmt: skip
+    if plots:
+        try:
+            cmp.plot_comparison(result, target)
+        except KeyboardInterrupt:
+            raise stop(f"stopped while drawing the figures; the data are saved in {target} "
+                       "(comparison.nc, .json, .csv); the figures are incomplete",
+                       signals["exit"]) from None  # fmt: skip
+    return payload, plan, target

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -22,7 +23,20 @@ from quadmodes.cli.common import (
     out,
     output_path,
     progress_bars,
-    staged_output,
+    sigterm_as_interrupt,
+)
+from quadmodes.cli.run_files import (
+    RunFolders,
+    check_folders,
+    checkpoint_interval,
+    commit_run,
+    commit_spinup,
+    resume_hint,
+    resume_point,
+    run_folders,
+    save_partial,
+    stop,
+    stopped_message,
 )
 
 
@@ -237,11 +251,10 @@ def _check_mode_convergence(runs: list) -> None:
             )
 
 
-def _prepare_runs(
+def _load_runs(
     names: list[str], overrides: dict, dt_convergence: bool, mode_convergence: bool = False
 ) -> list:
-    """Load the run cases, apply the command-line overrides and prepare the free-body runs
-    (reduced model, initial state); spin-ups are returned as their run cases."""
+    """Load the run cases and apply the command-line overrides (fast: no model is built)."""
     from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
 
@@ -250,36 +263,113 @@ def _prepare_runs(
         _check_dt_convergence(runs)
     if mode_convergence:
         _check_mode_convergence(runs)
+    return runs
+
+
+def _prepare_runs(runs: list) -> list:
+    """Prepare the free-body runs (reduced model, initial state); spin-ups are returned as
+    their run cases."""
+    from quadmodes.runs import simulate
+
     with progress_bars(True) as bars:
         return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
 
 
-def _execute(
-    setup, target: Path, *, plots: bool, dt_convergence: bool, mode_convergence: bool = False
-) -> tuple[Any, dict]:
-    """Integrate one prepared run (or spin-up) and write its outputs into ``target`` (staged);
-    returns the result and its summary."""
+@dataclass(frozen=True)
+class _Options:
+    """How ``run`` runs its cases: figures, resume, the wall time between checkpoints (s), the
+    convergence studies, the command line that continues with --resume, and the signal state
+    of :func:`~quadmodes.cli.common.sigterm_as_interrupt` (its exit status)."""
+
+    plots: bool
+    resume: bool
+    checkpoint_every_s: float
+    dt_convergence: bool
+    mode_convergence: bool
+    hint: str
+    signals: dict
+
+    @property
+    def exit_code(self) -> int:
+        return int(self.signals["exit"])
+
+
+def _extras(setup, result, opts: _Options, progress) -> dict:
+    """The ``--dt-convergence`` / ``--mode-convergence`` tables of a finished run."""
     from quadmodes.runs import simulate
-    from quadmodes.runs.results import write_outputs, write_spinup_outputs
 
-    if not isinstance(setup, simulate.RunSetup):  # a spin-up
-        result = simulate.simulate_spinup(setup)
-        _warn_validity(setup.name, result.validity)
-        with staged_output(target) as scratch:
-            return result, write_spinup_outputs(result, scratch, plots=plots)
-    _warn_validity(setup.run.name, setup.validity)
+    extra = {}
+    if opts.dt_convergence:
+        extra["dt_convergence"] = simulate.dt_convergence(setup, result, progress)
+    if opts.mode_convergence:
+        from quadmodes.runs.mode_convergence import mode_convergence as convergence
+
+        extra["mode_convergence"] = convergence(setup, result, progress)
+    return extra
+
+
+def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
+    """Integrate one prepared free-body run (checkpointed; resumed with --resume), then write
+    its data and figures (:func:`~quadmodes.cli.run_files.commit_run`). Ctrl-C/SIGTERM saves
+    the checkpoint and the partial results in the partial folder and exits 130/143."""
+    from quadmodes.runs import simulate
+    from quadmodes.runs.chunked import Interrupted
+    from quadmodes.runs.run_checkpoint import RunCheckpoint
+
+    name = setup.run.name
+    with one_line_errors():  # a damaged checkpoint or one of another run
+        start = resume_point(setup, folders, opts.resume)
+    _warn_validity(name, setup.validity)
+    checkpoint = RunCheckpoint(folders.checkpoint, setup, opts.checkpoint_every_s)
+    again = f"continue with: {opts.hint} --resume"
     with progress_bars(True) as bars:
-        result = simulate.execute(setup, _run_progress(bars))
-        extra = {}
-        if dt_convergence:
-            rows = simulate.dt_convergence(setup, result, _run_progress(bars))
-            extra["dt_convergence"] = rows
-        if mode_convergence:
-            from quadmodes.runs.mode_convergence import mode_convergence as convergence
+        try:
+            result = simulate.execute(
+                setup, _run_progress(bars), checkpoint=checkpoint, resume=start
+            )
+        except Interrupted as stopped:
+            where = save_partial(stopped.partial, folders, stopped.saved)
+            hint = f"; {again}" if stopped.saved else ""
+            raise stop(f"{name} stopped ({stopped.reason}); {where}{hint}", opts.exit_code) from None
+        try:
+            extra = _extras(setup, result, opts, _run_progress(bars))
+        except KeyboardInterrupt:
+            kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
+                    "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
+            raise stop(f"{name}: stopped during the convergence runs; {kept}", opts.exit_code) from None
+    return result, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals)
 
-            extra["mode_convergence"] = convergence(setup, result, _run_progress(bars))
-    with staged_output(target) as scratch:
-        return result, write_outputs(result, scratch, plots=plots, extra=extra)
+
+def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
+    """Integrate a hub-driven spin-up (not checkpointed) and write its outputs (data first)."""
+    from quadmodes.runs import simulate
+
+    result = simulate.simulate_spinup(run)
+    _warn_validity(run.name, result.validity)
+    return result, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals)
+
+
+def _run_all(setups: list, output_dir: Path, opts: _Options):
+    """Run every prepared case; returns (summaries, names of spin-ups, names that failed)."""
+    from quadmodes.runs import simulate
+
+    summaries: dict[str, dict] = {}
+    spinups: set[str] = set()
+    failed: list[str] = []
+    for setup in setups:
+        is_spinup = not isinstance(setup, simulate.RunSetup)
+        name = setup.name if is_spinup else setup.run.name
+        folders = run_folders(output_dir, name)
+        with one_line_errors(OSError):
+            if is_spinup:
+                spinups.add(name)
+                result, summaries[name] = _execute_spinup(setup, folders, opts)
+            else:
+                result, summaries[name] = _execute_free(setup, folders, opts)
+        if not result.complete:
+            failed.append(name)
+            _warn_stopped_early(name, result, folders.target)
+    return summaries, spinups, failed
 
 
 # ------------------------------------------------------------------------------ run
@@ -293,6 +383,17 @@ ModeConvergenceFlag = flag(
     "also run with the next two pair-whole mode counts above N and print a convergence table",
 )
 RunPlotsFlag = flag("--plots/--no-plots", "write PNG figures")
+RunResumeFlag = flag(
+    "--resume", "continue interrupted runs from their checkpoints (DIR/<case name>.partial/)"
+)
+RunRestartFlag = flag("--restart", "discard the checkpoint of an interrupted run and start again")
+CheckpointEvery = Annotated[
+    str,
+    typer.Option(
+        "--checkpoint-every",
+        help='wall time between checkpoints of the integration, e.g. "10 s" (0: every chunk)',
+    ),
+]
 
 
 def run_command(
@@ -323,6 +424,9 @@ def run_command(
     dt_convergence: DtConvergenceFlag = False,
     mode_convergence: ModeConvergenceFlag = False,
     plots: RunPlotsFlag = True,
+    resume: RunResumeFlag = False,
+    restart: RunRestartFlag = False,
+    checkpoint_every: CheckpointEvery = "10 s",
 ) -> None:
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
 
@@ -332,42 +436,35 @@ def run_command(
     A formulation outside its validity (rotating-frame stiffness not positive definite at some
     spin rate up to the run's) prints a warning; the JSON summary says `valid: false`.
 
+    The integration is checkpointed (DIR/<case name>.partial/checkpoint.npz) every
+    --checkpoint-every of wall time and on Ctrl-C or SIGTERM, which also write the partial
+    results there (never over a complete result in DIR/<case name>/); the same command with
+    --resume continues bit for bit. Cases without a checkpoint start from the beginning.
+
     Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
-    results).
+    results), 130 after Ctrl-C (143 after SIGTERM).
     """
     from quadmodes.runs import simulate
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
-    overrides = dict(
-        method=method,
-        dt=dt,
-        duration=duration,
-        formulation=formulation,
-        spin_rate=spin_rate,
-        modes=modes,
-    )
-    with one_line_errors():
-        setups = _prepare_runs(names, overrides, dt_convergence, mode_convergence)
-    summaries: dict[str, dict] = {}
-    spinups: set[str] = set()
-    failed: list[str] = []
-    for setup in setups:
-        is_spinup = not isinstance(setup, simulate.RunSetup)
-        name = setup.name if is_spinup else setup.run.name
-        if is_spinup:
-            spinups.add(name)
-        target = output_dir / name
-        with one_line_errors(OSError):
-            result, summaries[name] = _execute(
-                setup,
-                target,
-                plots=plots,
-                dt_convergence=dt_convergence,
-                mode_convergence=mode_convergence,
-            )
-        if not result.complete:
-            failed.append(name)
-            _warn_stopped_early(name, result, target)
+    overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,
+                     spin_rate=spin_rate, modes=modes)  # fmt: skip
+    flags = {"--dt-convergence": dt_convergence, "--mode-convergence": mode_convergence,
+             "--no-plots": not plots}  # fmt: skip
+    with sigterm_as_interrupt() as signals:
+        opts = _Options(plots, resume, 0.0, dt_convergence, mode_convergence,
+                        resume_hint(case, output_dir, overrides, flags), signals)  # fmt: skip
+        all_folders: list[RunFolders] = []
+        try:
+            with one_line_errors():
+                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every))
+                runs = _load_runs(names, overrides, dt_convergence, mode_convergence)
+                all_folders = [run_folders(output_dir, r.name) for r in runs]
+                check_folders(all_folders, resume=resume, restart=restart)
+                setups = _prepare_runs(runs)
+            summaries, spinups, failed = _run_all(setups, output_dir, opts)
+        except KeyboardInterrupt:
+            raise stop(stopped_message(all_folders, opts.hint), opts.exit_code) from None
     if as_json:
         payload = next(iter(summaries.values())) if case is not None else summaries
         sys.stdout.write(json.dumps(payload, indent=2) + "\n")

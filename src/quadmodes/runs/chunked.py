@@ -6,16 +6,23 @@ same fixed-step grid (t = i·Δt), so the chunked trajectory is the single-run t
 the Newton tolerance of the first step of each chunk (its predictor has no previous step to
 extrapolate from). The dissipated energy is accumulated across chunks.
 
-An integrator failure (``Solution.status != 0``), a non-finite state or an interrupt (Ctrl-C)
-ends the integration early: what was computed is kept and a one-line reason is returned.
+An integrator failure (``Solution.status != 0``) or a non-finite state ends the integration
+early: what was computed is kept and a one-line reason is returned. Ctrl-C raises
+:class:`Interrupted` with what was computed up to the last whole chunk.
+
+Checkpoints: the run's :class:`ChunkProgress` after a whole chunk is everything needed to go
+on; a :class:`Checkpointer` saves it (periodically, at the end and on Ctrl-C) and a resumed
+run continues from it with the same chunks, which gives the uninterrupted result bit for bit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NoReturn, Protocol
 
 import numpy as np
 
@@ -89,54 +96,119 @@ def _integrate_chunk(system, y: np.ndarray, ta: float, tb: float, integ, h: floa
     return sol, None
 
 
-class _Samples:
-    """Samples kept so far (each chunk's first sample repeats the previous chunk's last and is
-    dropped), the summed work counters, and the last state and dissipated energy."""
+@dataclass(frozen=True, eq=False)
+class ChunkProgress:
+    """Where a chunked run stands after its last whole chunk (what a checkpoint holds).
 
-    def __init__(self, y0: np.ndarray, h: float, adaptive: bool):
-        self.ts: list[np.ndarray] = []
-        self.ys: list[np.ndarray] = []
-        self.eds: list[np.ndarray] = []
-        self.stats = {"n_steps": 0, "n_rhs": 0, "n_newton": 0, "n_jac": 0}
-        self.y = y0.copy()
-        self.ed_offset = 0.0
-        self.h, self.adaptive = h, adaptive
+    steps: steps done; chunk: steps per chunk; t (s), y, e_d (J): the kept samples so far as
+    tuples of pieces (each chunk's first sample repeats the previous chunk's last and is
+    dropped); stats: the summed work counters; y_last (7+2N,): the state at step ``steps``;
+    e_d_offset (J): the dissipated energy there; stop: why the run must stop (None: go on).
 
-    def add(self, sol: Solution, k0: int) -> _Stop | None:
-        """Append chunk ``sol`` (started at step ``k0``), cut at its first non-finite state;
-        returns why the run must stop (non-finite state, integrator failure) or None."""
-        for key in self.stats:
-            self.stats[key] += int(sol.stats.get(key, 0))
+    Every update returns a new object, so that a Ctrl-C arriving at any point leaves the
+    caller with a consistent one (a single assignment replaces it)."""
+
+    steps: int
+    chunk: int
+    t: tuple
+    y: tuple
+    e_d: tuple
+    stats: dict
+    y_last: np.ndarray
+    e_d_offset: float
+    stop: _Stop | None = None
+
+    @classmethod
+    def start(cls, y0: np.ndarray, chunk: int) -> ChunkProgress:
+        """Nothing integrated yet: the initial state ``y0``."""
+        stats = {"n_steps": 0, "n_rhs": 0, "n_newton": 0, "n_jac": 0}
+        return cls(steps=0, chunk=chunk, t=(), y=(), e_d=(), stats=stats, y_last=y0.copy(),
+                   e_d_offset=0.0)  # fmt: skip
+
+    def add(self, sol: Solution, k1: int, h: float, adaptive: bool) -> ChunkProgress:
+        """This progress with chunk ``sol`` (steps ``self.steps`` to ``k1``) appended, cut at its
+        first non-finite state; ``stop`` says why the run must stop (non-finite state,
+        integrator failure) or is None."""
+        k0 = self.steps
+        stats = {key: value + int(sol.stats.get(key, 0)) for key, value in self.stats.items()}
         t_chunk = np.asarray(sol.t, float)
-        if not self.adaptive and len(t_chunk):  # exact global grid times
-            t_chunk = (k0 + np.rint((t_chunk - k0 * self.h) / self.h)) * self.h
+        if not adaptive and len(t_chunk):  # exact global grid times
+            t_chunk = (k0 + np.rint((t_chunk - k0 * h) / h)) * h
         y_chunk = np.asarray(sol.y, float)
-        ed_chunk = self.ed_offset + np.asarray(sol.dissipated, float)
-        first = 1 if self.ts else 0
+        ed_chunk = self.e_d_offset + np.asarray(sol.dissipated, float)
+        first = 1 if self.t else 0
         bad = _first_bad_row(y_chunk)
         stop = None
         if bad is not None:
             stop = _failure(f"non-finite state at t = {t_chunk[bad]:.6g} s")
             y_chunk, t_chunk, ed_chunk = y_chunk[:bad], t_chunk[:bad], ed_chunk[:bad]
-        self.ts.append(t_chunk[first:])
-        self.ys.append(y_chunk[first:])
-        self.eds.append(ed_chunk[first:])
-        if stop is not None:
-            return stop
-        if sol.status != 0:
-            return _Stop(sol.status, sol.message, sol.message)
-        self.y = y_chunk[-1].copy()
-        self.ed_offset = float(ed_chunk[-1])
-        return None
+        elif sol.status != 0:
+            stop = _Stop(sol.status, sol.message, sol.message)
+        pieces = dict(t=(*self.t, t_chunk[first:]), y=(*self.y, y_chunk[first:]),
+                      e_d=(*self.e_d, ed_chunk[first:]), stats=stats)  # fmt: skip
+        if stop is not None:  # the state stays at the last good chunk boundary
+            return ChunkProgress(steps=k0, chunk=self.chunk, y_last=self.y_last,
+                                 e_d_offset=self.e_d_offset, stop=stop, **pieces)  # fmt: skip
+        return ChunkProgress(steps=k1, chunk=self.chunk, y_last=y_chunk[-1].copy(),
+                             e_d_offset=float(ed_chunk[-1]), **pieces)  # fmt: skip
+
+    def stopped(self, stop: _Stop) -> ChunkProgress:
+        """This progress ended by ``stop`` (e.g. an integrator breakdown in the next chunk)."""
+        return dataclasses.replace(self, stop=stop)
 
     def merged(self, y0: np.ndarray, n_state: int):
         """(t, y, E_d) of all chunks; the initial state alone if nothing usable was kept."""
-        t_all = np.concatenate(self.ts) if self.ts else np.zeros(0)
-        y_all = np.concatenate(self.ys) if self.ys else np.zeros((0, n_state))
-        ed_all = np.concatenate(self.eds) if self.eds else np.zeros(0)
+        t_all = np.concatenate(self.t) if self.t else np.zeros(0)
+        y_all = np.concatenate(self.y) if self.y else np.zeros((0, n_state))
+        ed_all = np.concatenate(self.e_d) if self.e_d else np.zeros(0)
         if len(t_all) == 0:  # nothing usable: keep the initial state
             t_all, y_all, ed_all = np.zeros(1), y0[None, :], np.zeros(1)
         return t_all, y_all, ed_all
+
+
+class Checkpointer(Protocol):
+    """Where :func:`integrate_in_chunks` saves its :class:`ChunkProgress`: ``due()`` says
+    whether a periodic save is due now (e.g. by wall time); ``save(progress, wall_s)`` writes it
+    (atomically) with the integration wall time so far (s)."""
+
+    def due(self) -> bool: ...
+
+    def save(self, progress: ChunkProgress, wall_s: float) -> None: ...
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (or a SIGTERM turned into it) during a chunked run. ``partial``: what was computed
+    up to the last whole chunk (a :class:`ChunkedRun`, or the run result built from it by the
+    caller); ``saved``: a checkpoint holds it. Being a KeyboardInterrupt, it stops whatever
+    does not handle it."""
+
+    def __init__(self, partial, saved: bool, reason: str):
+        super().__init__(reason)
+        self.partial, self.saved, self.reason = partial, saved, reason
+
+
+def _loop(system, integ, progress, name, state: ChunkProgress, h, adaptive, checkpoint, wall):
+    """Integrate chunk after chunk from ``state`` to ``integ.n_steps``, saving a checkpoint
+    whenever ``checkpoint.due()`` and at the end. Returns (the last progress, True if Ctrl-C
+    stopped it); the progress is always a consistent one (see :class:`ChunkProgress`)."""
+    n_total = integ.n_steps
+    try:
+        while state.steps < n_total and state.stop is None:
+            k0 = state.steps
+            k1 = min(k0 + state.chunk, n_total)
+            sol, stop = _integrate_chunk(system, state.y_last, k0 * h, k1 * h, integ, h)
+            if stop is not None:
+                state = state.stopped(stop)
+                break
+            state = state.add(sol, k1, h, adaptive)
+            if checkpoint is not None and state.stop is None:
+                if state.steps == n_total or checkpoint.due():
+                    checkpoint.save(state, wall())
+            if progress and state.stop is None:
+                progress(name, k1 / n_total)
+    except KeyboardInterrupt:
+        return state, True
+    return state, False
 
 
 def integrate_in_chunks(
@@ -146,47 +218,60 @@ def integrate_in_chunks(
     progress: Progress | None = None,
     name: str = "",
     max_chunks: int = MAX_CHUNKS,
+    *,
+    checkpoint: Checkpointer | None = None,
+    resume: tuple[ChunkProgress, float] | None = None,
 ) -> ChunkedRun:
     """Integrate ``system`` from ``y0`` (7+2N,) over ``integ.duration`` (s) with the settings of
     ``integ`` (the run case's ``[integration]``: method, dt, rtol, save_every) in at most
     ``max_chunks`` chunks; ``progress(name, fraction)`` is called before and between chunks.
-    An integrator failure, a non-finite state or Ctrl-C ends the run early (not raised)."""
+    An integrator failure or a non-finite state ends the run early (not raised).
+
+    ``checkpoint``: saves the progress when due, at the end and on Ctrl-C; ``resume``:
+    (progress, wall time before, s) of a checkpoint of this same run: the integration continues
+    from its last whole chunk with the same chunks, so the result is the uninterrupted one bit
+    for bit (every chunk starts from the saved state exactly as it did in the uninterrupted
+    run). Ctrl-C raises :class:`Interrupted` carrying the run up to its last whole chunk (saved
+    to ``checkpoint`` first, if any)."""
     n_total = integ.n_steps
     h = integ.duration / n_total
-    chunk = _chunk_steps(n_total, integ.save_every, max_chunks)
     adaptive = integ.method == "adaptive"
-    samples = _Samples(y0, h, adaptive)
-    stop = None
-    k0 = 0
+    if resume is None:
+        chunk = _chunk_steps(n_total, integ.save_every, max_chunks)
+        state, wall_before = ChunkProgress.start(y0, chunk), 0.0
+    else:
+        state, wall_before = resume
+        if not 0 <= state.steps <= n_total:
+            raise ValueError(f"resume: {state.steps} steps done, the run has {n_total}")
     start = time.perf_counter()
+
+    def wall() -> float:
+        return wall_before + time.perf_counter() - start
+
     if progress:
-        progress(name, 0.0)
-    try:
-        while k0 < n_total:
-            k1 = min(k0 + chunk, n_total)
-            sol, stop = _integrate_chunk(system, samples.y, k0 * h, k1 * h, integ, h)
-            if stop is None:
-                stop = samples.add(sol, k0)
-            if stop is not None:
-                break
-            k0 = k1
-            if progress:
-                progress(name, k1 / n_total)
-    except KeyboardInterrupt:
-        stop = _failure(f"interrupted at t = {k0 * h:.6g} s")
-    wall = time.perf_counter() - start
-    stats = samples.stats
-    stats["wall_s"] = wall
-    t_all, y_all, ed_all = samples.merged(y0, system.n_state)
-    stop = _Stop(0, "ok", "") if stop is None else stop
-    merged = Solution(
-        t_all,
-        y_all,
-        integ.method,
-        stats,
-        stop.status,
-        stop.message,
-        ed_all,
-        None if adaptive else h,
-    )
-    return ChunkedRun(merged, stop.reason, wall)
+        progress(name, state.steps / n_total)
+    state, interrupted = _loop(system, integ, progress, name, state, h, adaptive, checkpoint, wall)
+    if interrupted:
+        _interrupted(system, y0, integ, state, h, checkpoint, wall)
+    return _finish(system, y0, integ, state, h, wall(), state.stop or _Stop(0, "ok", ""))
+
+
+def _finish(system, y0, integ, state: ChunkProgress, h, wall_s, stop: _Stop) -> ChunkedRun:
+    """The :class:`ChunkedRun` of ``state`` ended by ``stop``."""
+    adaptive = integ.method == "adaptive"
+    stats = dict(state.stats, wall_s=wall_s)
+    t_all, y_all, ed_all = state.merged(y0, system.n_state)
+    merged = Solution(t_all, y_all, integ.method, stats, stop.status, stop.message, ed_all,
+                      None if adaptive else h)  # fmt: skip
+    return ChunkedRun(merged, stop.reason, wall_s)
+
+
+def _interrupted(system, y0, integ, state, h, checkpoint, wall) -> NoReturn:
+    """Save ``state`` (if anything was integrated) and raise :class:`Interrupted`."""
+    reason = f"interrupted at t = {state.steps * h:.6g} s"
+    saved = False
+    if checkpoint is not None and state.steps > 0:
+        checkpoint.save(state, wall())
+        saved = True
+    partial = _finish(system, y0, integ, state, h, wall(), _failure(reason))
+    raise Interrupted(partial, saved, reason)

@@ -310,11 +310,11 @@ def summary(ds: xr.Dataset) -> dict:
     return out
 
 
-def write_outputs(
-    result, directory: str | os.PathLike, plots: bool = True, extra: dict | None = None
-) -> dict:
-    """Write ``results.nc``, ``summary.json`` and (if ``plots``) the PNG figures of ``result``
-    into ``directory``; returns the summary (with ``extra`` keys merged in, e.g.
+def write_run_data(
+    result, directory: str | os.PathLike, extra: dict | None = None
+) -> tuple[xr.Dataset, dict]:
+    """Write ``results.nc`` and ``summary.json`` of ``result`` into ``directory`` (each
+    atomically); returns the dataset and the summary (with ``extra`` keys merged in, e.g.
     ``dt_convergence``, ``mode_convergence``)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -323,6 +323,15 @@ def write_outputs(
     info = summary(ds)
     info.update(extra or {})
     write_text(directory / "summary.json", json.dumps(info, indent=2) + "\n")
+    return ds, info
+
+
+def write_outputs(
+    result, directory: str | os.PathLike, plots: bool = True, extra: dict | None = None
+) -> dict:
+    """Write ``results.nc``, ``summary.json`` (:func:`write_run_data`) and then, if ``plots``,
+    the PNG figures of ``result`` into ``directory``; returns the summary."""
+    ds, info = write_run_data(result, directory, extra)
     if plots:
         from quadmodes.io.plots import write_plots
 

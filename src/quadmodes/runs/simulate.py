@@ -11,8 +11,9 @@ Stages::
 The pieces: :mod:`quadmodes.runs.model_cache` (the reduced model of a case),
 :mod:`quadmodes.runs.initial` (the initial state), :mod:`quadmodes.runs.validity` (the rotating
 stiffness and Q4 barrier checks) and :mod:`quadmodes.runs.chunked` (chunked integration with
-progress and early stops: an integrator failure, a non-finite state or Ctrl-C ends the run
-early, what was computed is kept and the result is marked incomplete with a reason).
+progress, checkpoints and early stops: an integrator failure or a non-finite state ends the run
+early, what was computed is kept and the result is marked incomplete with a reason; Ctrl-C
+raises :class:`~quadmodes.runs.chunked.Interrupted` carrying that partial result).
 """
 
 from __future__ import annotations
@@ -31,7 +32,13 @@ from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
-from quadmodes.runs.chunked import MAX_CHUNKS, integrate_in_chunks
+from quadmodes.runs.chunked import (
+    MAX_CHUNKS,
+    Checkpointer,
+    ChunkProgress,
+    Interrupted,
+    integrate_in_chunks,
+)
 from quadmodes.runs.initial import InitialState, initial_state
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
 from quadmodes.runs.model_cache import reduced_model_for
@@ -132,15 +139,9 @@ def prepare(
     return RunSetup(run, model_case, model, system, init, validity, choice)
 
 
-def execute(setup: RunSetup, progress: Progress | None = None, max_chunks: int = MAX_CHUNKS):
-    """Integrate a prepared run in chunks; returns a :class:`RunResult`.
-
-    ``progress(stage, fraction)`` is called with stage = the run name between chunks. An
-    integrator failure, a non-finite state or Ctrl-C ends the run early with ``complete`` False
-    and a one-line ``reason``; it is not raised (see
-    :func:`quadmodes.runs.chunked.integrate_in_chunks`)."""
+def _result(setup: RunSetup, chunks) -> RunResult:
+    """The :class:`RunResult` of ``setup`` integrated to ``chunks`` (a ChunkedRun)."""
     run, system, init = setup.run, setup.system, setup.initial
-    chunks = integrate_in_chunks(system, init.y0, run.integration, progress, run.name, max_chunks)
     diag = diagnostics(system, chunks.solution, spin_axis=init.spin_axis)
     return RunResult(
         run=run,
@@ -159,6 +160,33 @@ def execute(setup: RunSetup, progress: Progress | None = None, max_chunks: int =
     )
 
 
+def execute(
+    setup: RunSetup,
+    progress: Progress | None = None,
+    max_chunks: int = MAX_CHUNKS,
+    *,
+    checkpoint: Checkpointer | None = None,
+    resume: tuple[ChunkProgress, float] | None = None,
+):
+    """Integrate a prepared run in chunks; returns a :class:`RunResult`.
+
+    ``progress(stage, fraction)`` is called with stage = the run name between chunks. An
+    integrator failure or a non-finite state ends the run early with ``complete`` False and a
+    one-line ``reason``; it is not raised (see
+    :func:`quadmodes.runs.chunked.integrate_in_chunks`, also for ``checkpoint`` and
+    ``resume``). Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial``
+    is the :class:`RunResult` up to the last whole chunk (``complete`` False)."""
+    run, system, init = setup.run, setup.system, setup.initial
+    try:
+        chunks = integrate_in_chunks(
+            system, init.y0, run.integration, progress, run.name, max_chunks,
+            checkpoint=checkpoint, resume=resume,
+        )  # fmt: skip
+    except Interrupted as stop:
+        raise Interrupted(_result(setup, stop.partial), stop.saved, stop.reason) from None
+    return _result(setup, chunks)
+
+
 def simulate(
     run: RunCase,
     model: red.ReducedModel | None = None,
@@ -169,7 +197,8 @@ def simulate(
 ) -> RunResult:
     """:func:`prepare` and :func:`execute` ``run`` (reduced model from the cache unless
     ``model`` is given). Raises :class:`CaseError` for bad inputs only; an integrator failure
-    gives a result with ``complete`` False."""
+    gives a result with ``complete`` False; Ctrl-C raises
+    :class:`~quadmodes.runs.chunked.Interrupted`."""
     setup = prepare(run, model, progress, model_case=model_case)
     return execute(setup, progress, max_chunks)
 
