@@ -14,9 +14,14 @@ from rich.table import Table
 from quadmodes.cli.common import (
     LINEAR_FORMULATIONS,
     JsonFlag,
+    LargeModelFlag,
+    NoCacheFlag,
     UserError,
     case_argument,
+    check_output_file,
+    check_output_folder,
     err,
+    guard_model_size,
     load_model_case,
     one_line_errors,
     out,
@@ -73,6 +78,7 @@ def campbell(
     formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
     output_dir: CampbellOutput = None,
     as_json: JsonFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
@@ -85,7 +91,9 @@ def campbell(
         hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
         if formulation not in LINEAR_FORMULATIONS:
             raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
+        check_output_folder(output_dir)
         c = load_model_case(case)
+        guard_model_size(c, yes)
         with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
             result, _ = campbell_main(
                 c, lo, hi, n, formulation=formulation, output_dir=scratch, progress=progress
@@ -124,18 +132,23 @@ def rotating_command(
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
     formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",
     output: RotatingOutput = None,
+    no_cache: NoCacheFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
+    from quadmodes.runs.model_cache import caching_disabled
 
-    with one_line_errors():
+    with one_line_errors(), caching_disabled(no_cache):
+        check_output_file(output)
         spin_list = _parse_spins_hz(spins)
         names = parse_formulations(formulations, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
         if modes < 1:
             raise UserError("--modes: must be at least 1")
         c = load_model_case(case)
+        guard_model_size(c, yes)
         with progress_bars() as bars:
             table = rotating_frequency_comparison(c, spin_list, modes, names, progress=bars)
     text = table.to_text()

@@ -8,6 +8,8 @@ with status 2; results are written to a scratch folder and moved into place only
 from __future__ import annotations
 
 import contextlib
+import errno
+import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
@@ -119,6 +121,86 @@ def staged_output(directory: Path | None) -> Iterator[Path | None]:
                     folder.rmdir()
 
 
+#: Room the staging folder ``.<name>.partial-XXXXXXXX`` needs beyond the folder's own name.
+_STAGING_EXTRA = 24
+
+
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path(path.anchor or ".")
+
+
+def _check_name_lengths(path: Path, option: str, extra: int) -> None:
+    """Raise UserError if a component of ``path`` (its last one plus ``extra`` characters of
+    staging or temporary suffix) or the whole path is longer than the file system allows."""
+    base = _nearest_existing(path.parent)
+    try:
+        name_max = os.pathconf(base, "PC_NAME_MAX")
+        path_max = os.pathconf(base, "PC_PATH_MAX")
+    except (OSError, ValueError, AttributeError):
+        name_max, path_max = 255, 4096
+    longest = max((len(os.fsencode(p)) for p in path.parts), default=0)
+    if longest + extra > name_max or len(os.fsencode(str(path))) + extra >= path_max:
+        raise UserError(
+            f"{option}: {path} is too long for the file system (names up to about "
+            f"{name_max - extra} characters, paths up to {path_max - extra}); use a shorter path"
+        )
+
+
+def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
+    """Raise UserError unless a file can be created in ``folder`` (an existing folder): a
+    temporary file is created and removed (permission bits alone do not tell, e.g. for root or
+    a read-only mount)."""
+    if not folder.is_dir():
+        raise UserError(f"{option}: {folder} is a file, not a folder; choose another path for {path}")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".quadmodes-write-check-", dir=folder)
+    except OSError as exc:
+        reason = "read-only file system" if exc.errno == errno.EROFS else (exc.strerror or "not writable")
+        raise UserError(
+            f"{option}: cannot write in {folder} ({reason.lower()}); choose a folder you can write to"
+        ) from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_output_folder(directory: Path | None, option: str = "-o") -> None:
+    """Before any long work: raise UserError (naming ``option``) unless ``directory`` can be
+    created or written as an output folder (not a file, writable parent, short enough)."""
+    if directory is None:
+        return
+    directory = Path(directory).expanduser().absolute()
+    if directory.exists() and not directory.is_dir():
+        raise UserError(f"{option}: {directory} is a file, not a folder; give a folder name")
+    _check_name_lengths(directory, option, _STAGING_EXTRA)
+    _check_writable_folder(_nearest_existing(directory.parent), option, directory)
+    if directory.is_dir():
+        _check_writable_folder(directory, option, directory)
+
+
+def check_output_file(path: Path | None, option: str = "-o") -> None:
+    """Before any long work: raise UserError (naming ``option``) unless the file ``path`` can be
+    written (not a folder, writable existing parent, short enough)."""
+    if path is None:
+        return
+    path = Path(path).expanduser().absolute()
+    if path.is_dir():
+        raise UserError(f"{option}: {path} is a folder; give a file name, e.g. {path / 'out'}")
+    _check_name_lengths(path, option, _STAGING_EXTRA)
+    _check_writable_folder(_nearest_existing(path.parent), option, path)
+
+
+def guard_model_size(case, allow_large: bool) -> None:
+    """Refuse (CaseError naming the field) a model case estimated above the node limit of
+    :mod:`quadmodes.runs.resources`, unless ``allow_large`` (``--yes``)."""
+    from quadmodes.runs.resources import check_model_size
+
+    check_model_size(case, allow_large=allow_large)
+
+
 def load_model_case(case: str):
     """The model case named ``case`` (built-in name or TOML file)."""
     from quadmodes.case import load_case
@@ -161,3 +243,7 @@ def case_argument(help: str) -> Any:
 ModelCase = case_argument("built-in case name or TOML file")
 #: ``--json`` of the commands that print their summary as JSON.
 JsonFlag = flag("--json", "print JSON on stdout")
+#: ``--no-cache`` of the commands that build reduced models.
+NoCacheFlag = flag("--no-cache", "build the reduced model; do not read or save the model cache")
+#: ``--yes`` of the commands that build a finite-element model: lifts the size limit.
+LargeModelFlag = flag("--yes", "build a model estimated above the size limit (50,000 nodes)")

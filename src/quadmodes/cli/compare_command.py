@@ -14,10 +14,13 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import (
+    NoCacheFlag,
     UserError,
     case_argument,
+    check_output_folder,
     err,
     flag,
+    guard_model_size,
     one_line_errors,
     out,
     output_path,
@@ -193,7 +196,9 @@ def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None
 CompareCase = case_argument("run case (built-in name or TOML file)")
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
-YesFlag = flag("--yes", "run a full-order window estimated over 30 min")
+YesFlag = flag(
+    "--yes", "run a full-order window estimated over 30 min, or a model above the size limit"
+)
 ComparePlotsFlag = flag("--plots/--no-plots", "write overlay PNGs")
 
 
@@ -223,6 +228,7 @@ def compare_command(
     resume: ResumeFlag = False,
     yes: YesFlag = False,
     plots: ComparePlotsFlag = True,
+    no_cache: NoCacheFlag = False,
 ) -> None:
     """Reduced formulations (rigid, L, P, Q, Q4) against the full-order finite-element transient on
     one window: errors of the modal-amplitude envelope, cone angle and spin rate; the secular
@@ -235,11 +241,14 @@ def compare_command(
     same command with --resume continues from the checkpoint."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.fullorder import setup_for_run
+    from quadmodes.runs.model_cache import caching_disabled
 
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
-    with one_line_errors(RuntimeError):
+    with one_line_errors(RuntimeError), caching_disabled(no_cache):
         plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
+        check_output_folder(target)
+        guard_model_size(plan.run.model_case(), yes)
         checkpoint = _checkpoint_for(target, resume)
         # inflation, initial state and damping modes, once for the estimate and the run
         setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)

@@ -14,10 +14,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import (
+    LargeModelFlag,
+    NoCacheFlag,
     ProgressCallback,
     UserError,
+    check_output_folder,
     err,
     flag,
+    guard_model_size,
     one_line_errors,
     out,
     output_path,
@@ -238,10 +242,12 @@ def _check_mode_convergence(runs: list) -> None:
 
 
 def _prepare_runs(
-    names: list[str], overrides: dict, dt_convergence: bool, mode_convergence: bool = False
-) -> list:
+    names: list[str], overrides: dict, dt_convergence: bool, mode_convergence: bool = False,
+    allow_large: bool = False,
+) -> list:  # fmt: skip
     """Load the run cases, apply the command-line overrides and prepare the free-body runs
-    (reduced model, initial state); spin-ups are returned as their run cases."""
+    (reduced model, initial state); spin-ups are returned as their run cases. A model above
+    the size limit is refused first, unless ``allow_large``."""
     from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
 
@@ -250,6 +256,8 @@ def _prepare_runs(
         _check_dt_convergence(runs)
     if mode_convergence:
         _check_mode_convergence(runs)
+    for r in runs:
+        guard_model_size(r.model_case(), allow_large)
     with progress_bars(True) as bars:
         return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
 
@@ -323,6 +331,8 @@ def run_command(
     dt_convergence: DtConvergenceFlag = False,
     mode_convergence: ModeConvergenceFlag = False,
     plots: RunPlotsFlag = True,
+    no_cache: NoCacheFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
 
@@ -336,18 +346,14 @@ def run_command(
     results).
     """
     from quadmodes.runs import simulate
+    from quadmodes.runs.model_cache import caching_disabled
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
-    overrides = dict(
-        method=method,
-        dt=dt,
-        duration=duration,
-        formulation=formulation,
-        spin_rate=spin_rate,
-        modes=modes,
-    )
-    with one_line_errors():
-        setups = _prepare_runs(names, overrides, dt_convergence, mode_convergence)
+    overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,
+                     spin_rate=spin_rate, modes=modes)  # fmt: skip
+    with one_line_errors(), caching_disabled(no_cache):
+        check_output_folder(output_dir)
+        setups = _prepare_runs(names, overrides, dt_convergence, mode_convergence, yes)
     summaries: dict[str, dict] = {}
     spinups: set[str] = set()
     failed: list[str] = []
@@ -357,7 +363,7 @@ def run_command(
         if is_spinup:
             spinups.add(name)
         target = output_dir / name
-        with one_line_errors(OSError):
+        with one_line_errors(OSError), caching_disabled(no_cache):
             result, summaries[name] = _execute(
                 setup,
                 target,

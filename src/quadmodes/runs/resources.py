@@ -1,0 +1,123 @@
+"""Resource guards: the size of a case's finite-element model, estimated before any meshing,
+and the refusal of a model too large to build (unless the user insists with ``--yes``).
+
+A membrane of revolution gets its node count from the ring placement of the mesher
+(:func:`quadmodes.mesh.estimate.revolution_node_count`, exact for the rings, microseconds to
+milliseconds); a beam has ``elements + 1`` nodes; a mesh file is read anyway and not estimated.
+Memory and time are rough fits of ``quadmodes modes`` on paper-membrane meshed at 1, 0.5 and
+0.3 in (3000, 12 000 and 33 000 nodes: 0.2, 0.43 and 0.98 GB peak; 4, 11 and 50 s on one
+core); the issue that asked for this guard saw a ``MemoryError`` at 0.2 in (75 000 nodes),
+hence :data:`MAX_NODES`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from quadmodes.case import Case, CaseError
+from quadmodes.mesh.estimate import revolution_node_count
+from quadmodes.mesh.revolution import (
+    capsule_profile,
+    flat_cylinder_profile,
+    ring_arc_length,
+    sphere_cone_profile,
+    sphere_profile,
+    with_ring_at_radius,
+)
+
+#: Above this many nodes a model is refused unless ``--yes`` (the built-in cases have < 5000).
+MAX_NODES = 50_000
+#: Peak memory ≈ BASE_BYTES + BYTES_PER_NODE × nodes.
+BASE_BYTES, BYTES_PER_NODE = 0.1e9, 27e3
+#: Build time ≈ SECONDS_PER_NODE × nodes × sqrt(nodes / TIME_REFERENCE_NODES) (sparse fill-in).
+SECONDS_PER_NODE, TIME_REFERENCE_NODES = 1.5e-3, 33_000
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """Estimated size of a case's model: ``nodes``, peak ``memory_gb`` (GB) and build
+    ``time_s`` (s) of inflation and modes, and the ``field`` that sets the size."""
+
+    nodes: int
+    memory_gb: float
+    time_s: float
+    field: str
+
+
+def _profile_and_refinement(case: Case):
+    """The meridian profile of a revolution membrane and its ring refinements, as
+    :func:`quadmodes.structure.pipeline.surface_for_case` builds them."""
+    g = case.geometry
+    profile = {
+        "sphere-cone": lambda: sphere_cone_profile(
+            g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter
+        ),
+        "sphere": lambda: sphere_profile(0.5 * g.diameter),
+        "capsule": lambda: capsule_profile(0.5 * g.diameter, g.length),
+        "flat-cylinder": lambda: flat_cylinder_profile(0.5 * g.diameter, g.length),
+    }[g.shape]()
+    refine = []
+    for body in case.end_body:
+        profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
+        if case.mesh.elements_per_attach_radius:
+            s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
+            refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
+    return profile, tuple(refine)
+
+
+def estimate_size(case: Case) -> SizeEstimate | None:
+    """The :class:`SizeEstimate` of ``case``, or None for a mesh-file geometry (or a profile
+    that cannot be built: the build reports that itself)."""
+    if case.kind == "beam":
+        nodes, field = int(case.beam.elements) + 1, "beam.elements"
+    elif getattr(case.geometry, "shape", "file") == "file":
+        return None
+    else:
+        try:
+            profile, refine = _profile_and_refinement(case)
+        except ValueError:
+            return None
+        m = case.mesh
+        nodes = revolution_node_count(profile, m.edge_length, m.elements_per_radius, refine)
+        field = "mesh.edge_length"
+    memory_gb = (BASE_BYTES + BYTES_PER_NODE * nodes) / 1e9
+    time_s = SECONDS_PER_NODE * nodes * (nodes / TIME_REFERENCE_NODES) ** 0.5
+    return SizeEstimate(nodes, memory_gb, time_s, field)
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as "40 s", "12 min", "3.5 h" or "20 days"."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 172800:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.0f} days"
+
+
+def _fix(case: Case, size: SizeEstimate) -> str:
+    """What to change so that ``case`` fits under :data:`MAX_NODES`."""
+    if size.field == "beam.elements":
+        return f"use at most {MAX_NODES - 1} beam.elements"
+    edge = case.mesh.edge_length * (size.nodes / MAX_NODES) ** 0.5
+    return f"use mesh.edge_length of at least {edge:.3g} m ({edge / 0.0254:.3g} in)"
+
+
+def check_model_size(case: Case, *, allow_large: bool = False) -> SizeEstimate | None:
+    """The size estimate of ``case``; raises :class:`CaseError` (naming the field that sets the
+    size, the estimate and the fix) when it exceeds :data:`MAX_NODES` and not ``allow_large``."""
+    size = estimate_size(case)
+    if size is None or size.nodes <= MAX_NODES or allow_large:
+        return size
+    if size.field == "mesh.edge_length":
+        edge = case.mesh.edge_length
+        shown = f"{edge:.4g} m ({edge / 0.0254:.4g} in)"
+    else:
+        shown = str(case.beam.elements)
+    raise CaseError(
+        f"{size.field} = {shown} gives about {size.nodes:,} nodes (estimated "
+        f"{size.memory_gb:.3g} GB and {_duration(size.time_s)} to build; the limit is "
+        f"{MAX_NODES:,}): {_fix(case, size)}, or pass --yes to build it anyway",
+        field=size.field,
+    )
