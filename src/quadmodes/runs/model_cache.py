@@ -87,13 +87,11 @@ def caching_disabled(disabled: bool = True) -> Iterator[None]:
         _CACHING.reset(token)
 
 
-@functools.cache
-def code_fingerprint() -> str:
-    """SHA-256 (hex) of the source files that build a model (:data:`MODEL_CODE`): path and
-    bytes of each, in sorted order. Computed once per process (a few hundred kB)."""
-    root = Path(__file__).resolve().parents[1]
+def fingerprint_files(root: Path, entries: tuple[str, ...]) -> str:
+    """SHA-256 (hex) of the ``*.py`` files under ``root`` named by ``entries`` (folders or
+    files, relative to ``root``): the relative path and bytes of each, in sorted order."""
     files: list[Path] = []
-    for entry in MODEL_CODE:
+    for entry in entries:
         target = root / entry
         files.extend(sorted(target.rglob("*.py")) if target.is_dir() else [target])
     digest = hashlib.sha256()
@@ -102,6 +100,13 @@ def code_fingerprint() -> str:
         digest.update(path.read_bytes() if path.is_file() else b"missing")
         digest.update(b"\0")
     return digest.hexdigest()
+
+
+@functools.cache
+def code_fingerprint() -> str:
+    """:func:`fingerprint_files` of the package's :data:`MODEL_CODE`, computed once per
+    process (a few hundred kB of source)."""
+    return fingerprint_files(Path(__file__).resolve().parents[1], MODEL_CODE)
 
 
 def damping_ratio_of(case: Case) -> float:
