@@ -22,6 +22,7 @@ from quadmodes.cli.common import (
     check_output_folder,
     err,
     guard_model_size,
+    guard_reduced_model,
     load_model_case,
     one_line_errors,
     out,
@@ -94,6 +95,7 @@ def campbell(
         check_output_folder(output_dir)
         c = load_model_case(case)
         guard_model_size(c, yes)
+        guard_reduced_model(c, None, yes, spins=True)
         with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
             result, _ = campbell_main(
                 c, lo, hi, n, formulation=formulation, output_dir=scratch, progress=progress
@@ -149,6 +151,7 @@ def rotating_command(
             raise UserError("--modes: must be at least 1")
         c = load_model_case(case)
         guard_model_size(c, yes)
+        guard_reduced_model(c, modes, yes, spins=True, from_option=True)
         with progress_bars() as bars:
             table = rotating_frequency_comparison(c, spin_list, modes, names, progress=bars)
     text = table.to_text()

@@ -195,10 +195,51 @@ def check_output_file(path: Path | None, option: str = "-o") -> None:
 
 def guard_model_size(case, allow_large: bool) -> None:
     """Refuse (CaseError naming the field) a model case estimated above the node limit of
-    :mod:`quadmodes.runs.resources`, unless ``allow_large`` (``--yes``)."""
+    :mod:`quadmodes.runs.resources` (unless ``allow_large``, ``--yes``) or with a pressure too
+    low to inflate it."""
     from quadmodes.runs.resources import check_model_size
 
     check_model_size(case, allow_large=allow_large)
+
+
+def guard_reduced_model(
+    case, n_modes, allow_large: bool, *, spins: bool = False, from_option: bool = False
+) -> None:
+    """Refuse a reduced model of ``n_modes`` modes (an int; "auto" is checked when resolved)
+    that the model cannot have or that is too large (unless ``allow_large``), and, if it
+    ``spins``, a free beam. ``from_option``: the count came from ``--modes`` (named first)."""
+    from quadmodes.case import CaseError
+    from quadmodes.runs.resources import check_can_spin, check_reduced_size
+
+    if spins:
+        check_can_spin(case)
+    if not isinstance(n_modes, int):
+        return
+    try:
+        check_reduced_size(case, n_modes, allow_large=allow_large)
+    except CaseError as exc:
+        if not from_option:
+            raise
+        raise UserError(f"--modes {n_modes}: {exc.detail.split(': ', 1)[-1]}") from None
+
+
+def check_checkpoint_readable(path: Path, option: str = "--resume") -> None:
+    """Raise UserError (naming ``option``) if the checkpoint ``path`` (.npz) is truncated, not a
+    checkpoint or unreadable; the fix is to remove it and start again."""
+    import zipfile
+
+    import numpy as np
+
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if "version" not in data.files or "step" not in data.files:
+                raise ValueError("not a quadmodes checkpoint")
+            int(data["step"])
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise UserError(
+            f"{option}: the checkpoint {path} is truncated or not a quadmodes checkpoint "
+            f"({type(exc).__name__}); delete it and run again without {option}"
+        ) from None
 
 
 def load_model_case(case: str):

@@ -17,10 +17,12 @@ from quadmodes.cli.common import (
     NoCacheFlag,
     UserError,
     case_argument,
+    check_checkpoint_readable,
     check_output_folder,
     err,
     flag,
     guard_model_size,
+    guard_reduced_model,
     one_line_errors,
     out,
     output_path,
@@ -94,6 +96,8 @@ def _checkpoint_for(target: Path, resume: bool) -> Path:
     checkpoint = target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
     if resume and not checkpoint.exists():
         raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
+    if resume:
+        check_checkpoint_readable(checkpoint)
     if not resume and checkpoint.exists():
         checkpoint.unlink()
     return checkpoint
@@ -248,7 +252,10 @@ def compare_command(
         plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
         check_output_folder(target)
-        guard_model_size(plan.run.model_case(), yes)
+        model_case = plan.run.model_case()
+        guard_model_size(model_case, yes)
+        guard_reduced_model(model_case, plan.run.reduced.modes, yes, spins=True,
+                            from_option=modes is not None)  # fmt: skip
         checkpoint = _checkpoint_for(target, resume)
         # inflation, initial state and damping modes, once for the estimate and the run
         setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)

@@ -25,6 +25,7 @@ from quadmodes.cli.common import (
     err,
     flag,
     guard_model_size,
+    guard_reduced_model,
     load_model_case,
     one_line_errors,
     out,
@@ -281,6 +282,8 @@ def reduce_command(
             run_case = load_run_case(case)
             model_case = run_case.model_case()
             guard_model_size(model_case, yes)
+            if modes is None:
+                guard_reduced_model(model_case, run_case.reduced.modes, yes)
             if modes is None and run_case.spinup is None:
                 from quadmodes.runs.mode_choice import resolve_modes
 
@@ -290,6 +293,7 @@ def reduce_command(
             model_case = load_model_case(case)
             n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
             guard_model_size(model_case, yes)
+        guard_reduced_model(model_case, n_modes, yes, from_option=modes is not None)
         with progress_bars(not as_json) as progress:
             model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info)
         if output_file is not None:

@@ -22,6 +22,7 @@ from quadmodes.cli.common import (
     err,
     flag,
     guard_model_size,
+    guard_reduced_model,
     one_line_errors,
     out,
     output_path,
@@ -257,7 +258,11 @@ def _prepare_runs(
     if mode_convergence:
         _check_mode_convergence(runs)
     for r in runs:
-        guard_model_size(r.model_case(), allow_large)
+        model_case = r.model_case()
+        guard_model_size(model_case, allow_large)
+        modes = r.reduced.modes if r.reduced.formulation != "rigid" else None
+        guard_reduced_model(model_case, modes, allow_large, spins=r.spinup is None,
+                            from_option=overrides.get("modes") is not None)  # fmt: skip
     with progress_bars(True) as bars:
         return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
 

@@ -161,15 +161,25 @@ def splits_pair(labels, freqs, n_modes: int) -> bool:
     return bool(same_label or gap <= DEGENERATE_TOLERANCE * freqs[a])
 
 
+def _whole_pair_counts(labels, freqs, n_modes: int) -> str:
+    """The nearest mode counts below and above ``n_modes`` that keep pairs whole, among the
+    ``len(freqs)`` modes known, as "use 4 or 6" (or "use 4" when none above is known)."""
+    below = next((m for m in range(n_modes - 1, 0, -1) if not splits_pair(labels, freqs, m)), None)
+    above = next((m for m in range(n_modes + 1, len(freqs)) if not splits_pair(labels, freqs, m)), None)
+    choices = [str(m) for m in (below, above) if m is not None]
+    return f"use {' or '.join(choices)}" if choices else "use fewer modes"
+
+
 def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
     """Raise :class:`CaseError` if keeping the lowest ``n_modes`` of the modes (labels,
-    frequencies Hz, one more than kept) separates two members of a degenerate pair."""
+    frequencies Hz, one more than kept) separates two members of a degenerate pair; the message
+    suggests the nearest counts that keep pairs whole."""
     if splits_pair(labels, freqs, n_modes):
         a, b = n_modes - 1, n_modes
         raise CaseError(
             f"reduced.modes = {n_modes} splits the pair {labels[a]} / {labels[b]} at "
             f"{freqs[a]:.2f}/{freqs[b]:.2f} Hz (modes {a + 1} and {b + 1}); keep pairs whole: "
-            f"use {n_modes - 1} or {n_modes + 1}",
+            f"{_whole_pair_counts(labels, freqs, n_modes)}",
             field="reduced.modes",
         )
 
@@ -232,7 +242,7 @@ def build_reduced_model(
     n_modes = int(n_modes)
     if n_modes < 1:
         raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
-    modal = modal_model_for(case, n_modes + 1, progress)  # one more: is a pair split?
+    modal = modal_model_for(case, n_modes + 2, progress)  # is a pair split? what count is not?
     freqs = np.asarray(modal.modes.frequencies_hz, float)
     labels = list(modal.labels)
     if len(freqs) < n_modes:

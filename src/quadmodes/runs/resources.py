@@ -106,7 +106,9 @@ def _fix(case: Case, size: SizeEstimate) -> str:
 
 def check_model_size(case: Case, *, allow_large: bool = False) -> SizeEstimate | None:
     """The size estimate of ``case``; raises :class:`CaseError` (naming the field that sets the
-    size, the estimate and the fix) when it exceeds :data:`MAX_NODES` and not ``allow_large``."""
+    size, the estimate and the fix) when it exceeds :data:`MAX_NODES` and not ``allow_large``,
+    or when its pressure is too low to inflate it (:func:`check_pressure`)."""
+    check_pressure(case)
     size = estimate_size(case)
     if size is None or size.nodes <= MAX_NODES or allow_large:
         return size
@@ -121,3 +123,69 @@ def check_model_size(case: Case, *, allow_large: bool = False) -> SizeEstimate |
         f"{MAX_NODES:,}): {_fix(case, size)}, or pass --yes to build it anyway",
         field=size.field,
     )
+
+
+# ------------------------------------------------------------------------- inputs that cannot work
+
+#: Below this membrane strain scale p R / (E t) inflation does not converge reliably:
+#: paper-membrane-coarse fails at 1.3e-6 (3e-5 psi) and converges at 4.4e-6 (1e-4 psi).
+MIN_STRAIN = 3e-6
+#: Largest reduced model refused without ``--yes``: the quadratic modes G (N² × nodes × 3) and
+#: the quartic potential V4 (N⁴) in bytes.
+MAX_REDUCED_BYTES = 4e9
+
+
+def check_pressure(case: Case) -> None:
+    """Raise :class:`CaseError` (``pressure.value``) if the pressure of a membrane of
+    revolution is too low to tension it (strain scale below :data:`MIN_STRAIN`)."""
+    if case.kind != "membrane" or case.geometry.shape == "file":
+        return
+    g, m, p = case.geometry, case.material, case.pressure.value
+    radius = max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0)
+    strain = p * radius / (m.youngs_modulus * m.thickness)
+    if radius > 0.0 and strain < MIN_STRAIN:
+        lowest = MIN_STRAIN * m.youngs_modulus * m.thickness / radius
+        raise CaseError(
+            f"pressure.value = {p:.3g} Pa ({p / 6894.757:.3g} psi) is too low to tension the "
+            f"membrane reliably (strain scale p R / (E t) = {strain:.2g}, below {MIN_STRAIN:g}); "
+            f"raise it to at least {lowest:.2g} Pa ({lowest / 6894.757:.2g} psi)",
+            field="pressure.value",
+        )
+
+
+def check_can_spin(case: Case, what: str = "spin") -> None:
+    """Raise :class:`CaseError` (``beam.support``) for a free beam asked to ``what``: the beam
+    model has no torsion and no polar inertia, so its reduced mass matrix is singular about
+    its own axis. (Free beams are not supported yet.)"""
+    if case.kind == "beam" and case.beam.support == "free":
+        raise CaseError(
+            f'beam.support = "free": a free beam cannot {what} (the beam model has no torsion '
+            "or polar inertia, so its reduced mass matrix is singular); use a clamped beam "
+            '(support = "clamped", driven on a hub as in kane-spinup) or a membrane case',
+            field="beam.support",
+        )
+
+
+def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -> None:
+    """Raise :class:`CaseError` (``reduced.modes``) if ``n_modes`` exceeds the degrees of
+    freedom of the model, or (unless ``allow_large``) its reduced arrays would exceed
+    :data:`MAX_REDUCED_BYTES`."""
+    size = estimate_size(case)
+    n_modes = int(n_modes)
+    if size is None or n_modes < 1:
+        return
+    dofs = 3 * size.nodes * (2 if case.kind == "beam" else 1) - 6
+    if n_modes > dofs:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: the model has about {size.nodes} nodes, at most "
+            f"{max(dofs, 0)} elastic modes; use fewer modes (the paper cases use 5)",
+            field="reduced.modes",
+        )
+    nbytes = 8.0 * (n_modes**2 * 3 * size.nodes + n_modes**4)
+    if nbytes > MAX_REDUCED_BYTES and not allow_large:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: the reduced model would need about {nbytes / 1e9:.3g} "
+            f"GB (quadratic modes N² × nodes, quartic terms N⁴); use fewer modes (the paper "
+            "cases use 5), or pass --yes to build it anyway",
+            field="reduced.modes",
+        )
