@@ -159,9 +159,11 @@ def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
     try:
         fd, probe = tempfile.mkstemp(prefix=".quadmodes-write-check-", dir=folder)
     except OSError as exc:
-        reason = "read-only file system" if exc.errno == errno.EROFS else (exc.strerror or "not writable")
+        reasons = {errno.EROFS: "read-only file system", errno.EACCES: "permission denied",
+                   errno.EPERM: "permission denied", errno.ENOSPC: "no space left"}  # fmt: skip
         raise UserError(
-            f"{option}: cannot write in {folder} ({reason.lower()}); choose a folder you can write to"
+            f"{option}: cannot write in {folder} ({reasons.get(exc.errno, 'not writable')}); "
+            "choose a folder you can write to"
         ) from None
     os.close(fd)
     os.unlink(probe)
@@ -215,6 +217,8 @@ def guard_reduced_model(
         check_can_spin(case)
     if not isinstance(n_modes, int):
         return
+    if from_option and n_modes < 1:
+        raise UserError(f"--modes {n_modes}: must be at least 1; use e.g. 5")
     try:
         check_reduced_size(case, n_modes, allow_large=allow_large)
     except CaseError as exc:

@@ -24,6 +24,11 @@ def read_surface(path: str | Path) -> TriangleSurface:
     Raises ``ValueError`` if the file cannot be read or holds no triangles.
     """
     path = Path(path)
+    if not path.exists():
+        raise ValueError(
+            f"mesh: surface file '{path}' (geometry.file) not found; check the path (a relative "
+            "path is relative to the case file)"
+        )
     if path.is_file() and path.stat().st_size == 0:
         raise ValueError(
             f"mesh: surface file '{path}' (geometry.file) is empty (0 bytes); export the surface "
