@@ -190,6 +190,7 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("compare-full-dt", "compare --full-dt '2 s' -o {d}/out", ("--full-dt",)),
     ("show-case-unknown", "show-case nope", ("unknown case",)),
     ("cache-clear-without-yes", "cache clear", ("--yes",)),
+    ("validate-write-is-folder", "validate --quick --write {d}/afolder", ("--write", "is a folder")),
 ]
 
 
