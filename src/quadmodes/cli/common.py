@@ -291,4 +291,6 @@ JsonFlag = flag("--json", "print JSON on stdout")
 #: ``--no-cache`` of the commands that build reduced models.
 NoCacheFlag = flag("--no-cache", "build the reduced model; do not read or save the model cache")
 #: ``--yes`` of the commands that build a finite-element model: lifts the size limit.
-LargeModelFlag = flag("--yes", "build a model estimated above the size limit (50,000 nodes)")
+LargeModelFlag = flag(
+    "--yes", "build a model above the size limits (50,000 nodes; 4 GB of reduced arrays)"
+)
