@@ -163,6 +163,8 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("edge-0.01in-reduce", "reduce {d}/edge-tiny.toml", ("mesh.edge_length", "GB")),
     ("edge-0.01in-campbell", "campbell {d}/edge-tiny.toml", ("mesh.edge_length",)),
     ("beam-elements-huge", "modes {d}/huge-beam.toml", ("beam.elements", "--yes")),
+    ("run-duration-huge", "run paper-0.5hz --duration '1e6 s' -o {d}/out", ("integration.duration", "--yes")),
+    ("run-dt-tiny", "run paper-0.5hz --dt '1e-9 s' -o {d}/out", ("--dt", "steps")),
     # ---- output paths, checked before any work
     ("modes-o-is-file", "modes {d}/sphere.toml -o {d}/afile", ("-o", "is a file")),
     ("run-o-is-file", "run paper-0.5hz -o {d}/afile", ("-o", "is a file")),
@@ -184,6 +186,8 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("run-dt-convergence-spinup", "run kane-spinup --dt-convergence -o {d}/out", ("--dt-convergence",)),
     ("campbell-spin-unit", "campbell --spin-min '1 m'", ("--spin-min", "length")),
     ("campbell-formulation", "campbell --formulation X", ("--formulation",)),
+    ("campbell-no-points", "campbell --points 0", ("--points",)),
+    ("campbell-spin-range-reversed", "campbell --spin-min '10 rad/s' --spin-max '1 rad/s'", ("--spin-max",)),
     ("rotating-spins", "rotating --spins a,b", ("--spins",)),
     ("compare-window-zero", "compare --window '0 s' -o {d}/out", ("--window", "positive")),
     ("compare-formulations", "compare --formulations bogus -o {d}/out", ("--formulations",)),

@@ -90,6 +90,10 @@ def campbell(
     with one_line_errors():
         lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
         hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
+        if n < 1:
+            raise UserError(f"--points: {n}; give at least 1 spin rate, e.g. 41")
+        if hi < lo:
+            raise UserError(f"--spin-max: {spin_max} is below --spin-min {spin_min}; swap them")
         if formulation not in LINEAR_FORMULATIONS:
             raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
         check_output_folder(output_dir)

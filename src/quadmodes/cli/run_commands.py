@@ -14,7 +14,6 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import (
-    LargeModelFlag,
     NoCacheFlag,
     ProgressCallback,
     UserError,
@@ -257,7 +256,10 @@ def _prepare_runs(
         _check_dt_convergence(runs)
     if mode_convergence:
         _check_mode_convergence(runs)
+    from quadmodes.runs.resources import check_run_length
+
     for r in runs:
+        check_run_length(r, allow_long=allow_large)
         model_case = r.model_case()
         guard_model_size(model_case, allow_large)
         modes = r.reduced.modes if r.reduced.formulation != "rigid" else None
@@ -306,6 +308,9 @@ ModeConvergenceFlag = flag(
     "also run with the next two pair-whole mode counts above N and print a convergence table",
 )
 RunPlotsFlag = flag("--plots/--no-plots", "write PNG figures")
+RunYesFlag = flag(
+    "--yes", "run above the size limits (50,000 nodes, 4 GB of reduced arrays, 5 million steps)"
+)
 
 
 def run_command(
@@ -337,7 +342,7 @@ def run_command(
     mode_convergence: ModeConvergenceFlag = False,
     plots: RunPlotsFlag = True,
     no_cache: NoCacheFlag = False,
-    yes: LargeModelFlag = False,
+    yes: RunYesFlag = False,
 ) -> None:
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
 

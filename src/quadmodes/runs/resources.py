@@ -189,3 +189,24 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
             "cases use 5), or pass --yes to build it anyway",
             field="reduced.modes",
         )
+
+
+#: Free-body runs with more steps than this are refused without ``--yes`` (20 × the longest
+#: built-in run, paper-41hz: 120 s at 0.5 ms = 240,000 steps).
+MAX_STEPS = 5_000_000
+
+
+def check_run_length(run, *, allow_long: bool = False) -> None:
+    """Raise :class:`CaseError` (``integration.duration``) if the free-body run case ``run``
+    has more than :data:`MAX_STEPS` steps (samples for "adaptive"), unless ``allow_long``."""
+    if run.spinup is not None or allow_long:
+        return
+    integ = run.integration
+    steps = integ.n_steps
+    if steps > MAX_STEPS:
+        raise CaseError(
+            f"integration.duration / integration.dt = {integ.duration:.4g} s / {integ.dt:.3g} s "
+            f"= {steps:,} steps (the limit is {MAX_STEPS:,}; paper-41hz has 240,000): shorten "
+            "the duration (--duration) or lengthen the step (--dt), or pass --yes to run it anyway",
+            field="integration.duration",
+        )
