@@ -147,6 +147,7 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("modes-500-compare", "compare paper-41hz-coarse --modes 500 -o {d}/out", ("--modes",)),
     ("modes-500-rotating", "rotating --modes 500", ("--modes 500",)),
     ("modes-beyond-dofs", "reduce kane-beam --modes 200", ("--modes 200", "elastic modes")),
+    ("modes-120-reduce", "reduce kane-beam --modes 120", ("--modes 120", "--yes")),
     ("modes-zero-reduce", "reduce kane-beam --modes 0", ("--modes 0", "at least 1")),
     ("empty-vtu", "modes {d}/empty-mesh.toml -o {d}/out", ("geometry.file", "empty.vtu")),
     ("zero-byte-vtu", "modes {d}/zero-byte-mesh.toml -o {d}/out", ("geometry.file", "empty")),

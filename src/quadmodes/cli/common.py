@@ -292,5 +292,5 @@ JsonFlag = flag("--json", "print JSON on stdout")
 NoCacheFlag = flag("--no-cache", "build the reduced model; do not read or save the model cache")
 #: ``--yes`` of the commands that build a finite-element model: lifts the size limit.
 LargeModelFlag = flag(
-    "--yes", "build a model above the size limits (50,000 nodes; 4 GB of reduced arrays)"
+    "--yes", "build above the size limits (50,000 nodes, 60 modes, 4 GB of reduced arrays)"
 )

@@ -309,7 +309,7 @@ ModeConvergenceFlag = flag(
 )
 RunPlotsFlag = flag("--plots/--no-plots", "write PNG figures")
 RunYesFlag = flag(
-    "--yes", "run above the size limits (50,000 nodes, 4 GB of reduced arrays, 5 million steps)"
+    "--yes", "run above the size limits (50,000 nodes, 60 modes, 5 million steps)"
 )
 
 

@@ -133,6 +133,9 @@ MIN_STRAIN = 3e-6
 #: Largest reduced model refused without ``--yes``: the quadratic modes G (N² × nodes × 3) and
 #: the quartic potential V4 (N⁴) in bytes.
 MAX_REDUCED_BYTES = 4e9
+#: More modes than this are refused without ``--yes``: the quartic terms cost ~N⁴ (kane-beam:
+#: 60 modes 16 s, 120 modes several minutes); the paper cases use 5, "auto" about 10.
+MAX_MODES = 60
 
 
 def check_pressure(case: Case) -> None:
@@ -182,6 +185,14 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
             field="reduced.modes",
         )
     nbytes = 8.0 * (n_modes**2 * 3 * size.nodes + n_modes**4)
+    if n_modes > MAX_MODES and nbytes <= MAX_REDUCED_BYTES and not allow_large:
+        minutes = 16.0 * (n_modes / 60.0) ** 4 / 60.0
+        raise CaseError(
+            f"reduced.modes = {n_modes}: more than {MAX_MODES} modes; the quartic terms (N⁴) "
+            f"would take about {minutes:.2g} min or more to build; use fewer modes (the paper "
+            "cases use 5), or pass --yes to build it anyway",
+            field="reduced.modes",
+        )
     if nbytes > MAX_REDUCED_BYTES and not allow_large:
         raise CaseError(
             f"reduced.modes = {n_modes}: the reduced model would need about {nbytes / 1e9:.3g} "
