@@ -204,3 +204,24 @@ def test_cache_list_and_clear(cache):
     assert cleared.exit_code == 0, cleared.output
     assert sorted(p.name for p in cache.iterdir()) == ["notes.txt"]  # entry and lock removed
     assert "empty" in runner.invoke(app, ["cache", "clear", "--yes"]).stdout
+
+
+def test_cache_entries_are_recognised_by_name(tmp_path):
+    names = {
+        "paper-membrane-N5-0123456789abcdef.nc": ("reduced", "paper-membrane", "5"),
+        "kane-beam-spectrum12-0123456789abcdef.json": ("spectrum", "kane-beam", "12"),
+        "paper-41hz-coarse-damping-150Hz-0123456789abcdef.nc": ("damping", "paper-41hz-coarse", "150 Hz"),
+        ".kane-beam-N2-0123456789abcdef.nc.k3j2h1.partial.nc": ("partial", "kane-beam", "2"),
+    }
+    for name in [*names, "results.nc", "notes.txt", "kane-beam-N2-0123456789abcdef.nc.lock"]:
+        (tmp_path / name).write_bytes(b"12345")
+    found = {e.path.name: (e.kind, e.case, e.modes) for e in cache_entries(tmp_path)}
+    assert found == names  # other files and (by default) lock files are not listed
+    with_locks = cache_entries(tmp_path, locks=True)
+    assert [e.kind for e in with_locks].count("lock") == 1
+
+
+@pytest.mark.parametrize("command", ["run", "reduce", "compare", "rotating"])
+def test_model_building_commands_take_no_cache(command):
+    result = CliRunner().invoke(app, [command, "--help"], terminal_width=200)
+    assert result.exit_code == 0 and "--no-cache" in result.stdout
