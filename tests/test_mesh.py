@@ -160,7 +160,7 @@ def test_check_inward_surface(sphere):
     assert is_watertight(flipped.triangles) and is_consistently_oriented(flipped.triangles)
     with pytest.raises(ValueError, match="inward") as exc:
         check_closed_surface(flipped)
-    assert "orient_outward" in _one_line(exc)
+    assert "flip the normals" in _one_line(exc) and "geometry.file" in _one_line(exc)
     fixed = orient_outward(flipped)
     check_closed_surface(fixed)
     assert orient_outward(sphere) is sphere

@@ -44,6 +44,7 @@ class Case(Section):
         if self.kind == "membrane":
             self._check_membrane_tables()
             self._check_end_bodies()
+            self._check_mesh_resolution()
         else:
             self._check_beam_tables()
         return self
@@ -107,6 +108,23 @@ class Case(Section):
                     f"radius {inch(radius)}; use a smaller attach_radius",
                     f"end_body[{i}].attach_radius",
                 )
+
+    def _check_mesh_resolution(self) -> None:
+        """The mesh edge must be at most half the body's largest radius (at least ~12 edges
+        around its widest ring); a coarser mesh cannot represent the body or its modes."""
+        g = self.geometry
+        if g.shape == "file":
+            return
+        radius = max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0)
+        edge = self.mesh.edge_length
+        if radius > 0.0 and edge > radius / 2:
+            raise field_error(
+                "case_rule",
+                f"{inch(edge)} is too long for a body of largest radius {inch(radius)} (fewer "
+                f"than 12 edges around it); use at most {inch(radius / 2)}, e.g. "
+                f"{inch(radius / 10)}",
+                "mesh.edge_length",
+            )
 
     def to_toml(self) -> str:
         """This case as TOML text in SI units (see :func:`case_to_toml`)."""

@@ -76,6 +76,13 @@ def read_case_file(
     """
     text = os.fspath(name_or_path)
     path = Path(text).expanduser()
+    if path.is_dir():
+        inside = sorted(p.name for p in path.glob("*.toml"))[:3]
+        hint = f" (it holds {', '.join(inside)})" if inside else ""
+        raise CaseError(
+            f"{text} is a folder, not a {what} file; give the path of a .toml file{hint}",
+            field="case",
+        )
     if not path.is_file():
         if looks_like_path(name_or_path):
             raise CaseError(f"{what} file not found: {text}", field="case")

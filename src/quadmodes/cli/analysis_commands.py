@@ -14,9 +14,15 @@ from rich.table import Table
 from quadmodes.cli.common import (
     LINEAR_FORMULATIONS,
     JsonFlag,
+    LargeModelFlag,
+    NoCacheFlag,
     UserError,
     case_argument,
+    check_output_file,
+    check_output_folder,
     err,
+    guard_model_size,
+    guard_reduced_model,
     load_model_case,
     one_line_errors,
     out,
@@ -73,6 +79,7 @@ def campbell(
     formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
     output_dir: CampbellOutput = None,
     as_json: JsonFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
@@ -83,9 +90,16 @@ def campbell(
     with one_line_errors():
         lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
         hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
+        if n < 1:
+            raise UserError(f"--points: {n}; give at least 1 spin rate, e.g. 41")
+        if hi < lo:
+            raise UserError(f"--spin-max: {spin_max} is below --spin-min {spin_min}; swap them")
         if formulation not in LINEAR_FORMULATIONS:
             raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
+        check_output_folder(output_dir)
         c = load_model_case(case)
+        guard_model_size(c, yes)
+        guard_reduced_model(c, None, yes, spins=True)
         with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
             result, _ = campbell_main(
                 c, lo, hi, n, formulation=formulation, output_dir=scratch, progress=progress
@@ -124,18 +138,24 @@ def rotating_command(
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
     formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",
     output: RotatingOutput = None,
+    no_cache: NoCacheFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
+    from quadmodes.runs.model_cache import caching_disabled
 
-    with one_line_errors():
+    with one_line_errors(), caching_disabled(no_cache):
+        check_output_file(output)
         spin_list = _parse_spins_hz(spins)
         names = parse_formulations(formulations, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
         if modes < 1:
             raise UserError("--modes: must be at least 1")
         c = load_model_case(case)
+        guard_model_size(c, yes)
+        guard_reduced_model(c, modes, yes, spins=True, from_option=True)
         with progress_bars() as bars:
             table = rotating_frequency_comparison(c, spin_list, modes, names, progress=bars)
     text = table.to_text()

@@ -8,6 +8,7 @@ with status 2; results are written to a scratch folder and moved into place only
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import os
 import shutil
@@ -211,6 +212,130 @@ def sigterm_as_interrupt() -> Iterator[dict]:
         yield state
     finally:
         signal.signal(signal.SIGTERM, previous)
+#: Room the staging folder ``.<name>.partial-XXXXXXXX`` needs beyond the folder's own name.
+_STAGING_EXTRA = 24
+
+
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path(path.anchor or ".")
+
+
+def _check_name_lengths(path: Path, option: str, extra: int) -> None:
+    """Raise UserError if a component of ``path`` (its last one plus ``extra`` characters of
+    staging or temporary suffix) or the whole path is longer than the file system allows."""
+    base = _nearest_existing(path.parent)
+    try:
+        name_max = os.pathconf(base, "PC_NAME_MAX")
+        path_max = os.pathconf(base, "PC_PATH_MAX")
+    except (OSError, ValueError, AttributeError):
+        name_max, path_max = 255, 4096
+    longest = max((len(os.fsencode(p)) for p in path.parts), default=0)
+    if longest + extra > name_max or len(os.fsencode(str(path))) + extra >= path_max:
+        raise UserError(
+            f"{option}: {path} is too long for the file system (names up to about "
+            f"{name_max - extra} characters, paths up to {path_max - extra}); use a shorter path"
+        )
+
+
+def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
+    """Raise UserError unless a file can be created in ``folder`` (an existing folder): a
+    temporary file is created and removed (permission bits alone do not tell, e.g. for root or
+    a read-only mount)."""
+    if not folder.is_dir():
+        raise UserError(f"{option}: {folder} is a file, not a folder; choose another path for {path}")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".quadmodes-write-check-", dir=folder)
+    except OSError as exc:
+        reasons = {errno.EROFS: "read-only file system", errno.EACCES: "permission denied",
+                   errno.EPERM: "permission denied", errno.ENOSPC: "no space left"}  # fmt: skip
+        raise UserError(
+            f"{option}: cannot write in {folder} ({reasons.get(exc.errno, 'not writable')}); "
+            "choose a folder you can write to"
+        ) from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_output_folder(directory: Path | None, option: str = "-o") -> None:
+    """Before any long work: raise UserError (naming ``option``) unless ``directory`` can be
+    created or written as an output folder (not a file, writable parent, short enough)."""
+    if directory is None:
+        return
+    directory = Path(directory).expanduser().absolute()
+    if directory.exists() and not directory.is_dir():
+        raise UserError(f"{option}: {directory} is a file, not a folder; give a folder name")
+    _check_name_lengths(directory, option, _STAGING_EXTRA)
+    _check_writable_folder(_nearest_existing(directory.parent), option, directory)
+    if directory.is_dir():
+        _check_writable_folder(directory, option, directory)
+
+
+def check_output_file(path: Path | None, option: str = "-o") -> None:
+    """Before any long work: raise UserError (naming ``option``) unless the file ``path`` can be
+    written (not a folder, writable existing parent, short enough)."""
+    if path is None:
+        return
+    path = Path(path).expanduser().absolute()
+    if path.is_dir():
+        raise UserError(f"{option}: {path} is a folder; give a file name, e.g. {path / 'out'}")
+    _check_name_lengths(path, option, _STAGING_EXTRA)
+    _check_writable_folder(_nearest_existing(path.parent), option, path)
+
+
+def guard_model_size(case, allow_large: bool) -> None:
+    """Refuse (CaseError naming the field) a model case estimated above the node limit of
+    :mod:`quadmodes.runs.resources` (unless ``allow_large``, ``--yes``) or with a pressure too
+    low to inflate it."""
+    from quadmodes.runs.resources import check_model_size
+
+    check_model_size(case, allow_large=allow_large)
+
+
+def guard_reduced_model(
+    case, n_modes, allow_large: bool, *, spins: bool = False, from_option: bool = False
+) -> None:
+    """Refuse a reduced model of ``n_modes`` modes (an int; "auto" is checked when resolved)
+    that the model cannot have or that is too large (unless ``allow_large``), and, if it
+    ``spins``, a free beam. ``from_option``: the count came from ``--modes`` (named first)."""
+    from quadmodes.case import CaseError
+    from quadmodes.runs.resources import check_can_spin, check_reduced_size
+
+    if spins:
+        check_can_spin(case)
+    if not isinstance(n_modes, int):
+        return
+    if from_option and n_modes < 1:
+        raise UserError(f"--modes {n_modes}: must be at least 1; use e.g. 5")
+    try:
+        check_reduced_size(case, n_modes, allow_large=allow_large)
+    except CaseError as exc:
+        if not from_option:
+            raise
+        raise UserError(f"--modes {n_modes}: {exc.detail.split(': ', 1)[-1]}") from None
+
+
+def check_checkpoint_readable(path: Path, option: str = "--resume", fix: str | None = None) -> None:
+    """Raise UserError (naming ``option``) if the checkpoint ``path`` (.npz) is truncated, not a
+    checkpoint or unreadable; ``fix``: how to start again (default: delete it and run again
+    without ``option``)."""
+    import zipfile
+
+    import numpy as np
+
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if "version" not in data.files or "step" not in data.files:
+                raise ValueError("not a quadmodes checkpoint")
+            int(data["step"])
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise UserError(
+            f"{option}: the checkpoint {path} is damaged (truncated or not a quadmodes "
+            f"checkpoint, {type(exc).__name__}); {fix or f'delete it and run again without {option}'}"
+        ) from None
 
 
 def load_model_case(case: str):
@@ -255,3 +380,9 @@ def case_argument(help: str) -> Any:
 ModelCase = case_argument("built-in case name or TOML file")
 #: ``--json`` of the commands that print their summary as JSON.
 JsonFlag = flag("--json", "print JSON on stdout")
+#: ``--no-cache`` of the commands that build reduced models.
+NoCacheFlag = flag("--no-cache", "build the reduced model; do not read or save the model cache")
+#: ``--yes`` of the commands that build a finite-element model: lifts the size limit.
+LargeModelFlag = flag(
+    "--yes", "build above the size limits (50,000 nodes, 60 modes, 4 GB of reduced arrays)"
+)

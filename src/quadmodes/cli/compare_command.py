@@ -15,10 +15,15 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import (
+    NoCacheFlag,
     UserError,
     case_argument,
+    check_checkpoint_readable,
+    check_output_folder,
     err,
     flag,
+    guard_model_size,
+    guard_reduced_model,
     one_line_errors,
     out,
     output_path,
@@ -90,23 +95,6 @@ def _plan(
     return ComparisonPlan(cmp.window_run(run, t_window), t_window, dt_full, names, cutoff)
 
 
-def _check_readable(checkpoint: Path) -> None:
-    """UserError unless ``checkpoint`` reads as a full-order checkpoint (a truncated or foreign
-    file would end in a zip or pickle traceback)."""
-    import zipfile
-
-    from quadmodes.fullorder.checkpoint import read_checkpoint
-
-    try:
-        data = read_checkpoint(checkpoint)
-        int(data["step"]), int(data["n"])
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
-        raise UserError(
-            f"--resume: {checkpoint} is damaged or not a full-order checkpoint "
-            f"({type(exc).__name__}); start again with --restart"
-        ) from None
-
-
 def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
     """The full-order checkpoint beside ``target``: it must exist to resume; without --resume
     an existing one is discarded only with --restart (else UserError)."""
@@ -116,7 +104,7 @@ def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
     if resume and not checkpoint.exists():
         raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
     if resume:
-        _check_readable(checkpoint)
+        check_checkpoint_readable(checkpoint, fix="start again with --restart")
     if not resume and checkpoint.exists():
         if not restart:
             raise UserError(
@@ -262,7 +250,9 @@ CompareCase = case_argument("run case (built-in name or TOML file)")
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
 RestartFlag = flag("--restart", "discard the checkpoint of an interrupted full-order run")
-YesFlag = flag("--yes", "run a full-order window estimated over 30 min")
+YesFlag = flag(
+    "--yes", "run a full-order window estimated over 30 min, or a model above the size limit"
+)
 ComparePlotsFlag = flag("--plots/--no-plots", "write overlay PNGs")
 
 
@@ -293,6 +283,7 @@ def compare_command(
     restart: RestartFlag = False,
     yes: YesFlag = False,
     plots: ComparePlotsFlag = True,
+    no_cache: NoCacheFlag = False,
 ) -> None:
     """Reduced formulations (rigid, L, P, Q, Q4) against the full-order finite-element transient on
     one window: errors of the modal-amplitude envelope, cone angle and spin rate; the secular
@@ -310,7 +301,7 @@ def compare_command(
             payload, plan, target = _compare(
                 case, window, full_dt, modes, spin_rate, formulations, damping_cutoff,
                 output_dir, as_json=as_json, resume=resume, restart=restart, yes=yes,
-                plots=plots, signals=signals,
+                plots=plots, signals=signals, no_cache=no_cache,
             )  # fmt: skip
         except KeyboardInterrupt:  # outside the integrations (setup, writing)
             message = signals.get("stopped", lambda: "stopped; nothing was written")()
@@ -323,15 +314,21 @@ def compare_command(
 
 
 def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff, output_dir,
-             *, as_json, resume, restart, yes, plots, signals):  # fmt: skip
+             *, as_json, resume, restart, yes, plots, signals, no_cache):  # fmt: skip
     """The body of :func:`compare_command`: returns (payload, plan, output folder)."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.fullorder import setup_for_run
+    from quadmodes.runs.model_cache import caching_disabled
 
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
-    with one_line_errors(RuntimeError):
+    with one_line_errors(RuntimeError), caching_disabled(no_cache):
         plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
+        check_output_folder(target)
+        model_case = plan.run.model_case()
+        guard_model_size(model_case, yes)
+        guard_reduced_model(model_case, plan.run.reduced.modes, yes, spins=True,
+                            from_option=modes is not None)  # fmt: skip
         checkpoint = _checkpoint_for(target, resume, restart)
         options = {"--window": window, "--full-dt": full_dt, "--modes": modes,
                    "--spin-rate": spin_rate, "--formulations": formulations,

@@ -16,10 +16,16 @@ from quadmodes import __version__
 from quadmodes.cli.common import (
     DEFAULT_CASE,
     JsonFlag,
+    LargeModelFlag,
     ModelCase,
+    NoCacheFlag,
     case_argument,
+    check_output_file,
+    check_output_folder,
     err,
     flag,
+    guard_model_size,
+    guard_reduced_model,
     load_model_case,
     one_line_errors,
     out,
@@ -148,13 +154,18 @@ ModesOutput = output_path("folder for VTU/PVD, PNG and JSON")
 
 
 def modes(
-    case: ModelCase = DEFAULT_CASE, as_json: JsonFlag = False, output_dir: ModesOutput = None
+    case: ModelCase = DEFAULT_CASE,
+    as_json: JsonFlag = False,
+    output_dir: ModesOutput = None,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Inflate the case, compute its modes, print a table (and write pictures and ParaView files)."""
     from quadmodes.structure.pipeline import build_modal_model, modes_summary
 
     with one_line_errors():
+        check_output_folder(output_dir)
         c = load_model_case(case)
+        guard_model_size(c, yes)
         with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
             model = build_modal_model(c, progress)
             if scratch is not None:
@@ -187,13 +198,16 @@ def calibrate(
         typer.Option(help="rear-mass axial mode target (Hz); default: geometric mean of the two"),
     ] = None,
     no_axial: NoAxialFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Fit the end-body masses (and rear inertia) so the modes match the seed's frequencies."""
     from quadmodes.structure.calibrate import calibrate_end_masses
 
     target_axial = None if no_axial else (axial or float(np.sqrt(rocking * bending)))
     with one_line_errors():
+        check_output_file(output_file)
         c = load_model_case(case)
+        guard_model_size(c, yes)
         with progress_bars() as progress:
             result = calibrate_end_masses(
                 c, rocking_hz=rocking, bending_hz=bending, axial_hz=target_axial, progress=progress
@@ -249,20 +263,27 @@ def reduce_command(
         typer.Option("--modes", help="elastic modes to keep (default: the run case's, else 5)"),
     ] = None,
     as_json: JsonFlag = False,
+    no_cache: NoCacheFlag = False,
+    yes: LargeModelFlag = False,
 ) -> None:
     """Build the reduced model (quadratic modes, floating-frame arrays) of a case.
 
-    Cached in $QUADMODES_CACHE or ~/.cache/quadmodes: later calls and `run` skip the FE work.
+    Cached in $QUADMODES_CACHE or the per-user cache folder (`quadmodes cache list`): later
+    calls and `run` skip the FE work.
     """
     from quadmodes.case import load_run_case
     from quadmodes.rom import artifact
     from quadmodes.runs import model_cache, simulate
 
     info: dict = {}
-    with one_line_errors(OSError):
+    with one_line_errors(OSError), model_cache.caching_disabled(no_cache):
+        check_output_file(output_file)
         if simulate.is_run_case(case):
             run_case = load_run_case(case)
             model_case = run_case.model_case()
+            guard_model_size(model_case, yes)
+            if modes is None:
+                guard_reduced_model(model_case, run_case.reduced.modes, yes)
             if modes is None and run_case.spinup is None:
                 from quadmodes.runs.mode_choice import resolve_modes
 
@@ -271,6 +292,8 @@ def reduce_command(
         else:
             model_case = load_model_case(case)
             n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
+            guard_model_size(model_case, yes)
+        guard_reduced_model(model_case, n_modes, yes, from_option=modes is not None)
         with progress_bars(not as_json) as progress:
             model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info)
         if output_file is not None:

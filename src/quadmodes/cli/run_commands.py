@@ -15,10 +15,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import (
+    NoCacheFlag,
     ProgressCallback,
     UserError,
+    check_output_folder,
     err,
     flag,
+    guard_model_size,
+    guard_reduced_model,
     one_line_errors,
     out,
     output_path,
@@ -252,9 +256,11 @@ def _check_mode_convergence(runs: list) -> None:
 
 
 def _load_runs(
-    names: list[str], overrides: dict, dt_convergence: bool, mode_convergence: bool = False
-) -> list:
-    """Load the run cases and apply the command-line overrides (fast: no model is built)."""
+    names: list[str], overrides: dict, dt_convergence: bool, mode_convergence: bool = False,
+    allow_large: bool = False,
+) -> list:  # fmt: skip
+    """Load the run cases and apply the command-line overrides (fast: no model is built); a
+    model above the size limit is refused first, unless ``allow_large``."""
     from quadmodes.case import load_run_case
     from quadmodes.runs import simulate
 
@@ -263,6 +269,15 @@ def _load_runs(
         _check_dt_convergence(runs)
     if mode_convergence:
         _check_mode_convergence(runs)
+    from quadmodes.runs.resources import check_run_length
+
+    for r in runs:
+        check_run_length(r, allow_long=allow_large)
+        model_case = r.model_case()
+        guard_model_size(model_case, allow_large)
+        modes = r.reduced.modes if r.reduced.formulation != "rigid" else None
+        guard_reduced_model(model_case, modes, allow_large, spins=r.spinup is None,
+                            from_option=overrides.get("modes") is not None)  # fmt: skip
     return runs
 
 
@@ -394,6 +409,9 @@ CheckpointEvery = Annotated[
         help='wall time between checkpoints of the integration, e.g. "10 s" (0: every chunk)',
     ),
 ]
+RunYesFlag = flag(
+    "--yes", "run above the size limits (50,000 nodes, 60 modes, 5 million steps)"
+)
 
 
 def run_command(
@@ -427,6 +445,8 @@ def run_command(
     resume: RunResumeFlag = False,
     restart: RunRestartFlag = False,
     checkpoint_every: CheckpointEvery = "10 s",
+    no_cache: NoCacheFlag = False,
+    yes: RunYesFlag = False,
 ) -> None:
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
 
@@ -436,15 +456,15 @@ def run_command(
     A formulation outside its validity (rotating-frame stiffness not positive definite at some
     spin rate up to the run's) prints a warning; the JSON summary says `valid: false`.
 
-    The integration is checkpointed (DIR/<case name>.partial/checkpoint.npz) every
-    --checkpoint-every of wall time and on Ctrl-C or SIGTERM, which also write the partial
-    results there (never over a complete result in DIR/<case name>/); the same command with
-    --resume continues bit for bit. Cases without a checkpoint start from the beginning.
+    The integration is checkpointed (DIR/<case name>.partial/) every --checkpoint-every of wall
+    time and on Ctrl-C or SIGTERM, which write the partial results there (never over DIR/<case
+    name>/); --resume continues bit for bit (cases without a checkpoint start afresh).
 
     Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
     results), 130 after Ctrl-C (143 after SIGTERM).
     """
     from quadmodes.runs import simulate
+    from quadmodes.runs.model_cache import caching_disabled
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,
@@ -456,13 +476,15 @@ def run_command(
                         resume_hint(case, output_dir, overrides, flags), signals)  # fmt: skip
         all_folders: list[RunFolders] = []
         try:
-            with one_line_errors():
+            with caching_disabled(no_cache), one_line_errors():
+                check_output_folder(output_dir)
                 opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every))
-                runs = _load_runs(names, overrides, dt_convergence, mode_convergence)
+                runs = _load_runs(names, overrides, dt_convergence, mode_convergence, yes)
                 all_folders = [run_folders(output_dir, r.name) for r in runs]
                 check_folders(all_folders, resume=resume, restart=restart)
                 setups = _prepare_runs(runs)
-            summaries, spinups, failed = _run_all(setups, output_dir, opts)
+            with caching_disabled(no_cache):
+                summaries, spinups, failed = _run_all(setups, output_dir, opts)
         except KeyboardInterrupt:
             raise stop(stopped_message(all_folders, opts.hint), opts.exit_code) from None
     if as_json:

@@ -13,9 +13,11 @@ from rich.markup import escape
 from quadmodes.cli.common import (
     ProgressCallback,
     UserError,
+    check_output_file,
     err,
     fail,
     flag,
+    one_line_errors,
     progress_bars,
     user_errors,
 )
@@ -99,6 +101,8 @@ def validate(
     bad = [s for s in chosen if s not in VALIDATION_SUITES]
     if bad:
         fail(UserError(f"--suite: unknown {', '.join(bad)}; choose from fe, reduced, full-order"))
+    with one_line_errors():
+        check_output_file(write, "--write")  # before tens of minutes of checks
     todo = _checks_to_run(chosen, quick)
     results: dict[str, list] = {k: [] for k in chosen}
     with progress_bars() as progress:

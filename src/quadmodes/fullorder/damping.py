@@ -152,6 +152,7 @@ def independent_damping_for(
     if not (cutoff_hz > 0 and math.isfinite(cutoff_hz)):
         raise ValueError(f"damping cutoff: {cutoff_hz!r} Hz; give a positive frequency, e.g. 150 Hz")
     info = {} if info is None else info
+    use_cache = use_cache and model_cache.caching_enabled()  # --no-cache
     key, path = damping_key(case, cutoff_hz), damping_cache_path(case, cutoff_hz)
     info["path"], info["cache"] = str(path), "miss" if use_cache else "off"
     got = load_damping_modes(path, key, structure.n) if use_cache else None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 from pathlib import Path
 
 import meshio
@@ -22,16 +24,32 @@ def read_surface(path: str | Path) -> TriangleSurface:
     Raises ``ValueError`` if the file cannot be read or holds no triangles.
     """
     path = Path(path)
-    try:
-        mesh = meshio.read(path)
-    except Exception as exc:  # meshio raises many types (ReadError, KeyError, OSError, ...)
-        raise ValueError(f"mesh: cannot read surface file '{path}': {exc}") from exc
+    if not path.exists():
+        raise ValueError(
+            f"mesh: surface file '{path}' (geometry.file) not found; check the path (a relative "
+            "path is relative to the case file)"
+        )
+    if path.is_file() and path.stat().st_size == 0:
+        raise ValueError(
+            f"mesh: surface file '{path}' (geometry.file) is empty (0 bytes); export the surface "
+            "mesh again"
+        )
+    try:  # meshio prints its own messages and may call sys.exit: keep them to ourselves
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            mesh = meshio.read(path)
+    except (Exception, SystemExit) as exc:  # ReadError, KeyError, OSError, SystemExit, ...
+        reason = " ".join(str(exc).split()) if not isinstance(exc, SystemExit) else "unreadable"
+        raise ValueError(
+            f"mesh: cannot read surface file '{path}' (geometry.file) as a triangle mesh "
+            f"({reason or type(exc).__name__}); give a non-empty surface mesh file (.vtu, .stl, "
+            ".obj, .ply, .msh)"
+        ) from None
     blocks = [np.asarray(c.data, dtype=np.int64) for c in mesh.cells if c.type == "triangle"]
     if not blocks or sum(len(b) for b in blocks) == 0:
         types = sorted({c.type for c in mesh.cells}) or ["none"]
         raise ValueError(
-            f"mesh: file '{path}' has no triangle cells (found: {', '.join(types)}); "
-            "export the surface as triangles"
+            f"mesh: file '{path}' (geometry.file) has no triangle cells (found: "
+            f"{', '.join(types)}); export the surface as triangles"
         )
     triangles = np.concatenate(blocks)
     points = np.asarray(mesh.points, dtype=float)

@@ -238,7 +238,8 @@ def check_closed_surface(surface: TriangleSurface) -> None:
     if vol < 0.0:
         raise ValueError(
             f"mesh: triangles are oriented inward (enclosed volume {vol:.6g} m^3 < 0); "
-            "flip them with orient_outward()"
+            "reverse the vertex order of every triangle (flip the normals) in the mesh file "
+            "(geometry.file) so that they face outward"
         )
 
 

@@ -5,20 +5,26 @@ Stages::
     Case ──build_reduced_model──▶ ReducedModel ──artifact.save_reduced_model──▶ cache file
     Case ──reduced_model_for──▶ ReducedModel (from the cache file when its content key matches)
 
-The cache folder is ``$QUADMODES_CACHE`` or ``~/.cache/quadmodes``; a file is named
-``<case>-N<modes>-<key>.nc`` where the key hashes the case TOML, the number of modes and the
-artifact format version (:func:`reduced_key`). The spectrum of a case (frequencies and labels
+The cache folder is ``$QUADMODES_CACHE`` or the per-user cache folder (platformdirs:
+``~/.cache/quadmodes`` on Linux); a file is named ``<case>-N<modes>-<key>.nc`` where the key
+hashes the case TOML, the bytes of its mesh file, the package version, a hash of the source code
+that builds the model (:func:`code_fingerprint`), the number of modes and the artifact format
+version (:func:`reduced_key`). A build holds a lock on ``<file>.lock``
+(:func:`quadmodes.io.locking.file_lock`) so that parallel runs of one case build it once. The spectrum of a case (frequencies and labels
 of its lowest modes, :func:`mode_spectrum`, read by ``modes = "auto"`` and
 ``--mode-convergence``) is cached beside it as ``<case>-spectrum<count>-<key>.json``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
+import functools
 import hashlib
 import json
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +33,7 @@ import numpy as np
 from quadmodes import __version__
 from quadmodes.case import Case, CaseError, Modes
 from quadmodes.io.atomic import write_text
+from quadmodes.io.locking import file_lock
 from quadmodes.rom import artifact
 from quadmodes.rom import reduced as red
 from quadmodes.rom.spinning_reduction import reduce_spinning, spinning_modes
@@ -38,10 +45,66 @@ Progress = Callable[[str, float], None]
 DEFAULT_MODES = 5
 
 
+#: Source files (relative to the package) whose code builds a reduced model: a change in any
+#: of them changes every cache key (:func:`code_fingerprint`).
+MODEL_CODE = ("fe", "structure", "mesh", "linalg", "rom/reduced.py", "rom/artifact.py",
+              "runs/model_cache.py")  # fmt: skip
+
+#: False inside :func:`caching_disabled` (``--no-cache``): nothing is read from or saved to
+#: the cache.
+_CACHING = contextvars.ContextVar("quadmodes_caching", default=True)
+
+
 def cache_dir() -> Path:
-    """Folder of cached reduced models: ``$QUADMODES_CACHE`` or ``~/.cache/quadmodes``."""
+    """Folder of cached reduced models: ``$QUADMODES_CACHE``, else the per-user cache folder
+    of platformdirs (``~/.cache/quadmodes`` on Linux, ``$XDG_CACHE_HOME`` honoured), else
+    ``~/.cache/quadmodes``."""
     env = os.environ.get("QUADMODES_CACHE")
-    return Path(env).expanduser() if env else Path.home() / ".cache" / "quadmodes"
+    if env:
+        return Path(env).expanduser()
+    try:
+        import platformdirs
+    except ImportError:  # pragma: no cover - platformdirs is a dependency
+        return Path.home() / ".cache" / "quadmodes"
+    return Path(platformdirs.user_cache_dir("quadmodes", appauthor=False))
+
+
+def caching_enabled() -> bool:
+    """False inside :func:`caching_disabled`."""
+    return _CACHING.get()
+
+
+@contextlib.contextmanager
+def caching_disabled(disabled: bool = True) -> Iterator[None]:
+    """Within the block (if ``disabled``), reduced models and spectra are built, never read
+    from nor saved to the cache (``--no-cache``)."""
+    token = _CACHING.set(not disabled and _CACHING.get())
+    try:
+        yield
+    finally:
+        _CACHING.reset(token)
+
+
+def fingerprint_files(root: Path, entries: tuple[str, ...]) -> str:
+    """SHA-256 (hex) of the ``*.py`` files under ``root`` named by ``entries`` (folders or
+    files, relative to ``root``): the relative path and bytes of each, in sorted order."""
+    files: list[Path] = []
+    for entry in entries:
+        target = root / entry
+        files.extend(sorted(target.rglob("*.py")) if target.is_dir() else [target])
+    digest = hashlib.sha256()
+    for path in sorted(files):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() if path.is_file() else b"missing")
+        digest.update(b"\0")
+    return digest.hexdigest()
+
+
+@functools.cache
+def code_fingerprint() -> str:
+    """:func:`fingerprint_files` of the package's :data:`MODEL_CODE`, computed once per
+    process (a few hundred kB of source)."""
+    return fingerprint_files(Path(__file__).resolve().parents[1], MODEL_CODE)
 
 
 def damping_ratio_of(case: Case) -> float:
@@ -52,9 +115,12 @@ def damping_ratio_of(case: Case) -> float:
 
 def model_inputs(case: Case) -> str:
     """Everything that determines the structural model of ``case``, as text for a cache key:
-    the case in SI (its TOML) and, for a mesh-file geometry, the SHA-256 of the file's bytes (a
-    changed mesh under the same file name must not reuse models built from the old one)."""
+    the case in SI (its TOML), for a mesh-file geometry the SHA-256 of the file's bytes (a
+    changed mesh under the same file name must not reuse models built from the old one), the
+    package version and the :func:`code_fingerprint` (a new version of the code must not reuse
+    models built by an old one)."""
     text = case.to_toml()
+    text += f"\n# quadmodes version = {__version__}\n# model code sha256 = {code_fingerprint()}\n"
     geometry = getattr(case, "geometry", None)
     mesh_file = getattr(geometry, "file", None)
     if mesh_file:
@@ -96,15 +162,25 @@ def splits_pair(labels, freqs, n_modes: int) -> bool:
     return bool(same_label or gap <= DEGENERATE_TOLERANCE * freqs[a])
 
 
+def _whole_pair_counts(labels, freqs, n_modes: int) -> str:
+    """The nearest mode counts below and above ``n_modes`` that keep pairs whole, among the
+    ``len(freqs)`` modes known, as "use 4 or 6" (or "use 4" when none above is known)."""
+    below = next((m for m in range(n_modes - 1, 0, -1) if not splits_pair(labels, freqs, m)), None)
+    above = next((m for m in range(n_modes + 1, len(freqs)) if not splits_pair(labels, freqs, m)), None)
+    choices = [str(m) for m in (below, above) if m is not None]
+    return f"use {' or '.join(choices)}" if choices else "use fewer modes"
+
+
 def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
     """Raise :class:`CaseError` if keeping the lowest ``n_modes`` of the modes (labels,
-    frequencies Hz, one more than kept) separates two members of a degenerate pair."""
+    frequencies Hz, one more than kept) separates two members of a degenerate pair; the message
+    suggests the nearest counts that keep pairs whole."""
     if splits_pair(labels, freqs, n_modes):
         a, b = n_modes - 1, n_modes
         raise CaseError(
             f"reduced.modes = {n_modes} splits the pair {labels[a]} / {labels[b]} at "
             f"{freqs[a]:.2f}/{freqs[b]:.2f} Hz (modes {a + 1} and {b + 1}); keep pairs whole: "
-            f"use {n_modes - 1} or {n_modes + 1}",
+            f"{_whole_pair_counts(labels, freqs, n_modes)}",
             field="reduced.modes",
         )
 
@@ -171,7 +247,7 @@ def build_reduced_model(
         raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
     if spin:
         return _build_spinning(case, n_modes, float(spin), progress)
-    modal = modal_model_for(case, n_modes + 1, progress)  # one more: is a pair split?
+    modal = modal_model_for(case, n_modes + 2, progress)  # is a pair split? what count is not?
     freqs = np.asarray(modal.modes.frequencies_hz, float)
     labels = list(modal.labels)
     if len(freqs) < n_modes:
@@ -193,6 +269,35 @@ def build_reduced_model(
     )
 
 
+def _cached_model(
+    case: Case, n_modes: int, path: Path, spin: float = 0.0
+) -> tuple[red.ReducedModel | None, str]:
+    """The model in the cache file ``path`` and "hit" if it is there, readable and matches the
+    key; else None and "miss" (no file) or "rebuilt" (corrupt or mismatching)."""
+    if not path.is_file():
+        return None, "miss"
+    try:
+        model = artifact.load_reduced_model(path)
+    except artifact.ArtifactError:
+        return None, "rebuilt"
+    key = reduced_key(case, n_modes, spin)
+    if model.provenance.get("content_key") == key and model.n_modes == n_modes:
+        return model, "hit"
+    return None, "rebuilt"
+
+
+def _waiting_notice(progress: Progress | None, info: dict) -> Callable[[], None]:
+    """Called when another process holds the cache lock: noted in ``info["waited"]`` and, with
+    a progress callback, shown as the stage "cache lock"."""
+
+    def waiting() -> None:
+        info["waited"] = True
+        if progress:
+            progress("cache lock", 0.0)
+
+    return waiting
+
+
 def reduced_model_for(
     case: Case,
     n_modes: int = DEFAULT_MODES,
@@ -205,28 +310,26 @@ def reduced_model_for(
     """The reduced model of ``case`` with ``n_modes`` modes, expanded about the state spinning at
     ``spin`` (rad/s; 0: at rest), from the cache if present.
 
-    The cache file is keyed by ``artifact.content_key(case TOML + n_modes + spin)``; a missing,
-    corrupt or mismatching file is (re)built and saved. ``info`` (optional dict) receives
-    ``cache`` ("hit", "miss", "rebuilt" or "off") and ``path``."""
+    The cache file is keyed by :func:`reduced_key`; a missing, corrupt or mismatching file is
+    (re)built and saved, under the lock of the file, so that parallel processes build it once
+    (the second finds the first's file when it gets the lock). ``use_cache`` False, or
+    :func:`caching_disabled`, builds without reading or saving. ``info`` (optional dict)
+    receives ``cache`` ("hit", "miss", "rebuilt", "off" or "not saved (...)") and ``path``."""
     info = {} if info is None else info
     path = cache_path(case, n_modes, spin)
     info["path"] = str(path)
-    info["cache"] = "off" if not use_cache else "miss"
-    if use_cache and path.is_file():
-        try:
-            model = artifact.load_reduced_model(path)
-        except artifact.ArtifactError:
-            info["cache"] = "rebuilt"
-        else:
-            if (
-                model.provenance.get("content_key") == reduced_key(case, n_modes, spin)
-                and model.n_modes == n_modes
-            ):
-                info["cache"] = "hit"
-                return model
-            info["cache"] = "rebuilt"
-    model = build_reduced_model(case, n_modes, progress, spin)
-    if use_cache:
+    if not (use_cache and caching_enabled()):
+        info["cache"] = "off"
+        return build_reduced_model(case, n_modes, progress, spin)
+    model, info["cache"] = _cached_model(case, n_modes, path, spin)
+    if model is not None:
+        return model
+    with file_lock(path, _waiting_notice(progress, info)):
+        model, state = _cached_model(case, n_modes, path, spin)  # built meanwhile by another?
+        if model is not None:
+            info["cache"] = state
+            return model
+        model = build_reduced_model(case, n_modes, progress, spin)
         try:
             artifact.save_reduced_model(model, path)
         except OSError as exc:  # a read-only cache is not an error: the run goes on
@@ -277,28 +380,37 @@ def spectrum_path(case: Case, count: int) -> Path:
     return cache_dir() / f"{case.name}-spectrum{int(count)}-{key}.json"
 
 
+def _cached_spectrum(path: Path, count: int) -> Spectrum | None:
+    """The spectrum in the cache file ``path`` if it is readable and has ``count`` modes."""
+    if not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        freqs = tuple(float(f) for f in data["frequencies_hz"])
+        labels = tuple(str(s) for s in data["labels"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # corrupt: computed again
+    return Spectrum(freqs, labels) if len(freqs) == len(labels) >= count else None
+
+
 def mode_spectrum(
     case: Case, count: int, progress: Progress | None = None, *, use_cache: bool = True
 ) -> Spectrum:
     """Frequencies (Hz) and labels of the lowest ``max(count, modes.count)`` elastic modes of
-    ``case``: from the cache file if present, else from :func:`modal_model_for` (and saved)."""
+    ``case``: from the cache file if present, else from :func:`modal_model_for` (and saved,
+    under the file's lock as for :func:`reduced_model_for`)."""
     count = max(int(count), case.modes.count)
     path = spectrum_path(case, count)
-    if use_cache and path.is_file():
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            freqs = tuple(float(f) for f in data["frequencies_hz"])
-            labels = tuple(str(s) for s in data["labels"])
-        except (OSError, ValueError, KeyError, TypeError):
-            pass  # corrupt: computed again below
-        else:
-            if len(freqs) == len(labels) >= count:
-                return Spectrum(freqs, labels)
-    modal = modal_model_for(case, count, progress)
-    spec = Spectrum(
-        tuple(float(f) for f in modal.modes.frequencies_hz), tuple(str(s) for s in modal.labels)
-    )
-    if use_cache:
+    if not (use_cache and caching_enabled()):
+        return _spectrum_of(modal_model_for(case, count, progress))
+    cached = _cached_spectrum(path, count)
+    if cached is not None:
+        return cached
+    with file_lock(path, _waiting_notice(progress, {})):
+        cached = _cached_spectrum(path, count)
+        if cached is not None:
+            return cached
+        spec = _spectrum_of(modal_model_for(case, count, progress))
         text = json.dumps({"case": case.name, "frequencies_hz": spec.frequencies_hz,
                            "frequencies_hz_units": "Hz", "labels": spec.labels}, indent=1)  # fmt: skip
         try:
@@ -306,3 +418,10 @@ def mode_spectrum(
         except OSError:
             pass  # a read-only cache is not an error
     return spec
+
+
+def _spectrum_of(modal) -> Spectrum:
+    """The :class:`Spectrum` of a modal model."""
+    return Spectrum(
+        tuple(float(f) for f in modal.modes.frequencies_hz), tuple(str(s) for s in modal.labels)
+    )

@@ -1,0 +1,223 @@
+"""Resource guards: the size of a case's finite-element model, estimated before any meshing,
+and the refusal of a model too large to build (unless the user insists with ``--yes``).
+
+A membrane of revolution gets its node count from the ring placement of the mesher
+(:func:`quadmodes.mesh.estimate.revolution_node_count`, exact for the rings, microseconds to
+milliseconds); a beam has ``elements + 1`` nodes; a mesh file is read anyway and not estimated.
+Memory and time are rough fits of ``quadmodes modes`` on paper-membrane meshed at 1, 0.5 and
+0.3 in (3000, 12 000 and 33 000 nodes: 0.2, 0.43 and 0.98 GB peak; 4, 11 and 50 s on one
+core); the issue that asked for this guard saw a ``MemoryError`` at 0.2 in (75 000 nodes),
+hence :data:`MAX_NODES`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from quadmodes.case import Case, CaseError
+from quadmodes.mesh.estimate import revolution_node_count
+from quadmodes.mesh.revolution import (
+    capsule_profile,
+    flat_cylinder_profile,
+    ring_arc_length,
+    sphere_cone_profile,
+    sphere_profile,
+    with_ring_at_radius,
+)
+
+#: Above this many nodes a model is refused unless ``--yes`` (the built-in cases have < 5000).
+MAX_NODES = 50_000
+#: Peak memory ≈ BASE_BYTES + BYTES_PER_NODE × nodes.
+BASE_BYTES, BYTES_PER_NODE = 0.1e9, 27e3
+#: Build time ≈ SECONDS_PER_NODE × nodes × sqrt(nodes / TIME_REFERENCE_NODES) (sparse fill-in).
+SECONDS_PER_NODE, TIME_REFERENCE_NODES = 1.5e-3, 33_000
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """Estimated size of a case's model: ``nodes``, peak ``memory_gb`` (GB) and build
+    ``time_s`` (s) of inflation and modes, and the ``field`` that sets the size."""
+
+    nodes: int
+    memory_gb: float
+    time_s: float
+    field: str
+
+
+def _profile_and_refinement(case: Case):
+    """The meridian profile of a revolution membrane and its ring refinements, as
+    :func:`quadmodes.structure.pipeline.surface_for_case` builds them."""
+    g = case.geometry
+    profile = {
+        "sphere-cone": lambda: sphere_cone_profile(
+            g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter
+        ),
+        "sphere": lambda: sphere_profile(0.5 * g.diameter),
+        "capsule": lambda: capsule_profile(0.5 * g.diameter, g.length),
+        "flat-cylinder": lambda: flat_cylinder_profile(0.5 * g.diameter, g.length),
+    }[g.shape]()
+    refine = []
+    for body in case.end_body:
+        profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
+        if case.mesh.elements_per_attach_radius:
+            s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
+            refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
+    return profile, tuple(refine)
+
+
+def estimate_size(case: Case) -> SizeEstimate | None:
+    """The :class:`SizeEstimate` of ``case``, or None for a mesh-file geometry (or a profile
+    that cannot be built: the build reports that itself)."""
+    if case.kind == "beam":
+        nodes, field = int(case.beam.elements) + 1, "beam.elements"
+    elif getattr(case.geometry, "shape", "file") == "file":
+        return None
+    else:
+        try:
+            profile, refine = _profile_and_refinement(case)
+        except ValueError:
+            return None
+        m = case.mesh
+        nodes = revolution_node_count(profile, m.edge_length, m.elements_per_radius, refine)
+        field = "mesh.edge_length"
+    memory_gb = (BASE_BYTES + BYTES_PER_NODE * nodes) / 1e9
+    time_s = SECONDS_PER_NODE * nodes * (nodes / TIME_REFERENCE_NODES) ** 0.5
+    return SizeEstimate(nodes, memory_gb, time_s, field)
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as "40 s", "12 min", "3.5 h" or "20 days"."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 172800:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.0f} days"
+
+
+def _fix(case: Case, size: SizeEstimate) -> str:
+    """What to change so that ``case`` fits under :data:`MAX_NODES`."""
+    if size.field == "beam.elements":
+        return f"use at most {MAX_NODES - 1} beam.elements"
+    edge = case.mesh.edge_length * (size.nodes / MAX_NODES) ** 0.5
+    return f"use mesh.edge_length of at least {edge:.3g} m ({edge / 0.0254:.3g} in)"
+
+
+def check_model_size(case: Case, *, allow_large: bool = False) -> SizeEstimate | None:
+    """The size estimate of ``case``; raises :class:`CaseError` (naming the field that sets the
+    size, the estimate and the fix) when it exceeds :data:`MAX_NODES` and not ``allow_large``,
+    or when its pressure is too low to inflate it (:func:`check_pressure`)."""
+    check_pressure(case)
+    size = estimate_size(case)
+    if size is None or size.nodes <= MAX_NODES or allow_large:
+        return size
+    if size.field == "mesh.edge_length":
+        edge = case.mesh.edge_length
+        shown = f"{edge:.4g} m ({edge / 0.0254:.4g} in)"
+    else:
+        shown = str(case.beam.elements)
+    raise CaseError(
+        f"{size.field} = {shown} gives about {size.nodes:,} nodes (estimated "
+        f"{size.memory_gb:.3g} GB and {_duration(size.time_s)} to build; the limit is "
+        f"{MAX_NODES:,}): {_fix(case, size)}, or pass --yes to build it anyway",
+        field=size.field,
+    )
+
+
+# ------------------------------------------------------------------------- inputs that cannot work
+
+#: Below this membrane strain scale p R / (E t) inflation does not converge reliably:
+#: paper-membrane-coarse fails at 1.3e-6 (3e-5 psi) and converges at 4.4e-6 (1e-4 psi).
+MIN_STRAIN = 3e-6
+#: Largest reduced model refused without ``--yes``: the quadratic modes G (N² × nodes × 3) and
+#: the quartic potential V4 (N⁴) in bytes.
+MAX_REDUCED_BYTES = 4e9
+#: More modes than this are refused without ``--yes``: the quartic terms cost ~N⁴ (kane-beam:
+#: 60 modes 16 s, 120 modes several minutes); the paper cases use 5, "auto" about 10.
+MAX_MODES = 60
+
+
+def check_pressure(case: Case) -> None:
+    """Raise :class:`CaseError` (``pressure.value``) if the pressure of a membrane of
+    revolution is too low to tension it (strain scale below :data:`MIN_STRAIN`)."""
+    if case.kind != "membrane" or case.geometry.shape == "file":
+        return
+    g, m, p = case.geometry, case.material, case.pressure.value
+    radius = max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0)
+    strain = p * radius / (m.youngs_modulus * m.thickness)
+    if radius > 0.0 and strain < MIN_STRAIN:
+        lowest = MIN_STRAIN * m.youngs_modulus * m.thickness / radius
+        raise CaseError(
+            f"pressure.value = {p:.3g} Pa ({p / 6894.757:.3g} psi) is too low to tension the "
+            f"membrane reliably (strain scale p R / (E t) = {strain:.2g}, below {MIN_STRAIN:g}); "
+            f"raise it to at least {lowest:.2g} Pa ({lowest / 6894.757:.2g} psi)",
+            field="pressure.value",
+        )
+
+
+def check_can_spin(case: Case, what: str = "spin") -> None:
+    """Raise :class:`CaseError` (``beam.support``) for a free beam asked to ``what``: the beam
+    model has no torsion and no polar inertia, so its reduced mass matrix is singular about
+    its own axis. (Free beams are not supported yet.)"""
+    if case.kind == "beam" and case.beam.support == "free":
+        raise CaseError(
+            f'beam.support = "free": a free beam cannot {what} (the beam model has no torsion '
+            "or polar inertia, so its reduced mass matrix is singular); use a clamped beam "
+            '(support = "clamped", driven on a hub as in kane-spinup) or a membrane case',
+            field="beam.support",
+        )
+
+
+def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -> None:
+    """Raise :class:`CaseError` (``reduced.modes``) if ``n_modes`` exceeds the degrees of
+    freedom of the model, or (unless ``allow_large``) its reduced arrays would exceed
+    :data:`MAX_REDUCED_BYTES`."""
+    size = estimate_size(case)
+    n_modes = int(n_modes)
+    if size is None or n_modes < 1:
+        return
+    dofs = 3 * size.nodes * (2 if case.kind == "beam" else 1) - 6
+    if n_modes > dofs:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: the model has about {size.nodes} nodes, at most "
+            f"{max(dofs, 0)} elastic modes; use fewer modes (the paper cases use 5)",
+            field="reduced.modes",
+        )
+    nbytes = 8.0 * (n_modes**2 * 3 * size.nodes + n_modes**4)
+    if n_modes > MAX_MODES and nbytes <= MAX_REDUCED_BYTES and not allow_large:
+        minutes = 16.0 * (n_modes / 60.0) ** 4 / 60.0
+        raise CaseError(
+            f"reduced.modes = {n_modes}: more than {MAX_MODES} modes; the quartic terms (N⁴) "
+            f"would take about {minutes:.2g} min or more to build; use fewer modes (the paper "
+            "cases use 5), or pass --yes to build it anyway",
+            field="reduced.modes",
+        )
+    if nbytes > MAX_REDUCED_BYTES and not allow_large:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: the reduced model would need about {nbytes / 1e9:.3g} "
+            f"GB (quadratic modes N² × nodes, quartic terms N⁴); use fewer modes (the paper "
+            "cases use 5), or pass --yes to build it anyway",
+            field="reduced.modes",
+        )
+
+
+#: Free-body runs with more steps than this are refused without ``--yes`` (20 × the longest
+#: built-in run, paper-41hz: 120 s at 0.5 ms = 240,000 steps).
+MAX_STEPS = 5_000_000
+
+
+def check_run_length(run, *, allow_long: bool = False) -> None:
+    """Raise :class:`CaseError` (``integration.duration``) if the free-body run case ``run``
+    has more than :data:`MAX_STEPS` steps (samples for "adaptive"), unless ``allow_long``."""
+    if run.spinup is not None or allow_long:
+        return
+    integ = run.integration
+    steps = integ.n_steps
+    if steps > MAX_STEPS:
+        raise CaseError(
+            f"integration.duration / integration.dt = {integ.duration:.4g} s / {integ.dt:.3g} s "
+            f"= {steps:,} steps (the limit is {MAX_STEPS:,}; paper-41hz has 240,000): shorten "
+            "the duration (--duration) or lengthen the step (--dt), or pass --yes to run it anyway",
+            field="integration.duration",
+        )
