@@ -110,19 +110,23 @@ def _undamped(model):
 
 
 def test_paper_run_cases_load_and_validate():
-    assert builtin_run_case_names() == ["paper-0.5hz", "paper-41hz", "paper-41hz-coarse"]
+    names = ["paper-0.5hz", "paper-41hz", "paper-41hz-coarse", "paper-41hz-seed"]
+    assert builtin_run_case_names() == names
     coarse = load_run_case("paper-41hz-coarse")
     assert coarse.model == "paper-membrane-coarse" and coarse.initial.spin_rate > 0
     assert not set(PAPER_RUNS) & set(builtin_case_names())  # model cases are unchanged
     slow, fast = (load_run_case(n) for n in PAPER_RUNS)
     for run in (slow, fast):
         assert run.kind == "run" and run.model == "paper-membrane"
-        assert run.reduced.modes == 5 and run.reduced.formulation == "Q"
+        assert run.reduced.formulation == "Q" and run.reduced.reference == "spinning"
         assert math.isclose(run.initial.cone_angle, math.radians(6.0))
         assert run.integration.method == "midpoint"
         assert run.integration.dt <= 0.5e-3  # resolves the 38 Hz bending pair
         assert run_case_from_toml(run.to_toml()) == run  # SI round trip
         assert run.model_case() == load_case("paper-membrane")
+    assert (slow.reduced.modes, fast.reduced.modes) == (5, 8)  # the seed's five at 0.5 Hz
+    seed = load_run_case("paper-41hz-seed")  # the seed's own choice at 41 Hz, a baseline
+    assert (seed.reduced.modes, seed.reduced.reference) == (5, "rest")
     assert math.isclose(slow.initial.spin_rate, 2 * math.pi * 0.5)
     assert math.isclose(fast.initial.spin_rate, 2 * math.pi * 41.0)
     assert slow.initial.bending_amplitude > 0.0 and fast.initial.bending_amplitude == 0.0

@@ -102,11 +102,13 @@ def test_artifact_round_trip(capsule_spinning, tmp_path):
 
 
 def test_run_case_reference_field():
-    run = load_run_case("paper-41hz-coarse")
-    assert run.reference_spin == 0.0
-    spun = run.model_copy(update={"reduced": run.reduced.model_copy(update={"reference": "spinning"})})
-    assert spun.reference_spin == pytest.approx(2 * np.pi * 41.0)
-    assert 'reference = "spinning"' in spun.to_toml()
+    seed = load_run_case("paper-41hz-seed")
+    assert seed.reference_spin == 0.0 and seed.reduced.modes == 5
+    run = load_run_case("paper-41hz")  # the default: about the spinning state, 8 modes
+    assert run.reference_spin == pytest.approx(2 * np.pi * 41.0) and run.reduced.modes == 8
+    assert 'reference = "spinning"' in run.to_toml()
+    back = seed.model_copy(update={"reduced": run.reduced})
+    assert back.reference_spin == run.reference_spin
 
 
 @pytest.fixture(scope="module")
@@ -130,16 +132,6 @@ def test_rotating_frequencies_match_full_order(coarse_state, spin_hz):
         assert abs(r.rel_error["Q"]) < 0.008, r
 
 
-def effective_potential(sys, spin: float, axis: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """``V(s) − ½Ω² eᵀJ̃(s)e − (its value at s = 0)`` (k,) J at rows of ``s`` (k, N): the
-    potential of the reduced model in the frame turning at its nominal spin."""
-    w = spin * axis
-    v = dy.potential_energy(sys, np.hstack([np.zeros((len(s), 7)), s, np.zeros_like(s)]))
-    j1 = np.einsum("kab,a,b->k", sys.J1, w, w)
-    j2 = np.einsum("mnab,a,b->mn", sys.J2, w, w)
-    return v - 0.5 * (s @ j1 + np.einsum("km,mn,kn->k", s, j2, s))
-
-
 def test_effective_potential_bounded_below(coarse_state):
     """10⁴ random directions up to 100 × the largest modal amplitude of the 41 Hz run: the
     effective potential of the default formulation (Q about the spinning state) never lies
@@ -152,10 +144,10 @@ def test_effective_potential_bounded_below(coarse_state):
     w = dy.coning_omega(sys.J0, rom.reference_spin, np.radians(6.0))
     sol = it.integrate(sys, rsys.pack_state(sys, omega=w), (0, 0.5), "midpoint", dt=5e-4)
     s_run = sol.y[:, 7 : 7 + rom.n_modes]
-    peak = effective_potential(sys, rom.reference_spin, rom.reference_axis, s_run).max()
+    peak = dy.effective_potential(sys, s_run).max()
     assert peak > 0.0
     d = np.random.default_rng(1).standard_normal((10_000, rom.n_modes))
     d /= np.linalg.norm(d, axis=1)[:, None]
     r = 100.0 * np.linalg.norm(s_run, axis=1).max() * np.random.default_rng(2).random(10_000)
-    v = effective_potential(sys, rom.reference_spin, rom.reference_axis, r[:, None] * d)
+    v = dy.effective_potential(sys, r[:, None] * d)
     assert v.min() >= -0.01 * peak

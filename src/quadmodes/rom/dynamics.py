@@ -84,6 +84,18 @@ def potential_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
     return v
 
 
+def effective_potential(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
+    """``V(s) − ½ωᵀ(J̃(s) − J0)ω`` (…) J at modal coordinates ``s`` (…, N), ω the system's
+    ``reference_omega``: the potential in the frame turning with the reference state (for a
+    model about the state at rest, ω = 0: V itself)."""
+    s = np.asarray(s, float)
+    y = np.zeros(s.shape[:-1] + (7 + 2 * sys.n_modes,))
+    y[..., 7 : 7 + sys.n_modes] = s
+    w = sys.reference_omega
+    jt = inertia_tensor(sys, s) - sys.J0
+    return potential_energy(sys, y) - 0.5 * np.einsum("a,...ab,b->...", w, jt, w)
+
+
 def potential_gradient(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     """∂V/∂s (N,) J/(√kg·m) at one s (N,): ``F1 + Λs`` (+ ``3 V3·ss + 4 V4·sss`` for "Q4")."""
     g = sys.Lam @ s + sys.F1
@@ -112,7 +124,9 @@ def potential_barrier(
 ) -> tuple[float, np.ndarray]:
     """Lowest barrier of the "Q4" potential: ``(V_b (J), s_b (N,))``.
 
-    Along a ray ``s = r d`` (d scaled so that ½ dᵀΛd = ½) ``V(r) = r²/2 + c3 r³ + c4 r⁴``; where
+    For a model expanded about a spinning state the potential is the effective one at its
+    reference angular velocity ω, ``V − ½ωᵀJ̃(s)ω`` (Λ → Λ − ωᵀJ2ω, whose linear term vanishes
+    there). Along a ray ``s = r d`` (d scaled so that ½ dᵀΛd = ½) ``V(r) = r²/2 + c3 r³ + c4 r⁴``; where
     the quartic turns V down, its first maximum (the smaller positive root of
     ``4c4 r² + 3c3 r + 1 = 0``) is the energy a motion needs to escape along d. ``V_b`` is the
     smallest such maximum over ``n_directions`` random directions (a sampled estimate from above;
@@ -122,20 +136,37 @@ def potential_barrier(
     n = sys.n_modes
     if not sys.quartic or n == 0:
         return math.inf, np.zeros(n)
+    w = sys.reference_omega  # effective potential V − ½ωᵀJ̃(s)ω at the reference spin
+    lam = sys.Lam - (sys.flat.J2w @ np.outer(w, w).ravel()).reshape(n, n)
+    f1 = sys.F1 - 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
     d = np.random.default_rng(seed).standard_normal((n_directions, n))
-    d /= np.sqrt(np.einsum("km,mn,kn->k", d, sys.Lam, d))[:, None]
+    d /= np.sqrt(np.einsum("km,mn,kn->k", d, lam, d))[:, None]
     c3 = np.einsum("mnp,km,kn,kp->k", sys.V3, d, d, d)
     c4 = np.einsum("mnpq,km,kn,kp,kq->k", sys.V4, d, d, d, d)
-    a, b = 4.0 * c4, 3.0 * c3
-    disc = b * b - 4.0 * a  # roots of a r² + b r + 1
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
-        roots = np.stack([(-b - sq) / (2 * a), (-b + sq) / (2 * a)], 1)
-    roots = np.where((roots > 0.0) & np.isfinite(roots), roots, np.inf)
-    r = roots.min(axis=1)
-    v = np.where(np.isfinite(r), 0.5 * r * r + c3 * r**3 + c4 * r**4, np.inf)
+    c1 = d @ f1
+    c1[np.abs(c1) <= 1e-9 * np.abs(f1 @ f1) ** 0.5 + 1e-300] = 0.0  # cancelled: F1 balances
+    if np.any(c1):  # a linear term (spinning reference): maxima of c1 r + r²/2 + c3 r³ + c4 r⁴
+        r = np.array([_first_maximum(*c) for c in zip(c1, c3, c4, strict=True)])
+    else:
+        a, b = 4.0 * c4, 3.0 * c3
+        disc = b * b - 4.0 * a  # roots of a r² + b r + 1
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+            roots = np.stack([(-b - sq) / (2 * a), (-b + sq) / (2 * a)], 1)
+        roots = np.where((roots > 0.0) & np.isfinite(roots), roots, np.inf)
+        r = roots.min(axis=1)
+    with np.errstate(invalid="ignore"):
+        v = np.where(np.isfinite(r), c1 * r + 0.5 * r * r + c3 * r**3 + c4 * r**4, np.inf)
     k = int(np.argmin(v))
     return float(v[k]), (r[k] * d[k] if np.isfinite(v[k]) else np.zeros(n))
+
+
+def _first_maximum(c1: float, c3: float, c4: float) -> float:
+    """Smallest r > 0 where ``V(r) = c1 r + r²/2 + c3 r³ + c4 r⁴`` has a maximum (inf if none)."""
+    roots = np.roots([4.0 * c4, 3.0 * c3, 1.0, c1])
+    real = roots[np.abs(roots.imag) <= 1e-12 * np.abs(roots).max(initial=1.0)].real
+    maxima = [x for x in real if x > 0.0 and 1.0 + 6.0 * c3 * x + 12.0 * c4 * x * x < 0.0]
+    return min(maxima, default=math.inf)
 
 
 def energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:

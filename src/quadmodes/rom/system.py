@@ -83,7 +83,9 @@ class ReducedSystem:
     V3 (N,N,N), V4 (N,N,N,N) J/(√kg·m)^k: symmetric cubic and quartic potential coefficients,
     used only when ``quartic`` (formulation "Q4"); None means zeros. F1 (N,) J/(√kg·m): linear
     potential coefficient (a model expanded about a spinning state), ``V = F1·s + ½ sᵀΛs + …``;
-    None means zeros.
+    None means zeros. reference_omega (3,) rad/s: the body angular velocity of that state (zeros
+    for a model about the state at rest); the effective potential ``V − ½ωᵀJ̃(s)ω`` at it is
+    what bounds the motion (:func:`quadmodes.rom.dynamics.potential_barrier`).
     ``flat``: the :class:`FlatTensors` for fast matrix products.
     """
 
@@ -103,6 +105,7 @@ class ReducedSystem:
     V3: np.ndarray | None = None
     V4: np.ndarray | None = None
     F1: np.ndarray | None = None
+    reference_omega: np.ndarray | None = None
     n_modes: int = field(init=False)
     quartic: bool = field(init=False)
     same_rows: bool = field(init=False, repr=False)
@@ -116,6 +119,8 @@ class ReducedSystem:
         put(self, "V3", np.zeros((n, n, n)) if self.V3 is None else np.asarray(self.V3, float))
         put(self, "V4", np.zeros((n,) * 4) if self.V4 is None else np.asarray(self.V4, float))
         put(self, "F1", np.zeros(n) if self.F1 is None else np.asarray(self.F1, float))
+        w = self.reference_omega
+        put(self, "reference_omega", np.zeros(3) if w is None else np.asarray(w, float))
         put(self, "same_rows", self.J2_rot is self.J2 and self.D_rot is self.D)
         put(self, "flat", flat_tensors(self))
 
@@ -233,6 +238,8 @@ def reduced_system(
         V3=f(model.V3, float) if formulation == "Q4" else None,
         V4=f(model.V4, float) if formulation == "Q4" else None,
         F1=f(getattr(model, "F1", None) if model.n_modes else np.zeros(0), float),
+        reference_omega=getattr(model, "reference_spin", 0.0)
+        * f(getattr(model, "reference_axis", np.array([0.0, 0.0, 1.0])), float),
     )
 
 
@@ -241,6 +248,7 @@ def with_damping(sys: ReducedSystem, C: np.ndarray) -> ReducedSystem:
     return ReducedSystem(
         sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam,
         np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4, sys.F1,
+        sys.reference_omega,
     )  # fmt: skip
 
 

@@ -112,13 +112,13 @@ def rotating_validity(
 
 def initial_validity(system: rsys.ReducedSystem, y0: np.ndarray, formulation: str) -> Validity:
     """:func:`rotating_validity` at the angular velocity of the initial state ``y0`` (7+2N,);
-    for a quartic (Q4) system also the initial modal energy ½ṡᵀμṡ + V(s) (J) and the lowest
-    barrier of its potential (J)."""
+    for a quartic (Q4) system also the initial modal energy ½ṡᵀμṡ + V(s) (J; the effective
+    potential for a model about a spinning state) and the lowest barrier of its potential (J)."""
     omega0 = rsys.split_state(system, y0)[1]
     validity = rotating_validity(system, omega0, formulation)
     if system.quartic:
         _, _, s0, sd0 = rsys.split_state(system, y0)
-        e_modal = float(0.5 * sd0 @ system.mu @ sd0 + dyn.potential_energy(system, y0))
+        e_modal = float(0.5 * sd0 @ system.mu @ sd0 + dyn.effective_potential(system, s0))
         validity = dataclasses.replace(
             validity, modal_energy=e_modal, barrier_energy=dyn.potential_barrier(system)[0]
         )
