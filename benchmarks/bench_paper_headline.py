@@ -43,7 +43,7 @@ def headline(run) -> dict:
         "complete": bool(r.complete),
         "t_end": float(r.solution.t[-1]),
         "wall_s": time.perf_counter() - start,
-        "modes": int(r.model.n_modes),
+        "modes": int(r.system.n_modes),
     }
 
 

@@ -173,8 +173,9 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     assert q["dissipated_power_W"] > 0 and payload["formulations"]["rigid"]["dissipated_power_W"] == 0
     qs = payload["quasi_steady"]
     from quadmodes.runs import model_cache
+    from quadmodes.runs.mode_choice import resolve_modes
 
-    run = load_run_case("paper-41hz-coarse")
+    run, _ = resolve_modes(load_run_case("paper-41hz-coarse"))
     n = run.reduced.modes
     m = model_cache.reduced_model_for(run.model_case(), n, spin=run.reference_spin)
     tau = 1 / np.min(2 * np.pi * m.frequencies_hz[:n] * m.damping_ratio[:n])

@@ -103,14 +103,14 @@ def auto_mode_count(
 
 
 def covering_spectrum(
-    case: Case, cutoff_hz: float, progress: Progress | None = None
+    case: Case, cutoff_hz: float, progress: Progress | None = None, spin: float = 0.0
 ) -> tuple[model_cache.Spectrum, int, int]:
     """Spectrum of ``case`` long enough for the ``"auto"`` rule at ``cutoff_hz`` and its
     ``(spectrum, N, below)``; the mode count doubles until a mode above the cut is known.
     Raises :class:`CaseError` (``reduced.modes``) beyond :data:`MAX_AUTO_MODES`."""
     count = case.modes.count
     while True:
-        spec = model_cache.mode_spectrum(case, count, progress)
+        spec = model_cache.mode_spectrum(case, count, progress, spin=spin)
         n, below = auto_mode_count(spec.labels, spec.frequencies_hz, cutoff_hz)
         if n is not None:
             return spec, n, below
@@ -144,10 +144,11 @@ def resolve_modes(
     margin = run.reduced.margin
     spin_hz = float(run.initial.spin_rate) / (2.0 * math.pi)
     cutoff = margin * spin_hz
-    spec, n, below = covering_spectrum(case, cutoff, progress)
+    spec, n, below = covering_spectrum(case, cutoff, progress, run.reference_spin)
     extra = n - below
+    kind = "mode of the rotating-frame stiffness" if run.reference_spin else "elastic mode"
     rule = (
-        f'reduced.modes = "auto": every elastic mode with f ≤ {margin:g} × {spin_hz:.4g} Hz '
+        f'reduced.modes = "auto": every {kind} with f ≤ {margin:g} × {spin_hz:.4g} Hz '
         f"(spin) = {cutoff:.4g} Hz: {below} modes"
         + (f", {extra} more for a whole pair / the first bending pair" if extra else "")
         + f", next mode at {spec.frequencies_hz[n]:.4g} Hz: N = {n}"

@@ -374,10 +374,14 @@ class Spectrum:
     labels: tuple[str, ...]
 
 
-def spectrum_path(case: Case, count: int) -> Path:
-    """Cache file (JSON) of the spectrum of ``case`` with ``count`` modes."""
-    key = artifact.content_key(model_inputs(case) + f"\n# spectrum count = {int(count)}\n")
-    return cache_dir() / f"{case.name}-spectrum{int(count)}-{key}.json"
+def spectrum_path(case: Case, count: int, spin: float = 0.0) -> Path:
+    """Cache file (JSON) of the spectrum of ``case`` with ``count`` modes (about ``spin``)."""
+    reference = f"# spectrum reference_spin = {float(spin)!r}\n" if spin else ""
+    key = artifact.content_key(
+        model_inputs(case) + f"\n# spectrum count = {int(count)}\n" + reference
+    )
+    tag = f"-spin{spin / (2 * np.pi):.6g}Hz".replace(".", "p") if spin else ""
+    return cache_dir() / f"{case.name}-spectrum{int(count)}{tag}-{key}.json"
 
 
 def _cached_spectrum(path: Path, count: int) -> Spectrum | None:
@@ -394,15 +398,18 @@ def _cached_spectrum(path: Path, count: int) -> Spectrum | None:
 
 
 def mode_spectrum(
-    case: Case, count: int, progress: Progress | None = None, *, use_cache: bool = True
-) -> Spectrum:
+    case: Case, count: int, progress: Progress | None = None, *, use_cache: bool = True,
+    spin: float = 0.0,
+) -> Spectrum:  # fmt: skip
     """Frequencies (Hz) and labels of the lowest ``max(count, modes.count)`` elastic modes of
-    ``case``: from the cache file if present, else from :func:`modal_model_for` (and saved,
-    under the file's lock as for :func:`reduced_model_for`)."""
+    ``case`` — with ``spin`` ≠ 0 (rad/s) those of the rotating-frame stiffness about the
+    spinning state (:func:`~quadmodes.rom.spinning_reduction.spinning_modes`) —: from the cache
+    file if present, else computed (and saved, under the file's lock as for
+    :func:`reduced_model_for`)."""
     count = max(int(count), case.modes.count)
-    path = spectrum_path(case, count)
+    path = spectrum_path(case, count, spin)
     if not (use_cache and caching_enabled()):
-        return _spectrum_of(modal_model_for(case, count, progress))
+        return _compute_spectrum(case, count, progress, spin)
     cached = _cached_spectrum(path, count)
     if cached is not None:
         return cached
@@ -410,7 +417,7 @@ def mode_spectrum(
         cached = _cached_spectrum(path, count)
         if cached is not None:
             return cached
-        spec = _spectrum_of(modal_model_for(case, count, progress))
+        spec = _compute_spectrum(case, count, progress, spin)
         text = json.dumps({"case": case.name, "frequencies_hz": spec.frequencies_hz,
                            "frequencies_hz_units": "Hz", "labels": spec.labels}, indent=1)  # fmt: skip
         try:
@@ -418,6 +425,18 @@ def mode_spectrum(
         except OSError:
             pass  # a read-only cache is not an error
     return spec
+
+
+def _compute_spectrum(case: Case, count: int, progress, spin: float) -> Spectrum:
+    """The spectrum of :func:`mode_spectrum`, computed."""
+    if not spin:
+        return _spectrum_of(modal_model_for(case, count, progress))
+    modal = modal_model_for(case, 1, progress)
+    try:
+        _, modes, labels = spinning_modes(modal.structure, modal.x, count, spin)
+    except ValueError as exc:
+        raise CaseError(str(exc), field="reduced.reference") from None
+    return Spectrum(tuple(float(f) for f in modes.frequencies_hz), tuple(str(s) for s in labels))
 
 
 def _spectrum_of(modal) -> Spectrum:
