@@ -16,14 +16,7 @@ from dataclasses import dataclass
 
 from quadmodes.case import Case, CaseError
 from quadmodes.mesh.estimate import revolution_node_count
-from quadmodes.mesh.revolution import (
-    capsule_profile,
-    flat_cylinder_profile,
-    ring_arc_length,
-    sphere_cone_profile,
-    sphere_profile,
-    with_ring_at_radius,
-)
+from quadmodes.structure.pipeline import revolution_profile
 
 #: Above this many nodes a model is refused unless ``--yes`` (the built-in cases have < 5000).
 MAX_NODES = 50_000
@@ -44,27 +37,6 @@ class SizeEstimate:
     field: str
 
 
-def _profile_and_refinement(case: Case):
-    """The meridian profile of a revolution membrane and its ring refinements, as
-    :func:`quadmodes.structure.pipeline.surface_for_case` builds them."""
-    g = case.geometry
-    profile = {
-        "sphere-cone": lambda: sphere_cone_profile(
-            g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter
-        ),
-        "sphere": lambda: sphere_profile(0.5 * g.diameter),
-        "capsule": lambda: capsule_profile(0.5 * g.diameter, g.length),
-        "flat-cylinder": lambda: flat_cylinder_profile(0.5 * g.diameter, g.length),
-    }[g.shape]()
-    refine = []
-    for body in case.end_body:
-        profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
-        if case.mesh.elements_per_attach_radius:
-            s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
-            refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
-    return profile, tuple(refine)
-
-
 def estimate_size(case: Case) -> SizeEstimate | None:
     """The :class:`SizeEstimate` of ``case``, or None for a mesh-file geometry (or a profile
     that cannot be built: the build reports that itself)."""
@@ -74,7 +46,7 @@ def estimate_size(case: Case) -> SizeEstimate | None:
         return None
     else:
         try:
-            profile, refine = _profile_and_refinement(case)
+            profile, refine = revolution_profile(case)
         except ValueError:
             return None
         m = case.mesh

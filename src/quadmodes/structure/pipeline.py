@@ -42,9 +42,11 @@ from quadmodes.structure.prestress import PrestressedState, inflate
 Progress = Callable[[str, float], None]
 
 
-def surface_for_case(case: Case) -> TriangleSurface:
-    """The stress-free membrane surface of a membrane case (m)."""
-    g, h = case.geometry, case.mesh.edge_length
+def revolution_profile(case: Case):
+    """``(profile, refinements)`` of a membrane of revolution: its meridian profile with a ring
+    at each end body's attach radius and the mesh refinements there (for
+    :func:`quadmodes.mesh.revolution.mesh_revolution`); None for a mesh-file geometry."""
+    g = case.geometry
     profiles = {
         "sphere-cone": lambda: sphere_cone_profile(
             g.length, 0.5 * g.front_cap_diameter, 0.5 * g.rear_cap_diameter
@@ -53,19 +55,29 @@ def surface_for_case(case: Case) -> TriangleSurface:
         "capsule": lambda: capsule_profile(0.5 * g.diameter, g.length),
         "flat-cylinder": lambda: flat_cylinder_profile(0.5 * g.diameter, g.length),
     }
-    if g.shape in profiles:
-        profile = profiles[g.shape]()
-        # a ring at each attach radius gives every end body a sharp, mesh-independent patch edge;
-        # the membrane stress is singular at that rim, so the mesh is refined there
-        refine = []
-        for body in case.end_body:
-            profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
-            if case.mesh.elements_per_attach_radius:
-                s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
-                refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
-        surface = mesh_revolution(profile, h, case.mesh.elements_per_radius, tuple(refine))
+    if g.shape not in profiles:
+        return None
+    profile = profiles[g.shape]()
+    # a ring at each attach radius gives every end body a sharp, mesh-independent patch edge;
+    # the membrane stress is singular at that rim, so the mesh is refined there
+    refine = []
+    for body in case.end_body:
+        profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
+        if case.mesh.elements_per_attach_radius:
+            s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
+            refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
+    return profile, tuple(refine)
+
+
+def surface_for_case(case: Case) -> TriangleSurface:
+    """The stress-free membrane surface of a membrane case (m)."""
+    revolution = revolution_profile(case)
+    if revolution is not None:
+        profile, refine = revolution
+        surface = mesh_revolution(profile, case.mesh.edge_length, case.mesh.elements_per_radius,
+                                  refine)  # fmt: skip
     else:
-        surface = read_surface(g.file)
+        surface = read_surface(case.geometry.file)
     if case.pressure is not None and case.pressure.value > 0.0:
         check_closed_surface(surface)
     if min_angle_deg(surface.points, surface.triangles) < 5.0:
