@@ -122,6 +122,9 @@ def _run_attrs(result, n: int) -> dict:
         "save_every": int(run.integration.save_every),
         "rtol": float(run.integration.rtol),
         "formulation": run.reduced.formulation,
+        "reference": "spinning" if getattr(model, "reference_spin", 0.0) else "rest",
+        "reference_spin": float(getattr(model, "reference_spin", 0.0)),
+        "reference_spin_units": "rad/s",
         "n_modes": int(n),
         "damping_ratio": float(model.damping_ratio[0]) if len(model.damping_ratio) else 0.0,
         "status": "complete" if result.complete else "incomplete",
@@ -301,6 +304,9 @@ def summary(ds: xr.Dataset) -> dict:
         out.update(log_decrement=None, bending_modes=[])
     out.update(validity_summary(ds))
     out["n_modes"] = int(ds.attrs.get("n_modes", ds.sizes.get("mode", 0)))
+    if "reference" in ds.attrs:  # the state the reduced model is expanded about
+        out["reference"] = str(ds.attrs["reference"])
+        out["reference_spin_hz"] = _float(float(ds.attrs["reference_spin"]) / (2 * math.pi))
     for key in ("modes_requested", "mode_rule", "mode_margin", "mode_cutoff_hz"):
         if key in ds.attrs:
             value = ds.attrs[key]
