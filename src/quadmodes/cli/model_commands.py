@@ -244,6 +244,7 @@ def _reduced_summary(model, model_case, info: dict, output_file: Path | None) ->
         "labels": list(model.labels),
         "damping_ratio": [float(z) for z in model.damping_ratio],
         "mass_kg": float(model.mass),
+        "reference_spin_hz": float(model.reference_spin) / (2.0 * 3.141592653589793),
         "content_key": str(model.provenance.get("content_key", "")),
         "cache": info.get("cache"),
         "cache_path": info.get("path"),
@@ -266,7 +267,8 @@ def reduce_command(
     no_cache: NoCacheFlag = False,
     yes: LargeModelFlag = False,
 ) -> None:
-    """Build the reduced model (quadratic modes, floating-frame arrays) of a case.
+    """Build the reduced model (quadratic modes, floating-frame arrays) of a case; for a run case
+    with reduced.reference = "spinning", about its spinning state (the run's own model).
 
     Cached in $QUADMODES_CACHE or the per-user cache folder (`quadmodes cache list`): later
     calls and `run` skip the FE work.
@@ -289,13 +291,16 @@ def reduce_command(
 
                 run_case, _ = resolve_modes(run_case, model_case)  # "auto" → N
             n_modes = modes if modes is not None else run_case.reduced.modes
+            spin = run_case.reference_spin  # a run about its spinning state
         else:
             model_case = load_model_case(case)
             n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
             guard_model_size(model_case, yes)
+            spin = 0.0
         guard_reduced_model(model_case, n_modes, yes, from_option=modes is not None)
         with progress_bars(not as_json) as progress:
-            model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info)
+            model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info,
+                                                  spin=spin)  # fmt: skip
         if output_file is not None:
             artifact.save_reduced_model(model, output_file)
     summary = _reduced_summary(model, model_case, info, output_file)
