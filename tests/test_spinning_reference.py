@@ -157,11 +157,12 @@ def test_effective_potential_bounded_below(coarse_state):
     assert v.min() >= -0.01 * peak
 
 
-@pytest.mark.parametrize("spin, expected", [("41 Hz", 16), ("20 Hz", 8)])
+@pytest.mark.parametrize("spin, expected", [("41 Hz", 16), ("20 Hz", 8), ("10 Hz", 8)])
 def test_auto_modes_about_the_spinning_state(spin, expected):
     """"auto" about the spinning state counts the rotating-frame stiffness's own modes up to
     3.2 × the spin, pairs whole: at 41 Hz the second bending pair (125 Hz) is in, the next mode
-    (171 Hz) out; at 20 Hz the front-mass rocking pair (54/60 Hz) is in."""
+    (171 Hz) out; at 20 Hz the front-mass rocking pair (54/60 Hz) is in; at 10 Hz the cutoff is
+    raised to twice the lowest mode (31 Hz), which keeps the same 8."""
     from quadmodes.runs import simulate
     from quadmodes.runs.mode_choice import resolve_modes
 

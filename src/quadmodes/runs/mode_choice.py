@@ -13,7 +13,9 @@ The rule of ``"auto"``: every elastic mode whose non-spinning frequency is at mo
 body up to about twice the spin frequency), then the
 cut moved up until no degenerate pair is split (the pair test of
 :func:`quadmodes.runs.model_cache.splits_pair`), and never below the first bending pair
-(:func:`quadmodes.runs.initial.bending_pair`).
+(:func:`quadmodes.runs.initial.bending_pair`). About the spinning state (``reference =
+"spinning"``) the frequencies are those of the rotating-frame stiffness's own modes, the default
+margin is 3.2 and the cutoff is at least :data:`SPINNING_FLOOR` × the lowest of them.
 """
 
 from __future__ import annotations
@@ -28,6 +30,11 @@ from quadmodes.runs.initial import bending_pair
 
 Progress = Callable[[str, float], None]
 
+#: About the spinning state the ``"auto"`` cutoff is at least this many times the lowest mode of
+#: the rotating-frame stiffness: at low spin the coning load drives every mode quasi-statically,
+#: and the 10 Hz case (cutoff 32 Hz: 5 modes) dissipates × 0.874 of the full order's power, with
+#: the modes up to 2 × 31 Hz (8) × 0.998.
+SPINNING_FLOOR = 2.0
 #: ``"auto"`` gives up (one-line error) if more modes than this lie below the cutoff.
 MAX_AUTO_MODES = 160
 
@@ -144,12 +151,20 @@ def resolve_modes(
     margin = run.reduced.margin
     spin_hz = float(run.initial.spin_rate) / (2.0 * math.pi)
     cutoff = margin * spin_hz
-    spec, n, below = covering_spectrum(case, cutoff, progress, run.reference_spin)
+    spin = run.reference_spin
+    floor = ""
+    if spin:  # about the spinning state: never below twice its lowest mode (see the module)
+        lowest = model_cache.mode_spectrum(case, case.modes.count, progress, spin=spin)
+        f_low = float(lowest.frequencies_hz[0]) if lowest.frequencies_hz else 0.0
+        if SPINNING_FLOOR * f_low > cutoff:
+            cutoff = SPINNING_FLOOR * f_low
+            floor = f" (raised to {SPINNING_FLOOR:g} × the lowest mode, {f_low:.4g} Hz)"
+    spec, n, below = covering_spectrum(case, cutoff, progress, spin)
     extra = n - below
-    kind = "mode of the rotating-frame stiffness" if run.reference_spin else "elastic mode"
+    kind = "mode of the rotating-frame stiffness" if spin else "elastic mode"
     rule = (
         f'reduced.modes = "auto": every {kind} with f ≤ {margin:g} × {spin_hz:.4g} Hz '
-        f"(spin) = {cutoff:.4g} Hz: {below} modes"
+        f"(spin){floor} = {cutoff:.4g} Hz: {below} modes"
         + (f", {extra} more for a whole pair / the first bending pair" if extra else "")
         + f", next mode at {spec.frequencies_hz[n]:.4g} Hz: N = {n}"
     )
