@@ -143,9 +143,15 @@ def reduced_key(case: Case, n_modes: int, spin: float = 0.0) -> str:
     )
 
 
+def _spin_tag(spin: float) -> str:
+    """File-name part of a model or spectrum about the spin ``spin`` (rad/s): "-spin41Hz", or ""
+    at rest."""
+    return f"-spin{spin / (2 * np.pi):.6g}Hz".replace(".", "p") if spin else ""
+
+
 def cache_path(case: Case, n_modes: int, spin: float = 0.0) -> Path:
     """Cache file of the reduced model of ``case`` with ``n_modes`` modes (about ``spin``)."""
-    tag = f"-spin{spin / (2 * np.pi):.6g}Hz".replace(".", "p") if spin else ""
+    tag = _spin_tag(spin)
     return cache_dir() / f"{case.name}-N{int(n_modes)}{tag}-{reduced_key(case, n_modes, spin)}.nc"
 
 
@@ -380,7 +386,7 @@ def spectrum_path(case: Case, count: int, spin: float = 0.0) -> Path:
     key = artifact.content_key(
         model_inputs(case) + f"\n# spectrum count = {int(count)}\n" + reference
     )
-    tag = f"-spin{spin / (2 * np.pi):.6g}Hz".replace(".", "p") if spin else ""
+    tag = _spin_tag(spin)
     return cache_dir() / f"{case.name}-spectrum{int(count)}{tag}-{key}.json"
 
 
