@@ -129,13 +129,17 @@ class Mesh(Section):
 
 
 class Material(Section):
-    """Isotropic membrane: density kg/m^3, Young's modulus Pa, thickness m, ratios plain."""
+    """Isotropic membrane: density kg/m^3, Young's modulus Pa, thickness m, ratios plain;
+    wrinkling model."""
 
     density: quantity("density", "0.0335 lb/in^3", positive, "lb/in^3")
     youngs_modulus: quantity("pressure", "0.05 Mpsi", positive, "Mpsi")
     poisson_ratio: quantity("dimensionless", "0.3", poisson)
     thickness: quantity("length", "0.0045 in", positive, "in")
     damping_ratio: quantity("dimensionless", "0.02", ratio) = 0.0
+    #: "tension-field": the membrane wrinkles instead of carrying compression (fe/wrinkling.py);
+    #: "none": St Venant–Kirchhoff in compression too (a membrane without bending stiffness).
+    wrinkling: choice("none", "tension-field") = "none"
 
 
 class Pressure(Section):

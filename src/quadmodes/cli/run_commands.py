@@ -287,7 +287,8 @@ def _prepare_runs(runs: list) -> list:
     from quadmodes.runs import simulate
 
     with progress_bars(True) as bars:
-        return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
+        return [r if r.spinup is not None else simulate.prepare(r, progress=bars, check_deformation=True)
+                for r in runs]
 
 
 @dataclass(frozen=True)

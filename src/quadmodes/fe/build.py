@@ -6,7 +6,7 @@ Inputs are plain SI values; :mod:`quadmodes.structure.pipeline` maps a validated
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,7 +38,8 @@ class EndBodySpec:
 @dataclass(frozen=True)
 class MembraneSpec:
     """Membrane material and load (SI): thickness (m), Young's modulus (Pa), Poisson ratio,
-    density (kg/m³), pressure (Pa), gas-law exponent (0: constant pressure)."""
+    density (kg/m³), pressure (Pa), gas-law exponent (0: constant pressure), wrinkling
+    relaxation (``tension_field``)."""
 
     thickness: float
     youngs_modulus: float
@@ -48,6 +49,7 @@ class MembraneSpec:
     gas_law_exponent: float = 0.0
     lumped_mass: bool = False
     tie_stiffness_factor: float = 1e3
+    tension_field: bool = False
 
 
 def pole_nodes(points: np.ndarray, pole: str, radius: float, axis: int = 2) -> np.ndarray:
@@ -77,6 +79,7 @@ def build_membrane_structure(
         spec.poisson_ratio,
         spec.density,
         lumped_mass=spec.lumped_mass,
+        tension_field=spec.tension_field,
     )
     all_points = [points]
     point_masses = [np.zeros(len(points))]
@@ -115,6 +118,12 @@ def build_membrane_structure(
             np.full(len(conn), spec.tie_stiffness_factor * spec.youngs_modulus * spec.thickness)
         )
     reference = np.concatenate(all_points)
+    if spec.tension_field:  # membrane under a rigid end body: bonded, it cannot wrinkle
+        on_patch = np.zeros(len(points), bool)
+        for name, nodes in groups.items():
+            if name.startswith("attach:"):
+                on_patch[nodes] = True
+        membrane = replace(membrane, bonded=on_patch[membrane.conn].all(axis=1))
     # EA of a tie scales with its length so that every tie has axial stiffness k = factor·E·t.
     elements: list = [membrane, PressureSet(triangles, spec.pressure)]
     if ties:

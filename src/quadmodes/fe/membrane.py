@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from quadmodes.fe import wrinkling
+
 
 def membrane_reference_gradients(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Shape-function gradients ``G`` ``(ne, 3, 2)`` (1/m) and areas ``A₀`` ``(ne,)`` (m²).
@@ -68,6 +70,11 @@ class MembraneSet:
     ``gradients`` ``(ne, 3, 2)`` and ``area0`` ``(ne,)`` come from the stress-free reference
     (see :func:`membrane_set`); ``thickness`` (m), ``youngs_modulus`` (Pa), ``poisson_ratio``,
     ``density`` (kg/m³), ``lumped_mass`` selects row-sum lumping.
+    ``tension_field``: the wrinkling relaxation of :mod:`quadmodes.fe.wrinkling` (no
+    compressive stress); equal to SVK wherever the membrane is taut. :meth:`second_order` is
+    the SVK term, exact about a taut state. ``bonded`` ``(ne,)`` bool: elements held by a rigid
+    end body (all three nodes on its patch), which keep SVK: they cannot wrinkle, and their
+    near-zero strains would only put kinks of the relaxed law into the Newton iterations.
     """
 
     conn: np.ndarray
@@ -78,6 +85,8 @@ class MembraneSet:
     poisson_ratio: float
     density: float
     lumped_mass: bool = False
+    tension_field: bool = False
+    bonded: np.ndarray | None = None
     d: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -86,12 +95,65 @@ class MembraneSet:
     def _volume(self) -> np.ndarray:
         return self.area0 * self.thickness
 
+    def _law(self) -> tuple[np.ndarray, float, float]:
+        return self.d, self.youngs_modulus, self.poisson_ratio
+
+    def _relaxing(self) -> np.ndarray | None:
+        """Indices of the elements under the wrinkling law, or None."""
+        if not self.tension_field:
+            return None
+        return np.arange(len(self.conn)) if self.bonded is None else np.flatnonzero(~self.bonded)
+
+    def material_stress(self, strain: np.ndarray) -> np.ndarray:
+        """2nd Piola–Kirchhoff stress ``(ne,2,2)`` (Pa) of Green strains ``(ne,2,2)``."""
+        s = _voigt_stress(self.d, strain)
+        if (r := self._relaxing()) is not None:
+            s[r] = wrinkling.stress(*self._law(), strain[r])
+        return s
+
+    def material_tangent(self, strain: np.ndarray) -> np.ndarray:
+        """Voigt tangent ``∂S/∂E`` ``(ne,3,3)`` (Pa) at Green strains ``(ne,2,2)``."""
+        d = np.broadcast_to(self.d, (len(strain), 3, 3))
+        if (r := self._relaxing()) is None:
+            return d
+        d = d.copy()
+        d[r] = wrinkling.tangent(*self._law(), strain[r])
+        return d
+
+    def energy_density(self, strain: np.ndarray) -> np.ndarray:
+        """Strain energy per unit reference volume ``(ne,)`` (J/m³)."""
+        ev = np.stack([strain[:, 0, 0], strain[:, 1, 1], 2.0 * strain[:, 0, 1]], -1)
+        w = 0.5 * np.einsum("ep,pq,eq->e", ev, self.d, ev)
+        if (r := self._relaxing()) is not None:
+            w[r] = wrinkling.energy_density(*self._law(), strain[r])
+        return w
+
+    def step_stress(self, strain0: np.ndarray, strain1: np.ndarray) -> np.ndarray:
+        """Energy-exact step stress ``S̄`` ``(ne,2,2)`` (Pa): ``S̄:(E₁ − E₀) = W(E₁) − W(E₀)``
+        (SVK: ``S((E₀ + E₁)/2)``, Simo–Tarnow; relaxed: its discrete gradient)."""
+        s = _voigt_stress(self.d, 0.5 * (strain0 + strain1))
+        if (r := self._relaxing()) is not None:
+            s[r] = wrinkling.discrete_gradient_stress(*self._law(), strain0[r], strain1[r])
+        return s
+
+    def step_tangent(self, strain0: np.ndarray, strain1: np.ndarray) -> np.ndarray:
+        """``∂S̄/∂E₁`` ``(ne,3,3)`` (Pa, Voigt) of :meth:`step_stress` (SVK: ``½ D``)."""
+        t = np.broadcast_to(0.5 * self.d, (len(strain0), 3, 3))
+        if (r := self._relaxing()) is None:
+            return t
+        t = t.copy()
+        t[r] = wrinkling.discrete_gradient_tangent(*self._law(), strain0[r], strain1[r])
+        return t
+
     def strain_stress(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``F`` ``(ne,3,2)``, Green strain ``E`` and 2nd Piola–Kirchhoff stress ``S`` ``(ne,2,2)`` (Pa)."""
         f, e = green_strain(self.gradients, x[self.conn])
-        return f, e, _voigt_stress(self.d, e)
+        return f, e, self.material_stress(e)
 
     def energy(self, x: np.ndarray) -> float:
+        if self.tension_field:
+            _, e = green_strain(self.gradients, x[self.conn])
+            return float(np.sum(self._volume() * self.energy_density(e)))
         _, e, s = self.strain_stress(x)
         return float(0.5 * np.sum(self._volume() * np.einsum("eij,eij->e", e, s)))
 
@@ -100,7 +162,7 @@ class MembraneSet:
         return self._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", f, s, self.gradients)
 
     def stiffness(self, x: np.ndarray) -> np.ndarray:
-        f, _, s = self.strain_stress(x)
+        f, e, s = self.strain_stress(x)
         g = self.gradients
         # Strain–displacement rows for [E11, E22, 2E12] w.r.t. node a, component i.
         bm = np.stack(
@@ -112,14 +174,17 @@ class MembraneSet:
             ],
             1,
         ).reshape(-1, 3, 9)
-        k_mat = np.einsum("epa,pq,eqb->eab", bm, self.d, bm)
+        if self._relaxing() is not None:
+            k_mat = np.einsum("epa,epq,eqb->eab", bm, self.material_tangent(e), bm)
+        else:
+            k_mat = np.einsum("epa,pq,eqb->eab", bm, self.d, bm)
         k_geo_scalar = np.einsum("eak,ekl,ebl->eab", g, s, g)
         k_geo = np.einsum("eab,ij->eaibj", k_geo_scalar, np.eye(3)).reshape(-1, 9, 9)
         return self._volume()[:, None, None] * (k_mat + k_geo)
 
     def second_order(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         g = self.gradients
-        f, _, s = self.strain_stress(x)
+        f, _, s = self.strain_stress(x)  # SVK's B; with tension_field exact where x is taut
         fu = np.einsum("eai,eaj->eij", u[self.conn], g)
         fv = np.einsum("eai,eaj->eij", v[self.conn], g)
 
@@ -163,10 +228,13 @@ def membrane_set(
     poisson_ratio: float,
     density: float,
     lumped_mass: bool = False,
+    tension_field: bool = False,
 ) -> MembraneSet:
-    """Membrane set from triangles ``conn`` ``(ne, 3)`` and stress-free positions ``(n, 3)`` (m)."""
+    """Membrane set from triangles ``conn`` ``(ne, 3)`` and stress-free positions ``(n, 3)`` (m);
+    ``tension_field``: wrinkling relaxation (:mod:`quadmodes.fe.wrinkling`)."""
     conn = np.asarray(conn, dtype=np.int64)
     gradients, area0 = membrane_reference_gradients(reference[conn])
     return MembraneSet(
-        conn, gradients, area0, thickness, youngs_modulus, poisson_ratio, density, lumped_mass
+        conn, gradients, area0, thickness, youngs_modulus, poisson_ratio, density, lumped_mass,
+        tension_field,
     )

@@ -22,6 +22,7 @@ from quadmodes.fe.assembly import (
     expand_scalar_matrix,
 )
 from quadmodes.fe.elements import ElementSet
+from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.pressure import PressureSet, gas_rank_one, gas_second_order
 
 
@@ -67,6 +68,15 @@ def with_load_factor(structure: Structure, factor: float) -> Structure:
         replace(e, load_factor=factor) if isinstance(e, PressureSet) else e
         for e in structure.elements
     )
+    return replace(structure, elements=sets)
+
+
+def with_tension_field(structure: Structure, on: bool) -> Structure:
+    """The structure with the membranes' wrinkling relaxation switched on or off."""
+    sets = [
+        replace(e, tension_field=on) if isinstance(e, MembraneSet) else e
+        for e in structure.elements
+    ]
     return replace(structure, elements=sets)
 
 

@@ -19,7 +19,7 @@ import scipy.sparse.linalg as spla
 
 from quadmodes.fe.assembly import assemble_matrix
 from quadmodes.fe.bar import BarSet
-from quadmodes.fe.membrane import MembraneSet, _voigt_stress, green_strain
+from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
 from quadmodes.fullorder.setup import FullOrderProblem
 
@@ -60,16 +60,18 @@ def _strain_rows(f: np.ndarray, g: np.ndarray) -> np.ndarray:
 
 
 def _membrane_block(e: MembraneSet, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray):
-    """``½[K_geo(S̄) + B(x½)ᵀ D B(x₁)]`` (ne,9,9) of a membrane set."""
+    """``½ K_geo(S̄) + B(x½)ᵀ (∂S̄/∂E₁) B(x₁)`` (ne,9,9) of a membrane set (SVK: ``∂S̄/∂E₁ =
+    ½ D``)."""
     fh, _ = green_strain(e.gradients, xh[e.conn])
     f1, e1 = green_strain(e.gradients, x1[e.conn])
     _, e0 = green_strain(e.gradients, x0[e.conn])
-    sbar = _voigt_stress(e.d, 0.5 * (e0 + e1))
+    sbar = e.step_stress(e0, e1)
     g = e.gradients
-    k_mat = np.einsum("epa,pq,eqb->eab", _strain_rows(fh, g), e.d, _strain_rows(f1, g))
+    t = e.step_tangent(e0, e1)
+    k_mat = np.einsum("epa,epq,eqb->eab", _strain_rows(fh, g), t, _strain_rows(f1, g))
     k_geo = np.einsum("eak,ekl,ebl->eab", g, sbar, g)
     k_geo = np.einsum("eab,ij->eaibj", k_geo, np.eye(3)).reshape(-1, 9, 9)
-    return 0.5 * e._volume()[:, None, None] * (k_mat + k_geo)
+    return e._volume()[:, None, None] * (k_mat + 0.5 * k_geo)
 
 
 def _bar_block(e: BarSet, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray):
@@ -212,11 +214,12 @@ def solve_step(
         matrix = NewtonMatrix.at(problem, x @ rot, x1 @ rot)
         n_factor, since = n_factor + 1, 0
     prev, nd, ok = None, math.inf, False
+    stalled = 0  # refactorisations that did not restore contraction (a kink of the law)
     residual_at = _LastResidual(residual)
     for _ in range(max_newton):
         vh, r, fd = residual_at(x1)
         dx = _correction(problem, matrix, r, rot)
-        if float(np.max(np.abs(dx))) > LINE_SEARCH * problem.scale:
+        if stalled or float(np.max(np.abs(dx))) > LINE_SEARCH * problem.scale:
             # far from the solution (a violent transient): backtrack on the residual
             alpha, trial = line_search(
                 lambda y: float(np.linalg.norm(residual_at(y)[1])), x1, dx,
@@ -234,7 +237,10 @@ def solve_step(
             ok = True
             break
         if prev is not None and nd > RHO_REFACTOR * prev and since >= 2:
-            # the frozen matrix no longer contracts well: renew it at this iterate
+            # the frozen matrix no longer contracts well: renew it at this iterate; if a fresh
+            # matrix did not help either (the wrinkling law's tangent jumps between iterates,
+            # and Newton can cycle), backtrack on the residual from now on
+            stalled += since <= 3 and n_factor > 0
             matrix = NewtonMatrix.at(problem, x @ rot, x1 @ rot)
             n_factor, since, prev = n_factor + 1, 0, None
             continue

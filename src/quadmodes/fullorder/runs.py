@@ -179,16 +179,7 @@ def relaxed_deformation(
     from quadmodes.rom import manifold_energy as me
 
     ctx = me.energy_context(structure, x_ref, model)
-    s0 = np.asarray(s0, float)
-    for steps in (1, 4, 16):  # continuation along the ray s = a s0, a → 1, when Newton fails
-        y = None
-        for a in np.linspace(0.0, 1.0, steps + 1)[1:]:
-            result = me.condensed_energy(ctx, a * s0, y0=y)
-            if not result.converged:
-                break
-            y = result.unknowns
-        if result.converged:
-            break
+    result = me.condensed_energy_along_ray(ctx, s0)
     if not result.converged:
         raise ValueError(
             "initial.bending_amplitude: the full order's relaxed initial deformation did not "

@@ -19,7 +19,7 @@ import numpy as np
 import quadmodes.fullorder.kinematics as kin
 from quadmodes.fe.assembly import assemble_vector
 from quadmodes.fe.bar import BarSet
-from quadmodes.fe.membrane import MembraneSet, _voigt_stress, green_strain
+from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, internal_force
 from quadmodes.fullorder.setup import FullOrderProblem
 
@@ -32,7 +32,8 @@ def step_force(structure: Structure, x0: np.ndarray, x1: np.ndarray, strain0=Non
     """Internal force (n,3) N of the step x0 → x1 (energy–momentum midpoint).
 
     St Venant–Kirchhoff membranes and Green-strain bars: ``Dε(x½)ᵀ S̄`` with the stress of the
-    averaged strain ``S̄ = S((ε₀ + ε₁)/2)`` (Simo & Tarnow 1992). Since ε is quadratic in x,
+    averaged strain ``S̄ = S((ε₀ + ε₁)/2)`` (Simo & Tarnow 1992); a wrinkling membrane uses its
+    strain-space discrete gradient (``MembraneSet.step_stress``, same exact work). Since ε is quadratic in x,
     ``ε₁ − ε₀ = Dε(x½)(x₁ − x₀)`` and the energy is quadratic in ε, the step's work equals
     the energy change exactly; ``Dε(x½)ᵀ S̄`` is equilibrated at x½, so H is conserved too.
     Other sets (pressure, cable) use ``f(x½)``: the constant-pressure potential is cubic, and the
@@ -45,7 +46,7 @@ def step_force(structure: Structure, x0: np.ndarray, x1: np.ndarray, strain0=Non
         if isinstance(e, MembraneSet):
             fh, _ = green_strain(e.gradients, xh[e.conn])
             _, e1 = green_strain(e.gradients, x1[e.conn])
-            sbar = _voigt_stress(e.d, 0.5 * (e0 + e1))
+            sbar = e.step_stress(e0, e1)
             fe = e._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", fh, sbar, e.gradients)
         elif isinstance(e, BarSet):
             ebar = 0.5 * (e0 + e.strain(x1))

@@ -323,3 +323,21 @@ def condensed_energy(
             return Condensed(value, y, it - 1, decrement, True)
         y, value = _line_search(energy, y, dy, value, slope)
     return Condensed(value, y, max_iterations, decrement, _converged(decrement, value))
+
+
+def condensed_energy_along_ray(ctx: EnergyContext, s: np.ndarray) -> Condensed:
+    """:func:`condensed_energy` at ``s`` (N,) reached by continuation along the ray ``a s``,
+    ``a → 1``, in 1, 4 and then 16 equal steps until Newton converges at every step (a large
+    deformation is not reached from the quadratic-manifold point in one go). The result's
+    ``converged`` is False if even 16 steps fail."""
+    s = np.asarray(s, float)
+    for steps in (1, 4, 16):
+        y = None
+        for a in np.linspace(0.0, 1.0, steps + 1)[1:]:
+            result = condensed_energy(ctx, a * s, y0=y)
+            if not result.converged:
+                break
+            y = result.unknowns
+        if result.converged:
+            return result
+    return result

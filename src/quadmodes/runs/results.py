@@ -194,6 +194,9 @@ def validity_attrs(validity) -> dict:
         "validity_spin_rate": float(validity.spin_rate),
         "validity_lost_at_spin_rate": float("nan") if lost is None else float(lost),
         "validity_message": validity.message(),
+        "initial_deformation_energy_reduced": float(validity.deformation_energy_reduced),
+        "initial_deformation_energy_condensed": float(validity.deformation_energy_condensed),
+        "initial_deformation_energy_units": "J",
     }
 
 

@@ -39,6 +39,7 @@ from quadmodes.runs.chunked import (
     Interrupted,
     integrate_in_chunks,
 )
+from quadmodes.runs.deformation_check import with_deformation_check
 from quadmodes.runs.initial import InitialState, initial_state
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
 from quadmodes.runs.model_cache import reduced_model_for
@@ -120,9 +121,13 @@ def prepare(
     progress: Progress | None = None,
     *,
     model_case: Case | None = None,
+    check_deformation: bool = False,
 ) -> RunSetup:
     """Reduced model (from the cache unless ``model`` is given), system and initial state of
-    ``run``; raises :class:`CaseError` for inputs that cannot be run."""
+    ``run``; raises :class:`CaseError` for inputs that cannot be run. ``check_deformation``:
+    set an initial modal deformation beside the FE model's condensed energy
+    (:mod:`quadmodes.runs.deformation_check`; one static solve on the FE model, what
+    ``quadmodes run`` does), recorded in the validity."""
     if run.spinup is not None:
         raise CaseError(
             "[spinup]: a hub-driven spin-up, not a free-body run; use simulate_spinup",
@@ -136,7 +141,8 @@ def prepare(
     system = rsys.reduced_system(model, run.reduced.formulation)
     init = initial_state(system, model, run)
     validity = initial_validity(system, init.y0, run.reduced.formulation)
-    return RunSetup(run, model_case, model, system, init, validity, choice)
+    setup = RunSetup(run, model_case, model, system, init, validity, choice)
+    return with_deformation_check(setup, progress) if check_deformation else setup
 
 
 def _result(setup: RunSetup, chunks) -> RunResult:

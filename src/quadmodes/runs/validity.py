@@ -16,6 +16,10 @@ from quadmodes.rom import system as rsys
 
 #: Spin rates scanned (uniformly from 0 to the run's spin) by :func:`rotating_validity`.
 VALIDITY_SCAN = 64
+#: Largest relative error of the reduced potential at the initial deformation against the FE
+#: model's condensed energy (:mod:`quadmodes.runs.deformation_check`): ε in energy is about
+#: ε/2 in the frequency of the oscillation it starts, so 2 % stands for the 1 % target.
+DEFORMATION_ENERGY_TOLERANCE = 0.02
 
 
 @dataclass(frozen=True)
@@ -34,6 +38,8 @@ class Validity:
     lost_at: float | None
     modal_energy: float = 0.0
     barrier_energy: float = math.inf
+    deformation_energy_reduced: float = math.nan
+    deformation_energy_condensed: float = math.nan
 
     @property
     def beyond_barrier(self) -> bool:
@@ -41,13 +47,41 @@ class Validity:
         return self.modal_energy > self.barrier_energy
 
     @property
+    def deformation_error(self) -> float:
+        """Relative error of the reduced potential at the initial deformation against the FE
+        model's condensed energy (NaN when not checked; inf when the condensation failed)."""
+        red, cond = self.deformation_energy_reduced, self.deformation_energy_condensed
+        if math.isnan(red):
+            return math.nan
+        if math.isnan(cond) or cond <= 0.0:
+            return math.inf
+        return abs(red - cond) / cond
+
+    @property
+    def beyond_deformation_range(self) -> bool:
+        """The initial deformation is outside the range where the reduced potential holds."""
+        return self.deformation_error > DEFORMATION_ENERGY_TOLERANCE  # False for NaN
+
+    @property
     def valid(self) -> bool:
-        return self.lost_at is None and not self.beyond_barrier
+        return self.lost_at is None and not self.beyond_barrier and not self.beyond_deformation_range
 
     def message(self) -> str:
         """One line for a warning ("" when valid)."""
         if self.valid:
             return ""
+        if self.beyond_deformation_range and self.lost_at is None and not self.beyond_barrier:
+            err = self.deformation_error
+            what = ("the FE model's condensed energy did not converge" if math.isinf(err) else
+                    f"the reduced potential is {100 * err:.1f} % off the FE model's condensed "
+                    f"energy ({self.deformation_energy_reduced:.4g} J against "
+                    f"{self.deformation_energy_condensed:.4g} J)")  # fmt: skip
+            return (
+                f"formulation {self.formulation}: the initial deformation is outside the range "
+                f"of the reduced potential: {what}; its frequency and decay at this amplitude "
+                f"are not trusted (limit {100 * DEFORMATION_ENERGY_TOLERANCE:g} %): use a "
+                "smaller initial.bending_amplitude or check with quadmodes compare"
+            )
         if self.lost_at is None:
             return (
                 f"formulation {self.formulation} is outside its validity: the initial modal energy "
@@ -74,8 +108,17 @@ class Validity:
             "potential_barrier_J": None
             if math.isinf(self.barrier_energy)
             else float(self.barrier_energy),
+            "initial_deformation_energy_reduced_J": _json_float(self.deformation_energy_reduced),
+            "initial_deformation_energy_condensed_J": _json_float(
+                self.deformation_energy_condensed
+            ),
+            "initial_deformation_energy_error": _json_float(self.deformation_error),
             "message": self.message(),
         }
+
+
+def _json_float(value: float) -> float | None:
+    return None if not math.isfinite(value) else float(value)
 
 
 def _min_stiffness(system: rsys.ReducedSystem, omega: np.ndarray) -> float:

@@ -22,7 +22,13 @@ from quadmodes.fe.build import (
     build_beam_structure,
     build_membrane_structure,
 )
-from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor, total_mass
+from quadmodes.fe.model import (
+    Structure,
+    centre_of_mass,
+    inertia_tensor,
+    total_mass,
+    with_tension_field,
+)
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
@@ -123,6 +129,7 @@ def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> St
         pressure=case.pressure.value,
         gas_law_exponent=case.pressure.gas_law_exponent,
         lumped_mass=case.mesh.mass_matrix == "lumped",
+        tension_field=m.wrinkling == "tension-field",
     )
     return build_membrane_structure(surface.points, surface.triangles, spec, end_body_specs(case))
 
@@ -156,7 +163,9 @@ def reference_state(
             f"(strain scale {strain:.1e}); raise the pressure above "
             f"{1e-8 * m.youngs_modulus * m.thickness / radius:.2g} Pa"
         )
-    state = inflate(structure, progress=progress)
+    # Inflated from the stress-free (slack) state under SVK; the taut equilibrium is the same
+    # with the wrinkling relaxation (the two laws agree wherever the membrane is taut).
+    state = inflate(with_tension_field(structure, False), progress=progress)
     compressed = float(np.mean(state.stress_resultants[:, 0] <= 0.0))
     if compressed > 0.05:
         raise ValueError(

@@ -1,0 +1,67 @@
+"""Is the run's initial deformation inside the reduced potential's range? One static check
+against the finite-element model, before a run with an initial modal deformation.
+
+At the initial modal coordinates ``s0`` the reduced potential ``V(s0)`` is set beside the FE
+model's own statically condensed energy ``W_c(s0)`` — the total potential minimised over every
+degree of freedom outside the retained and rigid modes
+(:func:`quadmodes.rom.manifold_energy.condensed_energy`), which is what the full order starts
+from (:func:`quadmodes.fullorder.runs.relaxed_deformation`). Both are taken without the work
+of the reference state's constant force ``f(x_ref)`` (zero about the state at rest; the
+centrifugal load about a spinning state), so they agree to second order by construction and
+their difference is the reduced potential's error at that amplitude.
+
+Why energy: a relative energy error ε at the peak of an oscillation shifts its frequency by
+about ε/2, so the 2 % tolerance (:data:`~quadmodes.runs.validity.DEFORMATION_ENERGY_TOLERANCE`)
+stands for a frequency error of about 1 %. Measured on ``paper-membrane`` (docs/full-order.md):
+0.5 in of initial bending is at 2.7 %, 1 in far beyond (the membrane wrinkles).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from quadmodes.rom import dynamics as dyn
+from quadmodes.rom import manifold_energy as me
+from quadmodes.rom import system as rsys
+from quadmodes.structure import pipeline
+
+
+def initial_deformation_energies(setup) -> tuple[float, float] | None:
+    """``(V(s0), W_c(s0))`` (J) of a prepared run (:class:`~quadmodes.runs.simulate.RunSetup`)
+    whose initial state has a modal deformation, both without the work of ``f(x_ref)``; None
+    when ``s0 = 0``. ``W_c`` is NaN when its Newton iteration does not converge."""
+    system, model = setup.system, setup.model
+    s0 = rsys.split_state(system, setup.initial.y0)[2]
+    if not np.any(s0):
+        return None
+    case = setup.model_case
+    structure = pipeline.with_gas_law(case, pipeline.structure_for_case(case), model.X)
+    ctx = me.energy_context(structure, model.X, model)
+    condensed = me.condensed_energy_along_ray(ctx, s0)
+    y = np.zeros(7 + 2 * system.n_modes)
+    y[0] = 1.0
+    y[7 : 7 + system.n_modes] = s0
+    # V(s0) − f(x_ref)·u_QM(s0): the reduced counterpart of the condensed Π̃ (its F1·s0 and
+    # the quadratic modes' share f·Σ s s g of Λ are that work).
+    work = float(ctx.f0 @ me.manifold_displacement(ctx, s0))
+    reduced = float(dyn.potential_energy(system, y)) - work
+    return reduced, condensed.value if condensed.converged else float("nan")
+
+
+def with_deformation_check(setup, progress=None):
+    """``setup`` with its validity carrying :func:`initial_deformation_energies` (unchanged
+    when the run has no initial deformation or no validity)."""
+    if setup.validity is None or setup.system.n_modes == 0:
+        return setup
+    if progress:
+        progress("initial deformation vs the FE model", 0.0)
+    energies = initial_deformation_energies(setup)
+    if progress:
+        progress("initial deformation vs the FE model", 1.0)
+    if energies is None:
+        return setup
+    validity = dataclasses.replace(setup.validity, deformation_energy_reduced=energies[0],
+                                   deformation_energy_condensed=energies[1])  # fmt: skip
+    return dataclasses.replace(setup, validity=validity)

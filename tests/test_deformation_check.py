@@ -1,0 +1,43 @@
+"""The initial deformation beside the FE model's condensed energy (runs.deformation_check)."""
+
+import math
+import tomllib
+
+import pytest
+
+from quadmodes.case import load_run_case, run_case_from_dict
+from quadmodes.runs import simulate
+from quadmodes.runs.validity import DEFORMATION_ENERGY_TOLERANCE
+
+
+def bending_run(amplitude_in: float):
+    """paper-0.5hz on the coarse mesh (5 modes about the 0.5 Hz state), ``amplitude_in``."""
+    data = tomllib.loads(load_run_case("paper-0.5hz").to_toml())
+    data["model"] = "paper-membrane-coarse"
+    data["initial"]["bending_amplitude"] = f"{amplitude_in} in"
+    return run_case_from_dict(data, source="test")
+
+
+@pytest.fixture(scope="module")
+def checked():
+    return {a: simulate.prepare(bending_run(a), check_deformation=True).validity
+            for a in (0.05, 0.1, 2.0)}  # fmt: skip
+
+
+def test_small_deformation_agrees_and_error_grows_with_amplitude(checked):
+    small, double, large = checked[0.05], checked[0.1], checked[2.0]
+    assert small.deformation_energy_condensed > 0
+    assert small.deformation_error < 2e-3 and small.valid
+    # both energies agree to second order: the error is O(amplitude) relative (cubic terms)
+    ratio = double.deformation_error / small.deformation_error
+    assert 1.5 < ratio < 2.6
+    assert large.deformation_error > DEFORMATION_ENERGY_TOLERANCE
+    assert not large.valid and "initial.bending_amplitude" in large.message()
+    d = large.as_dict()
+    assert d["initial_deformation_energy_error"] == pytest.approx(large.deformation_error)
+
+
+def test_no_deformation_no_check():
+    run = bending_run(0.0)
+    validity = simulate.prepare(run, check_deformation=True).validity
+    assert math.isnan(validity.deformation_error) and validity.valid
