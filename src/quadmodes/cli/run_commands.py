@@ -29,6 +29,7 @@ from quadmodes.cli.common import (
     progress_bars,
     sigterm_as_interrupt,
 )
+from quadmodes.cli.extra_outputs import AnimateFlag, AnimateFrame, AnimateFrames, animation_choice, finish_run
 from quadmodes.cli.run_files import (
     RunFolders,
     check_folders,
@@ -303,6 +304,7 @@ class _Options:
     mode_convergence: bool
     hint: str
     signals: dict
+    animation: Any = None  # --animate: quadmodes.cli.extra_outputs.Animation, or None
 
     @property
     def exit_code(self) -> int:
@@ -352,7 +354,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
                     "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
             raise stop(f"{name}: stopped during the convergence runs; {kept}", opts.exit_code) from None
-    return result, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals)
+    return result, finish_run(result, folders.target, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals), opts)
 
 
 def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
@@ -361,7 +363,7 @@ def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict
 
     result = simulate.simulate_spinup(run)
     _warn_validity(run.name, result.validity)
-    return result, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals)
+    return result, finish_run(result, folders.target, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals), opts)
 
 
 def _run_all(setups: list, output_dir: Path, opts: _Options):
@@ -446,9 +448,9 @@ def run_command(
     restart: RunRestartFlag = False,
     checkpoint_every: CheckpointEvery = "10 s",
     no_cache: NoCacheFlag = False,
-    yes: RunYesFlag = False,
+    yes: RunYesFlag = False, animate: AnimateFlag = False, animate_frame: AnimateFrame = "inertial", animate_frames: AnimateFrames = 100,  # fmt: skip
 ) -> None:
-    """Integrate run cases; write results.nc, summary.json and PNG figures per case.
+    """Integrate run cases; write results.nc, summary.json, PNG figures and report.html per case.
 
     With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz. A run case with a
     [spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
@@ -478,7 +480,7 @@ def run_command(
         try:
             with caching_disabled(no_cache), one_line_errors():
                 check_output_folder(output_dir)
-                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every))
+                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every), animation=animation_choice(animate, animate_frame, animate_frames))
                 runs = _load_runs(names, overrides, dt_convergence, mode_convergence, yes)
                 all_folders = [run_folders(output_dir, r.name) for r in runs]
                 check_folders(all_folders, resume=resume, restart=restart)
