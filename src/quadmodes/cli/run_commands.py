@@ -14,6 +14,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
+from quadmodes.cli import extra_outputs as extras
 from quadmodes.cli.common import (
     NoCacheFlag,
     ProgressCallback,
@@ -29,7 +30,6 @@ from quadmodes.cli.common import (
     progress_bars,
     sigterm_as_interrupt,
 )
-from quadmodes.cli.extra_outputs import AnimateFlag, AnimateFrame, AnimateFrames, animation_choice, finish_run
 from quadmodes.cli.run_files import (
     RunFolders,
     check_folders,
@@ -354,7 +354,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
                     "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
             raise stop(f"{name}: stopped during the convergence runs; {kept}", opts.exit_code) from None
-    return result, finish_run(result, folders.target, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals), opts)
+    return result, extras.finish_run(result, folders.target, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals), opts)
 
 
 def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
@@ -363,7 +363,7 @@ def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict
 
     result = simulate.simulate_spinup(run)
     _warn_validity(run.name, result.validity)
-    return result, finish_run(result, folders.target, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals), opts)
+    return result, extras.finish_run(result, folders.target, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals), opts)
 
 
 def _run_all(setups: list, output_dir: Path, opts: _Options):
@@ -448,7 +448,7 @@ def run_command(
     restart: RunRestartFlag = False,
     checkpoint_every: CheckpointEvery = "10 s",
     no_cache: NoCacheFlag = False,
-    yes: RunYesFlag = False, animate: AnimateFlag = False, animate_frame: AnimateFrame = "inertial", animate_frames: AnimateFrames = 100,  # fmt: skip
+    yes: RunYesFlag = False, animate: extras.AnimateFlag = False, animate_frame: extras.AnimateFrame = "inertial", animate_frames: extras.AnimateFrames = 100,  # fmt: skip
 ) -> None:
     """Integrate run cases; write results.nc, summary.json, PNG figures and report.html per case.
 
@@ -480,7 +480,7 @@ def run_command(
         try:
             with caching_disabled(no_cache), one_line_errors():
                 check_output_folder(output_dir)
-                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every), animation=animation_choice(animate, animate_frame, animate_frames))
+                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every), animation=extras.animation_choice(animate, animate_frame, animate_frames))
                 runs = _load_runs(names, overrides, dt_convergence, mode_convergence, yes)
                 all_folders = [run_folders(output_dir, r.name) for r in runs]
                 check_folders(all_folders, resume=resume, restart=restart)

@@ -86,8 +86,9 @@ class FullOrderRecorder:
         self.count += 1
 
     def motion(self, frame: str = "inertial") -> Motion:
-        """The recorded :class:`~quadmodes.io.motion.Motion`: the elastic part is the position
-        about the centre of mass in the mass-weighted best-fit (mean-axes) frame minus X."""
+        """The recorded :class:`~quadmodes.io.motion.Motion`: positions about the centre of
+        mass (fixed for a free body; the reduced motion has it at the origin too), the elastic
+        part the position in the mass-weighted best-fit (mean-axes) frame minus X."""
         from quadmodes.rotations import polar_rotation
 
         times, xs = list(self.times), list(self.positions)
@@ -110,8 +111,8 @@ class FullOrderRecorder:
             if frame == "body":
                 positions.append((x_ref + u)[rows])
                 elastic.append(u[rows])
-            else:
-                positions.append(x[rows])
+            else:  # about the centre of mass, as the reduced motion (which has p = 0)
+                positions.append(r[rows])
                 elastic.append((u @ rot.T)[rows])
         return Motion(x_ref[rows], np.asarray(times), np.asarray(positions),
                       np.asarray(elastic), tri, lines, frame)  # fmt: skip
