@@ -205,3 +205,25 @@ def test_full_order_recorder_motion(workdir):
         for _ in range(8):  # s = Φᵀ M_s (u − Σ s_m s_n g^{mn})
             s_fit = lin - np.einsum("kia,ia->k", model.Phi, ms @ _deformation(model, s_fit, False))
         np.testing.assert_allclose(s_fit, sol.modal_coordinates[i], atol=0.01 * s_scale)
+
+
+def test_compare_animate_writes_the_full_order_motion_and_a_report(workdir):
+    out = workdir / "cmp"
+    args = ["compare", str(workdir / "small-run.toml"), "--window", "4 ms", "--formulations",
+            "rigid,Q", "--animate", "--animate-frames", "3", "-o", str(out)]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    points, cells, frames = _read_motion(out / "motion.xdmf")
+    assert [t for t, _, _ in frames] == pytest.approx([0.0, 0.002, 0.004])
+    case = load_case(workdir / "small.toml")
+    model = artifact.load_reduced_model(model_cache.cache_path(case, 5))
+    np.testing.assert_allclose(points, model.X, atol=1e-12)
+    w = model.weights
+    for _, pdata, _ in frames:  # positions about the centre of mass, the body has moved
+        x = points + pdata["displacement"]
+        assert np.linalg.norm(w @ x / w.sum()) < 1e-9
+    assert np.abs(frames[-1][1]["displacement"]).max() > 1e-3
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "errors relative to the full order" in page and "<td>Q</td>" in page
+    assert page.count("data:image/png;base64,") == len(list(out.glob("compare_*.png"))) == 5
+    assert "https://" not in page and "http://" not in page

@@ -99,6 +99,7 @@ def finish_compare(target: Path, payload: dict, plan, setup, recorder, animation
     if recorder is not None and recorder.times:
         _guarded(target, "motion.xdmf", signals, lambda: write_animation(
             recorder.motion(animation.frame), target, note))  # fmt: skip
-    report = lambda: write_compare_report(target, payload, plan.run, setup.run.model_case(),  # noqa: E731
-                                          setup.model)  # fmt: skip
+    model = getattr(setup, "model", None)
+    report = lambda: write_compare_report(target, payload, plan.run, plan.run.model_case(),  # noqa: E731
+                                          model)  # fmt: skip
     _guarded(target, "report.html", signals, report)

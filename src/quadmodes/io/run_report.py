@@ -179,7 +179,8 @@ def _compare_rows(payload: dict) -> list[tuple]:
 
 def write_compare_report(folder: str | Path, payload: dict, run, model_case, model) -> Path:
     """``folder/report.html`` of a comparison: the errors of each formulation against the full
-    order (``payload`` = comparison.json), the case, the model, notes and the overlay plots."""
+    order (``payload`` = comparison.json), the case, the model (None: left out), notes and the
+    overlay plots."""
     folder = Path(folder)
     fo = payload["full_order"]
     head = table(("model", "envelope error", "cone angle error", "spin rate error",
@@ -192,7 +193,7 @@ def write_compare_report(folder: str | Path, payload: dict, run, model_case, mod
     sections = [
         Section("headline numbers", head + facts + notes),
         _case_section(run, model_case, [("window (s)", payload["window_s"])]),
-        model_section(model),
+        *([model_section(model)] if model is not None else []),
         _figures_section(folder, COMPARE_FIGURES),
     ]
     return write_report(folder, f"quadmodes compare: {payload['case']}", sections)
