@@ -101,6 +101,11 @@ def test_run_animate_motion_matches_the_reduced_state(workdir, small_reduced_mod
     assert result.exit_code == 0, result.output
     folder = out / "small-run"
     assert (folder / "motion.xdmf").is_file() and (folder / "motion.h5").is_file()
+    try:  # the optional GIF: rendered with pyvista, else one note line says why not
+        import pyvista  # noqa: F401
+    except ImportError:
+        assert "motion.gif not rendered: pyvista is not installed" in result.output
+        assert not (folder / "motion.gif").exists()
     points, cells, frames = _read_motion(folder / "motion.xdmf")
     model = small_reduced_model
     assert {c.type for c in cells} == {"triangle", "line"}  # membrane and end-body ties

@@ -137,23 +137,36 @@ def render_motion(motion: Motion, path: Path, note: Callable[[str], None]) -> Pa
 
 
 def _render_gif(pv, motion: Motion, path: Path) -> Path:  # pragma: no cover - needs pyvista
-    """One GIF frame per motion frame, camera fixed on the whole motion's bounds."""
+    """One GIF frame per motion frame: the surface coloured by |u| (range: its largest value on
+    the surface), the end-body ties as lines, seen from the side (along +y, 15° above), the
+    camera fixed on the bounds of the whole motion."""
     from quadmodes.io.atomic import atomic_path
 
-    faces = np.hstack([np.full((len(motion.triangles), 1), 3), motion.triangles]).ravel()
-    mesh = pv.PolyData(motion.positions[0].copy(), faces)
+    tri, lines = motion.triangles, motion.lines
+    faces = np.hstack([np.full((len(tri), 1), 3), tri]).ravel()
+    surface = pv.PolyData(motion.positions[0].copy(), faces)
+    ties = pv.PolyData(motion.positions[0].copy(), lines=np.hstack(
+        [np.full((len(lines), 1), 2), lines]).ravel()) if len(lines) else None  # fmt: skip
     colour = np.linalg.norm(motion.elastic, axis=2)
-    mesh.point_data["|u| (m)"] = colour[0]
-    plotter = pv.Plotter(off_screen=True, window_size=(800, 800))
-    plotter.add_mesh(mesh, scalars="|u| (m)", clim=(0.0, float(colour.max()) or 1.0),
-                     cmap="plasma")  # fmt: skip
+    on_surface = colour[:, np.unique(tri)] if len(tri) else colour
+    surface.point_data["elastic displacement (m)"] = colour[0]
+    plotter = pv.Plotter(off_screen=True, window_size=(720, 720))
+    plotter.add_mesh(surface, scalars="elastic displacement (m)", clim=(0.0, float(on_surface.max()) or 1.0),
+                     cmap="plasma", show_edges=True, edge_color="#555555", line_width=0.3)  # fmt: skip
+    if ties is not None:
+        plotter.add_mesh(ties, color="crimson", line_width=2)
     lo, hi = motion.positions.min(axis=(0, 1)), motion.positions.max(axis=(0, 1))
+    plotter.camera_position = "xz"
+    plotter.camera.elevation = 15.0
     plotter.reset_camera(bounds=np.column_stack([lo, hi]).ravel())
     with atomic_path(path) as tmp:
         plotter.open_gif(str(tmp))
-        for x, c in zip(motion.positions, colour, strict=True):
-            mesh.points = x
-            mesh.point_data["|u| (m)"] = c
+        for t, x, c in zip(motion.times, motion.positions, colour, strict=True):
+            surface.points = x
+            surface.point_data["elastic displacement (m)"] = c
+            if ties is not None:
+                ties.points = x
+            plotter.add_text(f"t = {float(t):.4f} s", name="time", font_size=10)
             plotter.write_frame()
         plotter.close()
     return path
