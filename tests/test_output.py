@@ -227,3 +227,29 @@ def test_plot_failure_leaves_no_file(tmp_path, surface):
     with pytest.raises(ValueError):
         pictures.plot_mesh_png(tmp_path / "bad.png", pts, tri, cell_values=np.ones(2))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_write_mesh_vtu_of_lines_only(tmp_path):
+    """A beam (no triangles, its centre line as line cells) is written and read back."""
+    pts = np.column_stack([np.linspace(0.0, 1.0, 5), np.zeros(5), np.zeros(5)])
+    lines = np.stack([np.arange(4), np.arange(1, 5)], 1)
+    path = vtk.write_mesh_vtu(tmp_path / "beam.vtu", pts, np.zeros((0, 3), int), lines=lines)
+    mesh = meshio.read(path)
+    assert [c.type for c in mesh.cells] == ["line"]
+    np.testing.assert_array_equal(mesh.cells[0].data, lines)
+
+
+def test_mode_picture_fits_the_whole_body_with_little_white_space(tmp_path, surface):
+    """The side view of a tall body with a tie sticking out above it: the picture is cropped to
+    the drawing (no white border rows) and taller than wide, as the body."""
+    pts, tri, shapes, freqs, labels, _ = surface
+    tall = pts * np.array([0.4, 0.4, 2.0])
+    top = np.vstack([tall, [[0.0, 0.0, tall[:, 2].max() + 0.5]]])  # an end-body point above
+    lines = np.array([[0, len(top) - 1]])
+    path = pictures.plot_mesh_png(tmp_path / "tall.png", top, tri, lines=lines)
+    img = imread(path)[..., :3]
+    assert img.shape[0] > img.shape[1]  # two tall panels side by side, still taller than wide
+    ink = np.any(img < 0.95, axis=2)
+    rows, cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    assert rows[0] < 10 and rows[-1] > img.shape[0] - 10  # cropped: content from edge to edge
+    assert cols[0] < 10 and cols[-1] > img.shape[1] - 10

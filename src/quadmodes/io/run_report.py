@@ -18,6 +18,7 @@ import numpy as np
 from quadmodes.io.report import (
     Section,
     figures,
+    format_value,
     key_values,
     paragraph,
     preformatted,
@@ -113,9 +114,11 @@ def _checks_section(summary: dict) -> Section:
     validity = summary.get("validity") or {}
     if validity:
         ok = bool(validity.get("valid"))
+        low = format_value(validity.get("rotating_stiffness_min_eigenvalue"), ".4g")
         text = ("valid: the rotating-frame stiffness is positive definite up to the run's spin "
-                f"(min eigenvalue {validity.get('rotating_stiffness_min_eigenvalue', float('nan')):.4g} s⁻²)"
-                if ok else f"NOT valid: {validity.get('message', '')}")  # fmt: skip
+                f"(min eigenvalue {low} s⁻²)" if ok else f"NOT valid: {validity.get('message', '')}")  # fmt: skip
+        if ok and low == "—":
+            text = "valid (no elastic modes: nothing to check)"
         parts.append(paragraph(text, "ok" if ok else "bad"))
     if summary.get("dt_convergence"):
         rows = [(1e3 * r["dt_s"], r["steps"], r["cone_angle_deg"], r["rel_change_cone_angle_deg"],
