@@ -127,9 +127,9 @@ def test_write_modes_pvd(tmp_path, surface):
     assert top == out / "modes.pvd"
 
     entries = _pvd_files(top)
-    assert [t for t, _ in entries] == [0.0, 1.0, 2.0]
+    assert [t for t, _ in entries] == [1.0, 2.0, 3.0]  # modes numbered from 1, as everywhere
     for k, (_, fname) in enumerate(entries):
-        assert fname == f"mode_{k:02d}.vtu"
+        assert fname == f"mode_{k + 1:02d}.vtu"
         mesh = meshio.read(out / fname)
         np.testing.assert_allclose(mesh.points, pts, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(_triangles(mesh), tri)
@@ -137,16 +137,23 @@ def test_write_modes_pvd(tmp_path, surface):
         np.testing.assert_allclose(mesh.point_data["frequency_hz"], freqs[k], atol=1e-12)
         np.testing.assert_allclose(mesh.field_data["frequency_hz"], [freqs[k]], atol=1e-12)
 
-        anim = _pvd_files(out / f"mode_{k:02d}.pvd")
+        np.testing.assert_array_equal(mesh.field_data["mode_index"], [k + 1])
+
+        anim = _pvd_files(out / f"mode_{k + 1:02d}.pvd")
         assert len(anim) == frames
         assert all((out / f).is_file() for _, f in anim)
+        # every frame: undeformed points + its displacement (Warp By Vector applies it once)
+        frame_meshes = [meshio.read(out / f) for _, f in anim]
+        for m in frame_meshes:
+            np.testing.assert_allclose(m.points, pts, rtol=0, atol=1e-12)
         # frame at a quarter period: full amplitude, default scale = 10 % of bbox diagonal
-        quarter = meshio.read(out / anim[frames // 4][1])
-        amp = np.linalg.norm(quarter.points - pts, axis=1).max()
+        quarter = frame_meshes[frames // 4].point_data["displacement"]
+        amp = np.linalg.norm(quarter, axis=1).max()
         diag = np.linalg.norm(pts.max(0) - pts.min(0))
         np.testing.assert_allclose(amp, 0.1 * diag, rtol=1e-9)
-        first = meshio.read(out / anim[0][1])
-        np.testing.assert_allclose(first.points, pts, atol=1e-12)
+        np.testing.assert_allclose(frame_meshes[0].point_data["displacement"], 0.0, atol=1e-12)
+    numbers = [line.split("\t")[0] for line in (out / "modes.txt").read_text().splitlines()[1:]]
+    assert numbers == ["1", "2", "3"]
 
     names = sorted(p.name for p in out.iterdir())
     assert len(names) == 1 + 1 + 3 * (2 + frames)  # modes.pvd, modes.txt, per mode
@@ -158,8 +165,9 @@ def test_write_modes_pvd_explicit_scale(tmp_path, surface):
     vtk.write_modes_pvd(
         tmp_path, pts, tri, shapes[:1], freqs[:1], labels[:1], frames=4, scale=0.01
     )
-    quarter = meshio.read(tmp_path / "mode_00_frame_001.vtu")
-    np.testing.assert_allclose(quarter.points, pts + 0.01 * shapes[0], atol=1e-12)
+    quarter = meshio.read(tmp_path / "mode_01_frame_001.vtu")
+    np.testing.assert_allclose(quarter.points, pts, atol=1e-12)
+    np.testing.assert_allclose(quarter.point_data["displacement"], 0.01 * shapes[0], atol=1e-12)
 
 
 @pytest.mark.parametrize("with_lines", [False, True])
@@ -219,3 +227,29 @@ def test_plot_failure_leaves_no_file(tmp_path, surface):
     with pytest.raises(ValueError):
         pictures.plot_mesh_png(tmp_path / "bad.png", pts, tri, cell_values=np.ones(2))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_write_mesh_vtu_of_lines_only(tmp_path):
+    """A beam (no triangles, its centre line as line cells) is written and read back."""
+    pts = np.column_stack([np.linspace(0.0, 1.0, 5), np.zeros(5), np.zeros(5)])
+    lines = np.stack([np.arange(4), np.arange(1, 5)], 1)
+    path = vtk.write_mesh_vtu(tmp_path / "beam.vtu", pts, np.zeros((0, 3), int), lines=lines)
+    mesh = meshio.read(path)
+    assert [c.type for c in mesh.cells] == ["line"]
+    np.testing.assert_array_equal(mesh.cells[0].data, lines)
+
+
+def test_mode_picture_fits_the_whole_body_with_little_white_space(tmp_path, surface):
+    """The side view of a tall body with a tie sticking out above it: the picture is cropped to
+    the drawing (no white border rows) and taller than wide, as the body."""
+    pts, tri, shapes, freqs, labels, _ = surface
+    tall = pts * np.array([0.4, 0.4, 2.0])
+    top = np.vstack([tall, [[0.0, 0.0, tall[:, 2].max() + 0.5]]])  # an end-body point above
+    lines = np.array([[0, len(top) - 1]])
+    path = pictures.plot_mesh_png(tmp_path / "tall.png", top, tri, lines=lines)
+    img = imread(path)[..., :3]
+    assert img.shape[0] > img.shape[1]  # two tall panels side by side, still taller than wide
+    ink = np.any(img < 0.95, axis=2)
+    rows, cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    assert rows[0] < 10 and rows[-1] > img.shape[0] - 10  # cropped: content from edge to edge
+    assert cols[0] < 10 and cols[-1] > img.shape[1] - 10

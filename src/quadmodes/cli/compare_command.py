@@ -14,6 +14,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from quadmodes.cli import extra_outputs as extras
 from quadmodes.cli.common import (
     NoCacheFlag,
     UserError,
@@ -33,7 +34,7 @@ from quadmodes.cli.common import (
     staged_output,
 )
 from quadmodes.cli.run_files import note as print_note
-from quadmodes.cli.run_files import remove_old_figures, stop
+from quadmodes.cli.run_files import remove_old_extras, remove_old_figures, stop
 
 #: Full-order runs estimated longer than this (s) need --yes.
 LONG_FULL_ORDER_S = 1800.0
@@ -165,7 +166,8 @@ def _stopped_message(checkpoint: Path, rerun_hint: str) -> str:
 
 
 def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bool,
-                    bars_shown: bool, rerun_hint: str, signals: dict | None = None):  # fmt: skip
+                    bars_shown: bool, rerun_hint: str, signals: dict | None = None,
+                    on_sample=None):  # fmt: skip
     """The reduced runs and the checkpointed full-order run; Ctrl-C (in either) keeps the
     checkpoint, says how to continue (``rerun_hint``: the command line without --resume) and
     exits with status ``signals["exit"]`` (130, 143 after SIGTERM; see
@@ -177,6 +179,7 @@ def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bo
         return _complete_or_raise(full_order_for_run(
             r, dt=dt, progress=bars, setup=setup, checkpoint=checkpoint,
             checkpoint_every=FULL_ORDER_CHECKPOINT_EVERY, resume=resume,
+            **({"on_sample": on_sample} if on_sample is not None else {}),
         ))  # fmt: skip
 
     with progress_bars(bars_shown) as bars:
@@ -284,12 +287,13 @@ def compare_command(
     yes: YesFlag = False,
     plots: ComparePlotsFlag = True,
     no_cache: NoCacheFlag = False,
+    animate: extras.AnimateFlag = False, animate_frame: extras.AnimateFrame = "inertial", animate_frames: extras.AnimateFrames = 100,  # fmt: skip
 ) -> None:
     """Reduced formulations (rigid, L, P, Q, Q4) against the full-order finite-element transient on
     one window: errors of the modal-amplitude envelope, cone angle and spin rate; the secular
     cone-growth rate, mean dissipated power and spin-rate change fitted over the quasi-steady part
-    of the window, as reduced / full; wall times and speed-ups. Writes comparison.nc/.json/.csv
-    and overlay plots. The full order's damping is modal damping (the case's ζ) on every FE mode
+    of the window, as reduced / full; wall times and speed-ups. Writes comparison.nc/.json/.csv,
+    overlay plots and report.html (with --animate also the full order's motion.xdmf). The full order's damping is modal damping (the case's ζ) on every FE mode
     below --damping-cutoff, independent of the reduced basis.
 
     The full-order run is estimated first and checkpointed as it goes: Ctrl-C (or SIGTERM) stops
@@ -302,6 +306,7 @@ def compare_command(
                 case, window, full_dt, modes, spin_rate, formulations, damping_cutoff,
                 output_dir, as_json=as_json, resume=resume, restart=restart, yes=yes,
                 plots=plots, signals=signals, no_cache=no_cache,
+                animation=(animate, animate_frame, animate_frames),
             )  # fmt: skip
         except KeyboardInterrupt:  # outside the integrations (setup, writing)
             message = signals.get("stopped", lambda: "stopped; nothing was written")()
@@ -314,8 +319,9 @@ def compare_command(
 
 
 def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff, output_dir,
-             *, as_json, resume, restart, yes, plots, signals, no_cache):  # fmt: skip
-    """The body of :func:`compare_command`: returns (payload, plan, output folder)."""
+             *, as_json, resume, restart, yes, plots, signals, no_cache, animation=(False, "inertial", 100)):  # fmt: skip
+    """The body of :func:`compare_command`: returns (payload, plan, output folder);
+    ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.fullorder import setup_for_run
     from quadmodes.runs.model_cache import caching_disabled
@@ -323,6 +329,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
     with one_line_errors(RuntimeError), caching_disabled(no_cache):
         plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
+        animation = extras.animation_choice(*animation)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
         check_output_folder(target)
         model_case = plan.run.model_case()
@@ -338,13 +345,15 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         # inflation, initial state and damping modes, once for the estimate and the run
         setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)
         _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
+        recorder = extras.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
         result = _run_comparison(
             plan, setup, checkpoint, resume=resume, bars_shown=not as_json, rerun_hint=hint,
-            signals=signals,
+            signals=signals, on_sample=recorder,
         )  # fmt: skip
         with staged_output(target) as scratch:  # the data first, then the figures
             payload = cmp.write_comparison(result, scratch, plots=False)
             old_figures = remove_old_figures(target)
+            remove_old_extras(target)
         checkpoint.unlink(missing_ok=True)
     if old_figures and not plots:
         print_note(f"note: removed {len(old_figures)} figure(s) of an earlier comparison from "
@@ -356,4 +365,5 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
             raise stop(f"stopped while drawing the figures; the data are saved in {target} "
                        "(comparison.nc, .json, .csv); the figures are incomplete",
                        signals["exit"]) from None  # fmt: skip
+    extras.finish_compare(target, payload, plan, setup, recorder, animation, signals)
     return payload, plan, target

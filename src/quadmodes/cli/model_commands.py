@@ -102,7 +102,7 @@ def _write_modal_outputs(model, directory: Path) -> None:
     vtk.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
     vtk.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
     if len(tri):
-        pictures.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=None)
+        pictures.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=lines)
         if cell_data:
             pictures.plot_mesh_png(
                 directory / "prestress.png",

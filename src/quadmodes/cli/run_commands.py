@@ -14,6 +14,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
+from quadmodes.cli import extra_outputs as extras
 from quadmodes.cli.common import (
     NoCacheFlag,
     ProgressCallback,
@@ -304,6 +305,7 @@ class _Options:
     mode_convergence: bool
     hint: str
     signals: dict
+    animation: Any = None  # --animate: quadmodes.cli.extra_outputs.Animation, or None
 
     @property
     def exit_code(self) -> int:
@@ -353,7 +355,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
                     "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
             raise stop(f"{name}: stopped during the convergence runs; {kept}", opts.exit_code) from None
-    return result, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals)
+    return result, extras.finish_run(result, folders.target, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals), opts)
 
 
 def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
@@ -362,7 +364,7 @@ def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict
 
     result = simulate.simulate_spinup(run)
     _warn_validity(run.name, result.validity)
-    return result, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals)
+    return result, extras.finish_run(result, folders.target, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals), opts)
 
 
 def _run_all(setups: list, output_dir: Path, opts: _Options):
@@ -447,9 +449,9 @@ def run_command(
     restart: RunRestartFlag = False,
     checkpoint_every: CheckpointEvery = "10 s",
     no_cache: NoCacheFlag = False,
-    yes: RunYesFlag = False,
+    yes: RunYesFlag = False, animate: extras.AnimateFlag = False, animate_frame: extras.AnimateFrame = "inertial", animate_frames: extras.AnimateFrames = 100,  # fmt: skip
 ) -> None:
-    """Integrate run cases; write results.nc, summary.json and PNG figures per case.
+    """Integrate run cases; write results.nc, summary.json, PNG figures and report.html per case.
 
     With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz. A run case with a
     [spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
@@ -479,7 +481,7 @@ def run_command(
         try:
             with caching_disabled(no_cache), one_line_errors():
                 check_output_folder(output_dir)
-                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every))
+                opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every), animation=extras.animation_choice(animate, animate_frame, animate_frames))
                 runs = _load_runs(names, overrides, dt_convergence, mode_convergence, yes)
                 all_folders = [run_folders(output_dir, r.name) for r in runs]
                 check_folders(all_folders, resume=resume, restart=restart)

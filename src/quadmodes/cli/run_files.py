@@ -32,6 +32,8 @@ from quadmodes.cli.common import UserError, clean_stale_staging, err, staged_out
 
 #: The files of a run's data; anything else but figures (``*.png``) in its folder is listed.
 DATA_FILES = ("results.nc", "summary.json")
+#: Written after the data (report, ``--animate``): removed when new data arrive, never listed.
+EXTRA_FILES = ("report.html", "motion.xdmf", "motion.h5", "motion.gif")
 
 
 def note(text: str) -> None:
@@ -125,11 +127,16 @@ def remove_old_figures(target: Path) -> list[str]:
     return names
 
 
+def remove_old_extras(target: Path) -> None:
+    """Remove the report and motion files (:data:`EXTRA_FILES`) of an earlier run."""
+    for name in EXTRA_FILES:
+        (target / name).unlink(missing_ok=True)
+
+
 def _others(target: Path) -> list[str]:
-    """Files in ``target`` that a run does not write (neither data nor figures)."""
-    return sorted(
-        p.name for p in target.iterdir() if p.name not in DATA_FILES and p.suffix != ".png"
-    )
+    """Files in ``target`` that a run does not write (neither data, figures nor extras)."""
+    known = (*DATA_FILES, *EXTRA_FILES)
+    return sorted(p.name for p in target.iterdir() if p.name not in known and p.suffix != ".png")
 
 
 def commit_run(result, folders: RunFolders, extra: dict, *, plots: bool, signals: dict) -> dict:
@@ -168,6 +175,7 @@ def commit(folders: RunFolders, data, draw, *, plots: bool, signals: dict) -> di
     with staged_output(target) as scratch:
         ds, info = data(scratch)
         old_figures = remove_old_figures(target)
+        remove_old_extras(target)
     shutil.rmtree(folders.partial, ignore_errors=True)
     if old_figures and not plots:
         note(f"note: removed {len(old_figures)} figure(s) of an earlier run from {target} "

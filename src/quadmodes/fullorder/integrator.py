@@ -93,6 +93,7 @@ def integrate_full_order(
     checkpoint_every: int = 1000,
     resume: bool = False,
     progress: Callable[[float], None] | None = None,
+    on_sample: Callable[[float, np.ndarray], None] | None = None,
 ) -> FullOrderSolution:
     """Integrate ``M ẍ + f_d + f(x) = 0`` with the implicit midpoint from ``(x0, v0)`` (n,3).
 
@@ -112,14 +113,15 @@ def integrate_full_order(
     rotation_map: map the initial state to the scheme's steady-rotation form and the sampled
     end states back for the diagnostics (free bodies; see the package docstring).
     energy_momentum: averaged-stress internal force (False: plain ``f(x½)``).
-    progress(fraction). Raises :class:`FullOrderNewtonError` on a Newton failure; Ctrl-C returns
+    progress(fraction). on_sample(t, x): called with every sample's physical positions x (n,3) m
+    (e.g. :class:`quadmodes.io.animation.FullOrderRecorder`). Raises :class:`FullOrderNewtonError` on a Newton failure; Ctrl-C returns
     what was computed with status 1."""
     start = time.perf_counter()
     problem = setup_problem(
         structure, x_ref, t_span, dt, model=model, damping=damping, hub=hub,
         newton_tol=newton_tol, energy_momentum=energy_momentum, rotation_map=rotation_map,
     )  # fmt: skip
-    samples = SampledSeries(problem, spin_axis)
+    samples = SampledSeries(problem, spin_axis, on_sample)
     ck = Path(checkpoint) if checkpoint is not None else None
     state = initial_run_state(x0, v0)
     if resume and ck is not None and ck.is_file():

@@ -21,8 +21,10 @@ class SampledSeries:
     the first). ``spin_axis`` (3,): nominal spin axis in the initial body frame for the first
     sample's axis (None: the minor axis of the initial inertia)."""
 
-    def __init__(self, problem: FullOrderProblem, spin_axis: np.ndarray | None = None):
+    def __init__(self, problem: FullOrderProblem, spin_axis: np.ndarray | None = None,
+                 on_sample=None):  # fmt: skip
         self.problem, self.spin_axis = problem, spin_axis
+        self.on_sample = on_sample  # on_sample(t, x): x (n,3) m the sampled physical positions
         self.series: dict[str, list] = {k: [] for k in SERIES}
         self.axis_prev: np.ndarray | None = None
 
@@ -52,6 +54,8 @@ class SampledSeries:
         series["Hd"].append(cross_form(rs.T @ (p.ms @ vs)))
         if p.mapped:
             xs, vs = kin.to_physical_rotation(body, xs, vs, p.h, not p.energy_momentum)
+        if self.on_sample is not None:
+            self.on_sample(t, xs)
         rot = hub.rotation(t) if hub is not None else None
         om = hub.angular_velocity(t) if hub is not None else None
         smp = kin.sample(body, xs, vs, rot, p.point, om)

@@ -22,9 +22,12 @@ def new_figure(figsize=(7.0, 4.0)):
     return fig
 
 
-def save_png(fig, path: str | os.PathLike) -> Path:
-    """Write ``fig`` to ``path`` as PNG at :data:`DPI`, atomically; returns the path."""
+def save_png(fig, path: str | os.PathLike, tight: bool = True) -> Path:
+    """Write ``fig`` to ``path`` as PNG at :data:`DPI`, atomically; ``tight`` (default): cropped
+    to the drawn content (0.05 in margin), so no label is clipped and no white border is left
+    (False: the figure's own size). Returns the path."""
     path = Path(path)
+    crop = {"bbox_inches": "tight", "pad_inches": 0.05} if tight else {}
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=DPI)
+        fig.savefig(tmp, format="png", dpi=DPI, **crop)
     return path

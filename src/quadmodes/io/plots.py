@@ -146,7 +146,7 @@ def _write_single(ds: xr.Dataset, path: Path, what: str, draw) -> Path:
     ax.grid(True, lw=0.3)
     fig.suptitle(_title(ds, what), fontsize=10)
     fig.subplots_adjust(left=0.14, right=0.86, bottom=0.13, top=0.84)
-    return save_png(fig, path)
+    return save_png(fig, path, tight=True)
 
 
 def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
@@ -163,7 +163,7 @@ def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
         _title(ds, "magnitude of the angular momentum (cf. seed Figs. 6, 11)"), fontsize=10
     )
     fig.subplots_adjust(left=0.14, right=0.95, bottom=0.1, top=0.9, hspace=0.3)
-    return save_png(fig, path)
+    return save_png(fig, path, tight=True)
 
 
 def _single_figures(ds: xr.Dataset) -> list[tuple[str, str, object]]:
@@ -234,7 +234,7 @@ def _write_summary(ds: xr.Dataset, path: Path) -> Path:
         fontsize=11,
     )
     fig.subplots_adjust(left=0.075, right=0.985, bottom=0.07, top=0.9, wspace=0.4, hspace=0.32)
-    return save_png(fig, path)
+    return save_png(fig, path, tight=True)
 
 
 def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:

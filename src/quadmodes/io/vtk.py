@@ -110,11 +110,11 @@ def write_mesh_vtu(
     if lin is not None and len(lin) == 0:
         lin = None
 
-    cells = [("triangle", tri)]
+    cells = [("triangle", tri)] if len(tri) or lin is None else []  # a beam: lines only
     if lin is not None:
         cells.append(("line", lin))
     pdata = _point_data(point_data, len(pts))
-    cdata = _cell_data(cell_data, cells, lin is not None)
+    cdata = _cell_data(cell_data, cells, lin is not None and len(cells) == 2)
     fdata = {k: np.atleast_1d(_numeric_array(k, v)) for k, v in (field_data or {}).items()}
 
     mesh = meshio.Mesh(pts, cells, point_data=pdata, cell_data=cdata)
@@ -177,9 +177,9 @@ def write_pvd(path, datasets: Sequence[tuple[float, str]]) -> Path:
 def _write_mode_files(
     directory: Path, k: int, pts, triangles, lines, shape, f, frames, scale
 ) -> str:
-    """Files of mode ``k`` (shape (n, 3), frequency ``f`` Hz): ``mode_{k:02d}.vtu`` on the
-    undeformed mesh, its ``frames`` displaced frames and their ``.pvd``; returns the name of
-    the undeformed file."""
+    """Files of mode number ``k`` (from 1; shape (n, 3), frequency ``f`` Hz):
+    ``mode_{k:02d}.vtu`` and its ``frames`` frames, all on the undeformed mesh with the frame's
+    displacement as point data, and their ``.pvd``; returns the name of the mode's file."""
     fdata = {"frequency_hz": np.array([f]), "mode_index": np.array([k], dtype=np.int64)}
     base = f"mode_{k:02d}"
     write_mesh_vtu(
@@ -194,14 +194,13 @@ def _write_mode_files(
     anim = []
     for j in range(frames):
         amp = s * math.sin(2.0 * math.pi * j / frames)
-        disp = amp * shape
         fname = f"{base}_frame_{j:03d}.vtu"
         write_mesh_vtu(
             directory / fname,
-            pts + disp,
+            pts,  # undeformed: Warp By Vector (scale 1) applies the displacement once
             triangles,
             lines=lines,
-            point_data={"displacement": disp, "frequency_hz": np.full(len(pts), f)},
+            point_data={"displacement": amp * shape, "frequency_hz": np.full(len(pts), f)},
             field_data=fdata,
         )
         anim.append((float(j), fname))
@@ -225,14 +224,16 @@ def write_modes_pvd(
     points (n, 3) [m]; triangles (nt, 3) int; shapes (N, n, 3); frequencies_hz (N,) [Hz];
     labels: N strings; lines (m, 2) int or None.
 
-    Files (k = mode index, j = frame index):
+    Files (k = mode number, from 1 as in results.nc, the CLI tables and the PNG pictures;
+    j = frame index from 0). Every file holds the undeformed mesh and the displacement as point
+    data, so ParaView's "Warp By Vector" (scale factor 1, or any other) shows it once:
 
-    * ``mode_{k:02d}.vtu``: undeformed mesh with point data ``displacement`` (the mode shape,
-      use "Warp By Vector") and ``frequency_hz``; field data ``frequency_hz``, ``mode_index``.
-    * ``mode_{k:02d}_frame_{j:03d}.vtu``: surface displaced by
+    * ``mode_{k:02d}.vtu``: point data ``displacement`` (the mode shape as computed) and
+      ``frequency_hz``; field data ``frequency_hz``, ``mode_index`` (= k).
+    * ``mode_{k:02d}_frame_{j:03d}.vtu``: point data ``displacement`` =
       ``scale * sin(2 pi j / frames) * shape``; ``mode_{k:02d}.pvd`` animates them.
-    * ``modes.pvd``: the undeformed per-mode files with timestep = k.
-    * ``modes.txt``: index, frequency and label of each mode.
+    * ``modes.pvd``: the per-mode files with timestep = k.
+    * ``modes.txt``: number, frequency and label of each mode.
 
     ``scale`` defaults to 10 % of the bounding-box diagonal divided by max |shape| (per mode).
     Returns the path of ``modes.pvd``.
@@ -247,11 +248,11 @@ def write_modes_pvd(
     top = []
     for k in range(shp.shape[0]):
         name = _write_mode_files(
-            directory, k, pts, triangles, lines, shp[k], freqs[k], frames, scale
+            directory, k + 1, pts, triangles, lines, shp[k], freqs[k], frames, scale
         )
-        top.append((float(k), name))
+        top.append((float(k + 1), name))
     table = "# mode\tfrequency_hz\tlabel\n" + "".join(
-        f"{k}\t{freqs[k]:.9g}\t{labels[k]}\n" for k in range(shp.shape[0])
+        f"{k + 1}\t{freqs[k]:.9g}\t{labels[k]}\n" for k in range(shp.shape[0])
     )
     write_text(directory / "modes.txt", table)
     return write_pvd(directory / "modes.pvd", top)

@@ -1,0 +1,202 @@
+"""The ``report.html`` of ``run`` and ``compare`` (:mod:`quadmodes.io.report`): the case, the
+model (modes table, mass, inertia), the headline numbers, the validity and convergence checks
+and the figures the command wrote, embedded. Modes are numbered from 1, as in results.nc, the
+CLI tables, the mode pictures and the mode files.
+
+Inputs are the objects the commands already hold: the run's summary dict and
+:class:`~quadmodes.runs.simulate.RunResult`, or the comparison payload (``comparison.json``), the
+plan and the full-order setup. Values are SI unless the label says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from quadmodes.io.report import (
+    Section,
+    figures,
+    format_value,
+    key_values,
+    paragraph,
+    preformatted,
+    table,
+    write_report,
+)
+
+__all__ = ["RUN_FIGURES", "COMPARE_FIGURES", "write_compare_report", "write_run_report"]
+
+#: (file, caption) of the run figures, in report order.
+RUN_FIGURES = (
+    ("summary.png", "overview: |H|, bending coefficient and envelope, energy, spin rate, cone angle"),
+    ("angular_momentum.png", "magnitude of the angular momentum (seed Figs. 6, 11)"),
+    ("bending_mode.png", "first bending coefficient (seed Figs. 7, 12)"),
+    ("bending_mode_early.png", "first bending coefficient, early times (seed Fig. 13)"),
+    ("energy.png", "total energy and energy balance (seed Figs. 8, 14)"),
+    ("spin_rate.png", "spin rate (seed Figs. 9, 15)"),
+    ("cone_angle.png", "cone angle (seed Figs. 10, 16)"),
+    ("tip_deflection.png", "tip deflection and hub rate of the spin-up"),
+)
+#: (file, caption) of the comparison figures.
+COMPARE_FIGURES = tuple(
+    (f"compare_{stem}.png", f"{what}: reduced formulations against the full order")
+    for stem, what in (("modal_amplitude", "modal amplitude"), ("cone_angle", "cone angle"),
+                       ("spin_rate", "spin rate"), ("angular_momentum", "|H| drift"),
+                       ("energy", "total energy"))
+)  # fmt: skip
+
+
+def model_section(model) -> Section:
+    """Mass, inertia about the centre of mass (and its principal moments) and the retained
+    modes of a :class:`~quadmodes.rom.reduced.ReducedModel`."""
+    j0 = np.asarray(model.J0, float)
+    principal = np.linalg.eigvalsh(0.5 * (j0 + j0.T))
+    spin = float(getattr(model, "reference_spin", 0.0))
+    about = f"spinning at {spin / (2 * math.pi):.4g} Hz" if spin else "at rest"
+    facts = key_values([
+        ("mass (kg)", float(model.mass)),
+        ("principal moments of inertia (kg m²)", ", ".join(f"{v:.6g}" for v in principal)),
+        ("reference state of the modes", about),
+        ("retained elastic modes N", int(model.n_modes)),
+    ])  # fmt: skip
+    inertia = table(("", "x", "y", "z"), [(a, *map(float, row)) for a, row in zip("xyz", j0, strict=True)],
+                    "inertia J0 about the centre of mass (kg m²), body frame")  # fmt: skip
+    rows = [(k + 1, float(f), str(lab), float(z)) for k, (f, lab, z) in enumerate(
+        zip(model.frequencies_hz, model.labels, model.damping_ratio, strict=True))]  # fmt: skip
+    modes = table(("mode", "frequency (Hz)", "label", "damping ratio ζ"), rows,
+                  "retained modes (numbered from 1)") if rows else paragraph("no elastic modes (rigid body)")  # fmt: skip
+    return Section("model", facts + inertia + modes)
+
+
+def _case_section(run, model_case, extra: list[tuple[str, object]]) -> Section:
+    """Run name, description, model case and the case TOML (folded)."""
+    pairs = [("run case", run.name), ("description", run.description or "—"),
+             ("model case", model_case.name), ("formulation", run.reduced.formulation), *extra]  # fmt: skip
+    toml = preformatted(run.to_toml(), "run case TOML") + preformatted(
+        model_case.to_toml(), "model case TOML")
+    return Section("case", key_values(pairs) + toml)
+
+
+#: (label, summary key or keys, format) of the run headline table.
+_HEADLINES = (
+    ("status", "status", "{}"),
+    ("steps", "steps", "{}"),
+    ("integration wall time (s, without writing)", "wall_s", "{:.3g}"),
+    ("max |H(t) − H0| / |H0|", "H_relative_drift", "{:.2e}"),
+    ("energy start → end (J)", ("energy_start_J", "energy_end_J"), "{:.6g} → {:.6g}"),
+    ("dissipated energy (J)", "dissipated_energy_J", "{:.4g}"),
+    ("spin rate start → end (Hz)", ("spin_rate_start_hz", "spin_rate_end_hz"), "{:.6g} → {:.6g}"),
+    ("cone angle start → end (deg)", ("cone_angle_start_deg", "cone_angle_end_deg"), "{:.5g} → {:.5g}"),
+    ("cone angle max (deg)", "cone_angle_max_deg", "{:.5g}"),
+    ("bending log decrement", "log_decrement", "{:.4g}"),
+    ("retained modes N", "n_modes", "{}"),
+    ("mode choice", "mode_rule", "{}"),
+    ("final hub rate Ωs (rad/s)", "omega_s_rad_s", "{:.4g}"),
+    ("peak in-plane tip deflection (m)", "peak_tip_deflection_m", "{:.4g}"),
+)
+
+
+def _headline_rows(summary: dict) -> list[tuple[str, str]]:
+    rows = []
+    for label, key, fmt in _HEADLINES:
+        keys = key if isinstance(key, tuple) else (key,)
+        values = [summary.get(k) for k in keys]
+        if all(k in summary for k in keys):
+            rows.append((label, "—" if None in values else fmt.format(*values)))
+    return rows
+
+
+def _checks_section(summary: dict) -> Section:
+    """Validity of the formulation at the run's spin, and the convergence tables if run."""
+    parts = []
+    validity = summary.get("validity") or {}
+    if validity:
+        ok = bool(validity.get("valid"))
+        low = format_value(validity.get("rotating_stiffness_min_eigenvalue"), ".4g")
+        text = ("valid: the rotating-frame stiffness is positive definite up to the run's spin "
+                f"(min eigenvalue {low} s⁻²)" if ok else f"NOT valid: {validity.get('message', '')}")  # fmt: skip
+        if ok and low == "—":
+            text = "valid (no elastic modes: nothing to check)"
+        parts.append(paragraph(text, "ok" if ok else "bad"))
+    if summary.get("dt_convergence"):
+        rows = [(1e3 * r["dt_s"], r["steps"], r["cone_angle_deg"], r["rel_change_cone_angle_deg"],
+                 r["spin_rate_hz"], r["rel_change_spin_rate_hz"]) for r in summary["dt_convergence"]]  # fmt: skip
+        parts.append(table(("dt (ms)", "steps", "cone angle end (deg)", "rel. change",
+                            "spin rate end (Hz)", "rel. change"), rows, "time-step convergence"))  # fmt: skip
+    conv = summary.get("mode_convergence")
+    if conv:
+        rows = [(r["n_modes"], r["steps"], r["wall_s"]) for r in conv["rows"]]
+        parts.append(table(("N", "steps", "wall time (s)"), rows, "mode convergence runs"))
+        parts.append(paragraph(f"verdict: {conv.get('text', '')}"))
+    if not parts:
+        parts.append(paragraph("no validity information; run with --dt-convergence or "
+                               "--mode-convergence for convergence checks"))  # fmt: skip
+    return Section("validity and convergence checks", "".join(parts))
+
+
+def write_run_report(folder: str | Path, summary: dict, result) -> Path:
+    """``folder/report.html`` of a run: case, model, headline numbers, checks, the figures in
+    ``folder`` (:data:`RUN_FIGURES`) and the ParaView files present."""
+    folder = Path(folder)
+    run = result.run
+    extra = []
+    if run.initial is not None:
+        extra += [("initial spin rate (Hz)", run.initial.spin_rate / (2 * math.pi)),
+                  ("initial cone angle (deg)", math.degrees(run.initial.cone_angle))]  # fmt: skip
+    if run.integration is not None:
+        extra += [("method", run.integration.method), ("dt (ms)", 1e3 * run.integration.dt),
+                  ("duration (s)", run.integration.duration)]  # fmt: skip
+    sections = [
+        Section("headline numbers", key_values(_headline_rows(summary))),
+        _case_section(run, result.model_case, extra),
+        _checks_section(summary),
+    ]
+    if getattr(result, "model", None) is not None and hasattr(result.model, "J0"):
+        sections.insert(2, model_section(result.model))
+    sections.append(_figures_section(folder, RUN_FIGURES))
+    return write_report(folder, f"quadmodes run: {run.name}", sections, summary.get("status", ""))
+
+
+def _figures_section(folder: Path, items) -> Section:
+    body = figures(folder, items)
+    files = [n for n in ("motion.xdmf",) if (folder / n).is_file()]
+    if files:
+        body += paragraph("animation: motion.xdmf (+ motion.h5) beside this page; open it in "
+                          "ParaView, Warp By Vector (displacement, scale 1), colour by "
+                          "elastic_displacement_magnitude (docs/outputs.md)")  # fmt: skip
+    return Section("figures", body or paragraph("no figures (--no-plots)"))
+
+
+def _compare_rows(payload: dict) -> list[tuple]:
+    rows = []
+    fo = payload["full_order"]
+    rows.append(("full order", None, None, None, None, fo.get("wall_s"), 1.0))
+    for name, row in payload["formulations"].items():
+        rows.append((name, row.get("envelope_error"), row.get("cone_angle_error"),
+                     row.get("spin_rate_error"), row.get("cone_growth_ratio"), row.get("wall_s"),
+                     row.get("speedup")))  # fmt: skip
+    return rows
+
+
+def write_compare_report(folder: str | Path, payload: dict, run, model_case, model) -> Path:
+    """``folder/report.html`` of a comparison: the errors of each formulation against the full
+    order (``payload`` = comparison.json), the case, the model (None: left out), notes and the
+    overlay plots."""
+    folder = Path(folder)
+    fo = payload["full_order"]
+    head = table(("model", "envelope error", "cone angle error", "spin rate error",
+                  "cone growth reduced / full", "wall (s)", "speed-up"), _compare_rows(payload),
+                 f"{payload['case']}: {payload['window_s']:g} s window, errors relative to the full order")  # fmt: skip
+    facts = key_values([("full-order step (ms)", 1e3 * fo["dt_s"]), ("full-order steps", fo["steps"]),
+                        ("full-order |H| drift", fo.get("H_relative_drift")),
+                        ("full order complete", bool(fo.get("complete")))])  # fmt: skip
+    notes = "".join(paragraph(f"note: {n}") for n in payload.get("notes", []))
+    sections = [
+        Section("headline numbers", head + facts + notes),
+        _case_section(run, model_case, [("window (s)", payload["window_s"])]),
+        *([model_section(model)] if model is not None else []),
+        _figures_section(folder, COMPARE_FIGURES),
+    ]
+    return write_report(folder, f"quadmodes compare: {payload['case']}", sections)
