@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import typer
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.cli.analysis_commands import campbell, rotating_command
 from quadmodes.cli.cache_commands import cache_app
 from quadmodes.cli.common import out

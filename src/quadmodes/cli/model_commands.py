@@ -12,7 +12,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.cli.common import (
     DEFAULT_CASE,
     JsonFlag,

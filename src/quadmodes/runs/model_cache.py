@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.case import Case, CaseError, Modes
 from quadmodes.io.atomic import write_text
 from quadmodes.io.locking import file_lock

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.runs.metrics import log_decrement
 

@@ -99,7 +99,7 @@ def _model_for_run(run: RunCase, model: red.ReducedModel) -> red.ReducedModel:
     hub-clamped model or one with too few modes."""
     if not model.free:
         raise CaseError(
-            f'model = "{run.model}": clamped to a hub; a run needs a free-floating body',
+            f'model = "{run.model_name}": clamped to a hub; a run needs a free-floating body',
             field="model",
         )
     if run.reduced.formulation != "rigid":
@@ -128,7 +128,10 @@ def prepare(
             "[spinup]: a hub-driven spin-up, not a free-body run; use simulate_spinup",
             field="spinup",
         )
-    model_case = model_case if model_case is not None else run.model_case()
+    if model_case is not None:  # record the model it runs (results' case_toml replays it)
+        run = run.with_model(model_case)
+    else:
+        model_case = run.model_case()
     run, choice = resolve_modes(run, model_case, progress)
     if model is None:
         model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin)
@@ -395,7 +398,7 @@ def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedMod
     case = model_case if model_case is not None else run.model_case()
     if case.kind != "beam" or case.beam.support != "clamped":
         raise CaseError(
-            f'model = "{run.model}": a [spinup] run needs a beam clamped to the hub '
+            f'model = "{run.model_name}": a [spinup] run needs a beam clamped to the hub '
             '(kind = "beam", support = "clamped"), e.g. "kane-beam"',
             field="model",
         )
@@ -428,7 +431,10 @@ def simulate_spinup(
 
     if run.spinup is None:
         raise CaseError("not a spin-up run: it has no [spinup] table", field="spinup")
-    model_case = model_case if model_case is not None else run.model_case()
+    if model_case is not None:  # record the model it runs (results' case_toml replays it)
+        run = run.with_model(model_case)
+    else:
+        model_case = run.model_case()
     if model is None:
         model = spinup_model(run, model_case)
     sp = run.spinup
