@@ -32,7 +32,7 @@ def icosphere(radius: float, subdivisions: int) -> tuple[np.ndarray, np.ndarray]
     for _ in range(subdivisions):
         middle: dict[tuple[int, int], int] = {}
 
-        def mid(a: int, b: int) -> int:
+        def mid(a: int, b: int, middle: dict = middle) -> int:
             key = (min(a, b), max(a, b))
             if key not in middle:
                 p = points[a] + points[b]
