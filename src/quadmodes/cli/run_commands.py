@@ -45,19 +45,9 @@ from quadmodes.cli.run_files import (
 
 
 def _run_progress(update: ProgressCallback) -> ProgressCallback:
-    """Wrap a bar callback: without a terminal (no bars), print the progress in 10 % steps."""
-    shown: dict[str, int] = {}
-
-    def progress(stage: str, fraction: float) -> None:
-        update(stage, fraction)
-        if err.is_terminal:
-            return
-        tenth = int(10 * fraction + 1e-9)
-        if shown.get(stage, -1) < tenth:
-            shown[stage] = tenth
-            err.print(f"{escape(stage)}: {10 * tenth} %", highlight=False)
-
-    return progress
+    """The run's progress callback: :func:`~quadmodes.cli.common.progress_bars` already prints
+    a line per 10 % when stderr is not a terminal."""
+    return update
 
 
 # ------------------------------------------------------------------------------ summary tables
@@ -451,7 +441,7 @@ def run_command(
     """Integrate run cases; write results.nc, summary.json and PNG figures per case.
 
     With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz. A run case with a
-    [spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
+    \\[spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
 
     A formulation outside its validity (rotating-frame stiffness not positive definite at some
     spin rate up to the run's) prints a warning; the JSON summary says `valid: false`.
