@@ -18,7 +18,8 @@ import quadmodes as qm
 
 #: A small prolate capsule (about 400 nodes) that spins stably about its minor axis.
 CAPSULE = {
-    "name": "spin-loop-capsule",
+    "name": "small-capsule",
+    "description": "prolate inflated capsule with a rear end body: a fast minor-axis spinner",
     "kind": "membrane",
     "geometry": {"shape": "capsule", "length": "30 in", "diameter": "8 in"},
     "mesh": {"edge_length": "1.5 in"},
@@ -41,7 +42,7 @@ def main(spins=("2 Hz", "4 Hz"), duration: str = "0.05 s", folder: str | Path | 
         run = qm.run_case(
             name=f"spin-{spin.replace(' ', '')}",
             model=body,
-            reduced={"modes": 4, "formulation": "Q"},
+            reduced={"modes": 5, "formulation": "Q"},
             initial={"spin_rate": spin, "cone_angle": "3 deg"},
             integration={"method": "midpoint", "dt": "0.5 ms", "duration": duration},
         )

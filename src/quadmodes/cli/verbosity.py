@@ -5,6 +5,7 @@ hits, stage timings). Log lines go to stderr through rich, results stay on stdou
 from __future__ import annotations
 
 import logging
+import sys
 
 from rich.logging import RichHandler
 
@@ -17,14 +18,19 @@ _HANDLER: dict[str, logging.Handler] = {}
 
 def configure(quiet: bool = False, verbose: bool = False) -> None:
     """Set the verbosity and configure the ``quadmodes`` logger (WARNING by default, INFO with
-    ``verbose``, ERROR with ``quiet``; one rich handler on stderr)."""
+    ``verbose``, ERROR with ``quiet``; one handler on stderr: rich on a terminal, plain lines
+    otherwise)."""
     _LEVEL["value"] = -1 if quiet else (1 if verbose else 0)
     logger = logging.getLogger("quadmodes")
     old = _HANDLER.pop("handler", None)
     if old is not None:
         logger.removeHandler(old)
-    handler = RichHandler(console=err, show_path=False, show_time=verbose, markup=False)
-    handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
+    if err.is_terminal:
+        handler: logging.Handler = RichHandler(console=err, show_path=False, markup=False)
+        handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
+    else:  # a log file or pipe: plain lines, whole
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     logger.addHandler(handler)
     _HANDLER["handler"] = handler
     logger.setLevel(logging.ERROR if quiet else (logging.INFO if verbose else logging.WARNING))
