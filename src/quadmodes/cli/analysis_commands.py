@@ -39,14 +39,16 @@ from quadmodes.io.atomic import write_text
 
 
 def _campbell_summary(result, case_name: str, formulation: str) -> dict:
-    """The JSON summary of ``campbell``: spin rates and branch frequencies (rad/s, rotating
-    frame), and the spin rates where the rotating stiffness is not positive definite."""
+    """The JSON summary of ``campbell``: spin rates and branch frequencies (rad/s, and Hz as
+    ``rotating`` reports them; rotating frame), and the spin rates where the rotating stiffness
+    is not positive definite."""
     return {
         "case": case_name,
         "formulation": formulation,
         "spin_rate_rad_s": [float(v) for v in result.spin],
         "branches": list(result.labels),
         "frequency_rad_s": np.asarray(result.frequency).tolist(),
+        "frequency_hz": np.asarray(result.frequency_hz).tolist(),
         "unstable_spin_rates_rad_s": [
             float(w)
             for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)

@@ -16,7 +16,6 @@ from rich.table import Table
 
 from quadmodes.cli.common import (
     NoCacheFlag,
-    ProgressCallback,
     UserError,
     check_output_folder,
     err,
@@ -35,6 +34,7 @@ from quadmodes.cli.run_files import (
     checkpoint_interval,
     commit_run,
     commit_spinup,
+    compile_kernel,
     resume_hint,
     resume_point,
     run_folders,
@@ -42,13 +42,6 @@ from quadmodes.cli.run_files import (
     stop,
     stopped_message,
 )
-
-
-def _run_progress(update: ProgressCallback) -> ProgressCallback:
-    """The run's progress callback: :func:`~quadmodes.cli.common.progress_bars` already prints
-    a line per 10 % when stderr is not a terminal."""
-    return update
-
 
 # ------------------------------------------------------------------------------ summary tables
 
@@ -328,16 +321,17 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
     checkpoint = RunCheckpoint(folders.checkpoint, setup, opts.checkpoint_every_s)
     again = f"continue with: {opts.hint} --resume"
     with progress_bars(True) as bars:
+        compile_kernel([setup], bars)
         try:
             result = simulate.execute(
-                setup, _run_progress(bars), checkpoint=checkpoint, resume=start
+                setup, bars, checkpoint=checkpoint, resume=start
             )
         except Interrupted as stopped:
             where = save_partial(stopped.partial, folders, stopped.saved)
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {where}{hint}", opts.exit_code) from None
         try:
-            extra = _extras(setup, result, opts, _run_progress(bars))
+            extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:
             kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
                     "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
