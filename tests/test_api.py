@@ -202,3 +202,30 @@ def test_example_spin_loop_conserves_and_replays(seeded_cache, tmp_path):
         assert s["spin_rate_end_hz"] == pytest.approx(float(spin.split()[0]), rel=0.01)
     with xr.open_dataset(folder / "spin-4Hz" / "results.nc", engine="h5netcdf") as ds:
         assert run_case_from_toml(ds.attrs["case_toml"]).model_case() == seeded_cache
+
+
+def test_campbell_and_spinup_files_are_cf_too(tmp_path):
+    """campbell.nc and a spin-up's results.nc: long_name and pint-parsable units everywhere."""
+    qm.campbell("kane-beam", "0 Hz", "0.5 Hz", points=3, output_dir=tmp_path / "campbell")
+    run = qm.run_case("kane-spinup", reduced={"modes": 2},
+                      spinup={"duration": "1 s", "ramp_time": "0.5 s", "samples": 51})  # fmt: skip
+    qm.write_results(qm.simulate(run), tmp_path / "spinup", plots=False)
+    for path in (tmp_path / "campbell" / "campbell.nc", tmp_path / "spinup" / "results.nc"):
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            assert ds.attrs["Conventions"] == "CF-1.10" and ds.attrs["source"].startswith("quadmodes")
+            assert unit_problems(ds) == [], path.name
+    with xr.open_dataset(tmp_path / "spinup" / "results.nc", engine="h5netcdf") as ds:
+        assert run_case_from_toml(ds.attrs["case_toml"]) == run
+        assert ds["hub_rate"].attrs["units"] == "rad/s"
+
+
+def test_api_convergence_and_cases(seeded_cache):
+    run = qm.run_case(name="conv", model=seeded_cache, reduced={"modes": 5},
+                      initial={"spin_rate": "20 Hz", "cone_angle": "2 deg"},
+                      integration={"dt": "1 ms", "duration": "0.01 s"})  # fmt: skip
+    rows = qm.dt_convergence(run)
+    assert [r["dt_s"] for r in rows] == pytest.approx([1e-3, 5e-4, 2.5e-4])
+    for key in ("rel_change_spin_rate_hz", "rel_change_cone_angle_deg"):  # converging in dt
+        assert rows[2][key] < rows[1][key] < 1e-4
+    names = [c["name"] for c in qm.cases()]
+    assert "paper-membrane" in names and "paper-41hz" in names

@@ -147,3 +147,13 @@ def load(name_or_path: str | os.PathLike[str]) -> Case | RunCase:
 
     text = os.fspath(name_or_path)
     return load_run_case(name_or_path) if is_run_case(text) else load_case(name_or_path)
+
+
+def cases() -> list[dict[str, str]]:
+    """The built-in cases as ``quadmodes cases --json`` lists them: ``name``, ``kind``
+    ("membrane", "beam" or "run") and ``description``; no quantities, so no units."""
+    from quadmodes.case import builtin_case_names, builtin_run_case_names
+
+    found = [load_case(n) for n in builtin_case_names()]
+    found += [load_run_case(n) for n in builtin_run_case_names(None)]
+    return [{"name": c.name, "kind": c.kind, "description": c.description} for c in found]

@@ -237,3 +237,22 @@ def calibrate(
         _model(case), rocking_hz=si(rocking, "frequency", "rocking"),
         bending_hz=si(bending, "frequency", "bending"), axial_hz=target, progress=progress,
     )  # fmt: skip
+
+
+def dt_convergence(run, *, progress: Progress | None = None) -> list[dict]:
+    """The run at its step dt, dt/2 and dt/4 (fixed-step methods): one row per step with
+    ``dt_s`` (s), ``steps``, the final ``cone_angle_deg`` (deg), ``spin_rate_hz`` (Hz),
+    ``dissipated_energy_J`` (J) and their relative changes (1), as ``run --dt-convergence``."""
+    from quadmodes.runs import simulate as sim
+
+    return sim.dt_convergence(sim.prepare(_run(run), progress=progress), progress=progress)
+
+
+def mode_convergence(run, *, progress: Progress | None = None) -> dict:
+    """The run with its N modes and the next two pair-whole mode counts above N:
+    ``{"rows": [...], "converged", "text", ...}`` with the headline numbers (deg, Hz, J, their
+    units in the keys) and their relative changes (1), as ``run --mode-convergence``."""
+    from quadmodes.runs import simulate as sim
+    from quadmodes.runs.mode_convergence import mode_convergence as convergence
+
+    return convergence(sim.prepare(_run(run), progress=progress), progress=progress)

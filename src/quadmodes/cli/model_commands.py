@@ -40,17 +40,15 @@ from quadmodes.io.atomic import write_text
 
 def cases(as_json: JsonFlag = False) -> None:
     """List the built-in cases (--json: {"cases": [{"name", "kind", "description"}, ...]})."""
-    from quadmodes.case import builtin_case_names, builtin_run_case_names, load_run_case
+    from quadmodes.api import cases as builtin_cases
 
-    rows = [(name, load_model_case(name)) for name in builtin_case_names()]
-    rows += [(name, load_run_case(name)) for name in builtin_run_case_names(spinup=None)]
+    listing = builtin_cases()
     if as_json:
-        listing = [{"name": n, "kind": c.kind, "description": c.description} for n, c in rows]
         sys.stdout.write(json.dumps({"cases": listing}, indent=2) + "\n")
         return
     table = Table("name", "kind", "description")
-    for name, c in rows:
-        table.add_row(name, c.kind, c.description)
+    for c in listing:
+        table.add_row(c["name"], c["kind"], c["description"])
     out.print(table)
 
 
