@@ -27,8 +27,7 @@ from quadmodes.cli.validate_command import validate
 
 app = typer.Typer(
     no_args_is_help=True,
-    add_completion=False,
-    help="Spinning flexible bodies by the method of quadratic modes.",
+    add_completion=True,  # --install-completion, --show-completion (bash, zsh, fish, PowerShell)
 )
 
 
@@ -54,9 +53,9 @@ def global_options(
 ) -> None:
     """Spinning flexible bodies by the method of quadratic modes.
 
-    Every command that writes files takes -o/--output DIR, the folder it writes into (run:
-    DIR/<case name>/ per run case). Dimensional options take quantities with units ("0.25 ms",
-    "41 Hz"). Results go to stdout (--json: one JSON object), progress and notes to stderr.
+    -o/--output DIR is the folder a command writes into (run: DIR/<case>/).
+    Dimensional options take quantities with units ("0.25 ms", "41 Hz").
+    Results go to stdout (--json: one JSON object), progress and notes to stderr.
     """
     verbosity.configure(quiet=quiet, verbose=verbose)
 
