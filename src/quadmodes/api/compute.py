@@ -134,7 +134,8 @@ def results_dataset(result):
 
 def summary(result) -> dict:
     """The run summary (``summary.json``, the table ``quadmodes run`` prints) of a
-    :func:`simulate` result; keys carry their units (``_hz``, ``_deg``, ``_J``, ``_s``)."""
+    :func:`simulate` result; keys carry their units: ``_hz`` (Hz), ``_deg`` (deg), ``_J`` (J),
+    ``_s`` (s)."""
     from quadmodes.runs import results
 
     ds = results_dataset(result)
@@ -142,8 +143,9 @@ def summary(result) -> dict:
 
 
 def write_results(result, folder: str | os.PathLike[str], plots: bool = True) -> dict:
-    """Write ``results.nc``, ``summary.json`` and (if ``plots``) the PNG figures of a
-    :func:`simulate` result into ``folder`` (created); returns the summary."""
+    """Write ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
+    rad/s, J, kg m^2/s, kg^0.5 m), ``summary.json`` and (if ``plots``) the PNG figures of a
+    :func:`simulate` result into ``folder`` (created); returns the summary (:func:`summary`)."""
     from quadmodes.runs import results
 
     folder = Path(folder)
