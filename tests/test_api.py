@@ -226,3 +226,17 @@ def test_api_convergence_and_cases(seeded_cache):
         assert rows[2][key] < rows[1][key] < 1e-4
     names = [c["name"] for c in qm.cases()]
     assert "paper-membrane" in names and "paper-41hz" in names
+
+
+def test_kernel_compile_is_a_stage_of_its_own():
+    """The compiled kernel's first call (seconds) is done once, as stage "compile", before a
+    run's timed integration; later runs and runs that do not use it skip it."""
+    from quadmodes.runs import simulate as sim
+
+    run = qm.load("paper-41hz")
+    stages = []
+    first = sim.warm_up_kernel(run, lambda stage, f: stages.append((stage, f)))
+    assert first is None or stages == [("compile", 0.0), ("compile", 1.0)]
+    assert sim.warm_up_kernel(run, lambda stage, f: stages.append(stage)) is None
+    adaptive = qm.changed(run, integration={"method": "adaptive"})
+    assert sim.warm_up_kernel(adaptive) is None

@@ -34,7 +34,6 @@ from quadmodes.cli.run_files import (
     checkpoint_interval,
     commit_run,
     commit_spinup,
-    compile_kernel,
     resume_hint,
     resume_point,
     run_folders,
@@ -321,7 +320,6 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
     checkpoint = RunCheckpoint(folders.checkpoint, setup, opts.checkpoint_every_s)
     again = f"continue with: {opts.hint} --resume"
     with progress_bars(True) as bars:
-        compile_kernel([setup], bars)
         try:
             result = simulate.execute(
                 setup, bars, checkpoint=checkpoint, resume=start

@@ -20,7 +20,6 @@ killed runs are removed at the next start.
 
 from __future__ import annotations
 
-import logging
 import shlex
 import shutil
 from dataclasses import dataclass
@@ -29,13 +28,7 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
-from quadmodes.cli.common import (
-    ProgressCallback,
-    UserError,
-    clean_stale_staging,
-    err,
-    staged_output,
-)
+from quadmodes.cli.common import UserError, clean_stale_staging, err, staged_output
 
 #: The files of a run's data; anything else but figures (``*.png``) in its folder is listed.
 DATA_FILES = ("results.nc", "summary.json")
@@ -231,25 +224,3 @@ def checkpoint_interval(text: str) -> float:
     if not seconds >= 0:
         raise UserError('--checkpoint-every: must be a wall time >= 0, e.g. "10 s"')
     return float(seconds)
-
-
-_COMPILED: list[bool] = []  # [True] once the kernel is compiled in this process
-
-
-def compile_kernel(setups: list, progress: ProgressCallback) -> None:
-    """Compile (or load from numba's cache) the midpoint kernel before the runs, shown as the
-    stage "compile" (once a process), so that its first call (about 8 s) is not counted in a
-    run's wall time."""
-    from quadmodes.rom.integrators import numba_kernel
-    from quadmodes.runs.simulate import RunSetup
-
-    if not any(isinstance(s, RunSetup) and s.run.integration.method == "midpoint" for s in setups):
-        return
-    kernel = numba_kernel()
-    if kernel is None or _COMPILED:  # numba not installed (numpy steppers), or done
-        return
-    _COMPILED.append(True)
-    progress("compile", 0.0)
-    seconds = kernel.warm_up()
-    progress("compile", 1.0)
-    logging.getLogger(__name__).info("midpoint kernel ready in %.1f s", seconds)
