@@ -118,3 +118,33 @@ def test_rotating_json_has_a_stable_shape(runner, tmp_path):
     assert elastic and all(r["rom_hz"]["Q"] == pytest.approx(r["full_hz"], rel=1e-6)
                            for r in elastic)  # fmt: skip
     assert (tmp_path / "rotating.md").is_file()
+
+
+def test_calibrate_json_and_output_folder(runner, tmp_path, monkeypatch):
+    """calibrate --json: a stable JSON object; -o DIR writes DIR/calibrated.toml, which loads
+    back to the calibrated case. The fit itself (minutes) is replaced by a stub that records
+    the targets it was given (Hz, from quantities)."""
+    import numpy as np
+
+    from quadmodes.case import load_case
+    from quadmodes.structure import calibrate as cal
+
+    case = load_case("paper-membrane")
+    seen = {}
+
+    def fit(c, rocking_hz, bending_hz, axial_hz, progress=None):
+        seen.update(rocking=rocking_hz, bending=bending_hz, axial=axial_hz)
+        return cal.CalibrationResult(c, {b.name: b.mass for b in c.end_body},
+                                     np.array([31.2, 31.2, 38.0, 38.0]), ["r", "r", "b", "b"],
+                                     31.2, 38.0, None, 1)  # fmt: skip
+
+    monkeypatch.setattr(cal, "calibrate_end_masses", fit)
+    result = runner.invoke(app, ["calibrate", "--rocking", "1872 rpm", "--bending", "38",
+                                 "--no-axial", "--json", "-o", str(tmp_path)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert seen == {"rocking": pytest.approx(31.2), "bending": 38.0, "axial": None}
+    payload = json.loads(result.stdout)
+    assert set(payload) == {"case", "masses_kg", "end_bodies", "frequencies_hz", "labels",
+                            "rocking_hz", "bending_hz", "axial_hz", "output", "case_toml"}  # fmt: skip
+    assert payload["output"] == str(tmp_path / "calibrated.toml")
+    assert load_case(tmp_path / "calibrated.toml") == case
