@@ -173,9 +173,11 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("run-o-too-long", f"run paper-0.5hz -o {{d}}/{LONG}", ("-o", "too long")),
     ("modes-o-read-only", "modes {d}/sphere.toml -o /proc/quadmodes-out", ("-o", "cannot write")),
     ("reduce-o-read-only", "reduce kane-beam -o /proc/model.nc", ("-o", "cannot write")),
-    ("reduce-o-is-folder", "reduce kane-beam -o {d}/afolder", ("-o", "is a folder")),
-    ("calibrate-o-is-folder", "calibrate paper-membrane -o {d}/afolder", ("-o", "is a folder")),
-    ("rotating-o-is-folder", "rotating -o {d}/afolder", ("-o", "is a folder")),
+    # -o is the output folder for every command (issue 13); a file name with the file's suffix
+    # is still read as the file (deprecated)
+    ("reduce-o-is-file", "reduce kane-beam -o {d}/afile", ("-o", "is a file")),
+    ("calibrate-o-is-file", "calibrate paper-membrane -o {d}/afile", ("-o", "is a file")),
+    ("rotating-o-is-file", "rotating -o {d}/afile", ("-o", "is a file")),
     ("campbell-o-is-file", "campbell kane-beam -o {d}/afile", ("-o", "is a file")),
     ("compare-o-is-file", "compare paper-41hz-coarse -o {d}/afile", ("-o", "is a file")),
     # ---- options

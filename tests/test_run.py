@@ -230,7 +230,7 @@ def test_results_file_units_and_conservation(workdir, small_reduced_model):
     assert math.isclose(float(ds["time"][-1]), 0.05, rel_tol=1e-12)
     for name, var in ds.data_vars.items():
         assert var.attrs.get("units"), name
-        assert var.attrs.get("description"), name
+        assert var.attrs.get("long_name"), name
     for name in (
         "angular_momentum_norm",
         "angular_momentum",
@@ -248,7 +248,7 @@ def test_results_file_units_and_conservation(workdir, small_reduced_model):
         "quaternion",
     ):
         assert name in ds, name
-    assert ds["modal_coordinates"].attrs["units"] == "kg0.5 m"
+    assert ds["modal_coordinates"].attrs["units"] == "kg^0.5 m"
     assert list(ds["mode_label"].values) == list(small_reduced_model.labels)
     assert ds.attrs["complete"] == 1 and ds.attrs["method"] == "midpoint"
     assert ds.attrs["formulation"] == "Q" and "case_toml" in ds.attrs

@@ -1,11 +1,79 @@
 """quadmodes: spinning flexible bodies by the method of quadratic modes.
 
+The public Python API (``quadmodes.__all__``, reference in docs/api.md)::
+
+    import quadmodes as qm
+
+    body = qm.model_case("paper-membrane-coarse", pressure={"value": "0.4 psi"})
+    run = qm.run_case("paper-41hz", model=body, integration={"duration": "0.1 s"})
+    result = qm.simulate(run)            # free-body run (or a [spinup])
+    qm.write_results(result, "out/my-run")  # results.nc (CF), summary.json, PNGs
+    qm.summary(result)["cone_angle_end_deg"]
+
+Quantities are accepted as strings ("0.3 psi"), pint quantities or SI floats; cases are
+validated like case files. The names are loaded on first use (``import quadmodes`` stays
+light).
+
 Pipeline, one subpackage per stage (see docs/architecture.md):
 ``case`` (TOML, units) -> ``mesh`` -> ``fe`` (elements, structure) -> ``structure`` (prestress,
 modes, calibration) -> ``rom`` (quadratic modes, reduced model artifact, equations of motion,
 integrators, diagnostics) -> ``runs`` (run cases, results) -> ``io`` (files, pictures).
-On top: ``analysis`` (Campbell, rotating frame, comparison), ``validation``, ``cli``; beside:
-``fullorder`` (the nonlinear finite-element reference).
+On top: ``analysis`` (Campbell, rotating frame, comparison), ``api`` (this API), ``validation``,
+``cli``; beside: ``fullorder`` (the nonlinear finite-element reference).
 """
 
-__version__ = "0.1.0"
+import importlib
+
+from quadmodes._version import __version__
+
+#: The public API: functions of :mod:`quadmodes.api` and the case types of :mod:`quadmodes.case`.
+__all__ = [
+    "Case",
+    "CaseError",
+    "QuantityError",
+    "RunCase",
+    "__version__",
+    "calibrate",
+    "campbell",
+    "case_to_toml",
+    "cases",
+    "changed",
+    "compare",
+    "dt_convergence",
+    "format_quantity",
+    "load",
+    "modal_model",
+    "mode_convergence",
+    "model_case",
+    "modes_summary",
+    "parse_quantity",
+    "reduced_model",
+    "results_dataset",
+    "rotating",
+    "run_case",
+    "run_case_to_toml",
+    "save_case",
+    "si",
+    "simulate",
+    "summary",
+    "ureg",
+    "write_results",
+]
+
+_FROM_CASE = {"Case", "CaseError", "QuantityError", "RunCase", "case_to_toml", "format_quantity",
+              "parse_quantity", "run_case_to_toml"}  # fmt: skip
+
+
+def __getattr__(name: str):
+    """Load a public name on first use (PEP 562): the API imports most of the package."""
+    if name == "ureg":
+        return importlib.import_module("quadmodes.case.units").ureg
+    if name in _FROM_CASE:
+        return getattr(importlib.import_module("quadmodes.case"), name)
+    if name in __all__:
+        return getattr(importlib.import_module("quadmodes.api"), name)
+    raise AttributeError(f"module 'quadmodes' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from quadmodes.analysis.campbell import CampbellResult, campbell
+from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
 from quadmodes.rom.reduced import ReducedModel
 
@@ -62,29 +63,34 @@ def to_dataset(result: CampbellResult):
     """xarray Dataset of a Campbell result with units (CF-style ``units`` attributes)."""
     import xarray as xr
 
+    c = cf.coordinate
     ds = xr.Dataset(
         {
-            "frequency": (("spin", "branch"), result.frequency, {"units": "rad/s"}),
-            "frequency_hz": (("spin", "branch"), result.frequency_hz, {"units": "Hz"}),
-            "growth_rate": (("spin", "branch"), result.growth, {"units": "1/s"}),
-            "mac_previous": (("spin", "branch"), result.mac, {"units": "1"}),
-            "min_rotating_stiffness": (("spin",), result.min_stiffness, {"units": "1/s^2"}),
-            "equilibrium_modal_coordinates": (
-                ("spin", "mode"),
-                result.s_eq,
-                {"units": "kg^0.5 m"},
-            ),
-            "equilibrium_spin_axis": (("spin", "xyz"), result.spin_axis, {"units": "1"}),
+            "frequency": cf.variable(("spin", "branch"), result.frequency, "rad/s",
+                                     "branch frequency |Im lambda|, rotating frame"),
+            "frequency_hz": cf.variable(("spin", "branch"), result.frequency_hz, "Hz",
+                                        "branch frequency, rotating frame"),
+            "growth_rate": cf.variable(("spin", "branch"), result.growth, "1/s",
+                                       "growth rate Re lambda (> 0: unstable)"),
+            "mac_previous": cf.variable(("spin", "branch"), result.mac, "1",
+                                        "MAC with the branch at the previous spin rate"),
+            "min_rotating_stiffness": cf.variable(("spin",), result.min_stiffness, "1/s^2",
+                                                  "smallest eigenvalue of the rotating stiffness"),
+            "equilibrium_modal_coordinates": cf.variable(
+                ("spin", "mode"), result.s_eq, "kg^0.5 m",
+                "modal coordinates of the relative equilibrium"),
+            "equilibrium_spin_axis": cf.variable(("spin", "xyz"), result.spin_axis, "1",
+                                                 "spin axis of the relative equilibrium, body frame"),
         },
         coords={
-            "spin": ("spin", result.spin, {"units": "rad/s", "long_name": "spin rate"}),
-            "branch": ("branch", np.arange(len(result.labels))),
-            "branch_label": ("branch", np.array(result.labels, dtype=object)),
-            "mode": ("mode", np.arange(result.s_eq.shape[1])),
-            "xyz": ("xyz", np.array(["x", "y", "z"], dtype=object)),
+            "spin": c("spin", result.spin, "rad/s", "spin rate"),
+            "branch": c("branch", np.arange(len(result.labels)), "1", "branch number"),
+            "branch_label": c("branch", np.array(result.labels, dtype=object), "1", "branch label"),
+            "mode": c("mode", np.arange(result.s_eq.shape[1]), "1", "mode index"),
+            "xyz": c("xyz", np.array(["x", "y", "z"], dtype=object), "1", "Cartesian axis"),
         },
         attrs={
-            "title": "Campbell diagram of a quadmodes reduced model",
+            **cf.provenance("Campbell diagram of a quadmodes reduced model"),
             "formulation": result.formulation,
             "body": "free" if result.free else "clamped to hub",
             "spin_axis_x": float(result.axis[0]),
@@ -93,7 +99,7 @@ def to_dataset(result: CampbellResult):
             "mode_labels": "; ".join(result.mode_labels),
             "tracking": "MAC of state eigenvectors (energy inner product), optimal assignment",
         },
-    )
+    )  # fmt: skip
     return ds
 
 

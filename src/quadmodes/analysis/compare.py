@@ -47,8 +47,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from quadmodes import __version__
 from quadmodes.analysis import secular
+from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
 from quadmodes.runs.metrics import peak_envelope
@@ -333,10 +333,10 @@ def compare(
 # ---------------------------------------------------------------------------------------------
 
 _SERIES_VARS = {
-    "modal_amplitude": ("amplitude", "kg0.5 m", "modal amplitude ‖s‖ over the retained modes"),
+    "modal_amplitude": ("amplitude", "kg^0.5 m", "modal amplitude ‖s‖ over the retained modes"),
     "cone_angle": ("cone_angle", "rad", "angle between H and the tracked minor principal axis"),
-    "spin_rate": ("spin_rate", "rad s-1", "angular velocity about the tracked principal axis"),
-    "angular_momentum_norm": ("H_norm", "kg m2 s-1", "|H| about the centre of mass"),
+    "spin_rate": ("spin_rate", "rad/s", "angular velocity about the tracked principal axis"),
+    "angular_momentum_norm": ("H_norm", "kg m^2/s", "|H| about the centre of mass"),
     "total_energy": ("E", "J", "kinetic + potential energy"),
     "dissipated_energy": ("E_d", "J", "energy dissipated by damping since t = 0"),
 }
@@ -353,38 +353,38 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
         rows = [getattr(cmp.full, attr)] + [
             _on(t, s.t, getattr(s, attr)) for s in series[1:]
         ]
-        data[var] = xr.Variable(("model", "time"), np.vstack(rows), {"units": unit, "description": desc})
+        data[var] = xr.Variable(("model", "time"), np.vstack(rows), {"units": unit, "long_name": desc})
     metrics = ["envelope_error", "cone_angle_error", "cone_angle_change_error", "spin_rate_error",
                "spin_rate_change_error"]  # fmt: skip
     names = list(cmp.reduced)
     table = np.array([[float(cmp.table[f].get(m, np.nan)) for m in metrics] for f in names])
     data["error_table"] = xr.Variable(
         ("formulation", "metric"), table,
-        {"units": "1", "description": "errors against full order (relative, dimensionless)"},
+        {"units": "1", "long_name": "errors against full order (relative, dimensionless)"},
     )  # fmt: skip
     data["wall_time"] = xr.Variable(
         ("formulation",), [cmp.table[f]["wall_s"] for f in names],
-        {"units": "s", "description": "integration wall time of the reduced run"},
+        {"units": "s", "long_name": "integration wall time of the reduced run"},
     )  # fmt: skip
     data["speedup"] = xr.Variable(
         ("formulation",), [cmp.table[f]["speedup"] for f in names],
-        {"units": "1", "description": "full-order wall time / reduced wall time"},
+        {"units": "1", "long_name": "full-order wall time / reduced wall time"},
     )  # fmt: skip
     data["full_order_wall_time"] = xr.Variable((), cmp.full.wall_s, {"units": "s",
-                                               "description": "full-order wall time"})  # fmt: skip
+                                               "long_name": "full-order wall time"})  # fmt: skip
     if cmp.secular is not None:
         data.update(secular.dataset_variables(cmp.secular, models, names))
     ds = xr.Dataset(
         data,
         coords={
-            "time": xr.Variable(("time",), t, {"units": "s", "description": "time"}),
+            "time": xr.Variable(("time",), t, {"units": "s", "long_name": "time"}),
             "model": models,
             "formulation": list(cmp.reduced),
             "metric": metrics,
         },
         attrs={
+            **cf.provenance(f"quadmodes comparison {cmp.run.name}"),
             "format": "quadmodes-comparison",
-            "quadmodes_version": __version__,
             "case": cmp.run.name,
             "run_case_toml": cmp.run.to_toml(),
             "window_s": float(cmp.run.integration.duration),
@@ -397,7 +397,7 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "notes": "\n".join(cmp.notes),
         },
     )
-    return ds
+    return cf.complete(ds)
 
 
 def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]:

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import difflib
 import re
-import typing
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from quadmodes.case.fields import field_meta, toml_value
+from quadmodes.case.meta import field_meta, toml_value
+from quadmodes.case.meta import nested_model as _unwrap_model
 
 
 class CaseError(ValueError):
@@ -36,17 +36,6 @@ def case_error(exc: ValidationError, source: str | None, root: type[BaseModel]) 
     if len(errors) > 1:
         message += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
     return CaseError(message, source=source, field=path)
-
-
-def _unwrap_model(annotation: Any) -> type[BaseModel] | None:
-    """The pydantic model inside an annotation such as ``Geometry | None`` or a tuple."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = _unwrap_model(arg)
-        if found is not None:
-            return found
-    return None
 
 
 def _walk(loc: list[Any], root: type[BaseModel]) -> tuple[type[BaseModel] | None, str | None]:

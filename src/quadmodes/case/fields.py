@@ -10,52 +10,37 @@ line naming the field path and the fix.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationInfo
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, ValidationInfo
 from pydantic_core import PydanticCustomError
 
-from quadmodes.case.units import QuantityError, format_quantity, parse_quantity
-
-
-@dataclass(frozen=True)
-class FieldMeta:
-    """Per-field metadata: TOML example, unit dimension (None if not a quantity), display unit."""
-
-    example: str
-    dimension: str | None = None
-    display: str | None = None
+from quadmodes.case.errors import case_error
+from quadmodes.case.meta import FieldMeta, field_meta, nested_model, toml_value
+from quadmodes.case.units import QuantityError, format_quantity, parse_quantity, si_unit, ureg
 
 
 class Section(BaseModel):
-    """A case table: frozen, unknown keys rejected."""
+    """A case table: frozen, unknown keys rejected.
+
+    :meth:`model_copy` with ``update`` validates the result like a case file (pydantic's own
+    copy does not): quantity fields take quantity strings ("0.4 psi"), pint quantities or SI
+    floats (see :func:`input_table`); a bad value raises :class:`~quadmodes.case.CaseError`."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-
-def toml_value(value: object) -> str:
-    """A scalar as TOML source text (also used to echo inputs in error messages)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
-    return str(value)
-
-
-def field_meta(model: type[BaseModel], name: str) -> FieldMeta:
-    """The :class:`FieldMeta` of field ``name`` of ``model`` (a generic one if it has none)."""
-    for item in model.model_fields[name].metadata:
-        if isinstance(item, FieldMeta):
-            return item
-    return FieldMeta('"..."')
+    def model_copy(self, *, update: dict[str, Any] | None = None, deep: bool = False):
+        """A copy of this table with ``update`` applied and validated (see the class)."""
+        if not update:
+            return super().model_copy(deep=deep)
+        data = input_table(type(self), self.model_dump(mode="python", round_trip=True))
+        data.update(input_table(type(self), dict(update)))
+        try:
+            return type(self).model_validate(data)
+        except ValidationError as exc:
+            raise case_error(exc, "model_copy", type(self)) from None
 
 
 def field_error(kind: str, detail: str, sub: str | None = None) -> PydanticCustomError:
@@ -172,3 +157,46 @@ def valid_name(value: str, example: str) -> str:
             "case_value", f'use letters, digits, ".", "_" or "-" only; e.g. "{example}"'
         )
     return value
+
+
+# --------------------------------------------------------------------------------------------
+# inputs from Python: pint quantities and SI floats as quantity strings
+
+
+def quantity_text(value: Any, dimension: str | None) -> Any:
+    """``value`` as a case file would give it for a field of ``dimension`` (a key of
+    :data:`quadmodes.case.units.DIMENSIONS`, or None for a field without units): a pint
+    quantity becomes its quantity string (``"0.4 pound_force_per_square_inch"``; a
+    dimensionless one its float), a bare int/float in a dimensional field the SI quantity
+    string (``2.0`` for a length -> ``"2.0 m"``); anything else is returned unchanged."""
+    if dimension is None:
+        return value
+    if hasattr(value, "magnitude") and hasattr(value, "units"):  # a pint quantity, any registry
+        q = ureg.Quantity(float(value.magnitude), str(value.units))
+        if dimension == "dimensionless":
+            return float(q.to("dimensionless").magnitude)
+        return f"{float(q.magnitude)!r} {q.units}"
+    dimensional = dimension != "dimensionless"
+    if dimensional and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return f"{float(value)!r} {si_unit(dimension)}"
+    return value
+
+
+def input_table(model: type[BaseModel], data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (keys of table ``model``, nested tables as dicts or models) with every quantity
+    given as a pint quantity or an SI float turned into a quantity string
+    (:func:`quantity_text`), so that it validates like a case file. Unknown keys are kept (the
+    validation names them)."""
+    result: dict[str, Any] = {}
+    for name, value in data.items():
+        info = model.model_fields.get(name)
+        inner = nested_model(info.annotation) if info is not None else None
+        if info is None:
+            result[name] = value
+        elif inner is not None and isinstance(value, dict):
+            result[name] = input_table(inner, value)
+        elif inner is not None and isinstance(value, (list, tuple)):
+            result[name] = [input_table(inner, v) if isinstance(v, dict) else v for v in value]
+        else:
+            result[name] = quantity_text(value, field_meta(model, name).dimension)
+    return result

@@ -131,19 +131,31 @@ class Case(Section):
         return case_to_toml(self)
 
 
+def case_tables(case: Case, prefix: str = "") -> list[tuple[str, list[str]]]:
+    """The ``(header, lines)`` tables of ``case`` for :func:`toml_document`; with ``prefix``
+    (e.g. ``"model"``) the case is one table ``[prefix]`` with its name, description and kind,
+    and its own tables below it (``[prefix.geometry]``, ``[[prefix.end_body]]``)."""
+    head = f"{prefix}." if prefix else ""
+    tables = []
+    if prefix:
+        top = {"name": case.name, "description": case.description, "kind": case.kind}
+        tables.append((f"[{prefix}]", [f"{k} = {toml_value(v)}" for k, v in top.items()]))
+    tables += [
+        (f"[{head}{name}]", section_lines(getattr(case, name)))
+        for name in ("geometry", "mesh", "material", "pressure", "beam", "modes")
+        if getattr(case, name) is not None
+    ]
+    tables += [(f"[[{head}end_body]]", section_lines(body)) for body in case.end_body]
+    return tables
+
+
 def case_to_toml(case: Case) -> str:
     """TOML text for ``case`` with quantities in SI units (comments give familiar units).
 
     ``case_from_toml(case_to_toml(case)) == case`` holds exactly.
     """
-    tables = [
-        (f"[{name}]", section_lines(getattr(case, name)))
-        for name in ("geometry", "mesh", "material", "pressure", "beam", "modes")
-        if getattr(case, name) is not None
-    ]
-    tables += [("[[end_body]]", section_lines(body)) for body in case.end_body]
     return toml_document(
         f"quadmodes case {case.name!s}: quantities in SI units",
         {"name": case.name, "description": case.description, "kind": case.kind},
-        tables,
+        case_tables(case),
     )

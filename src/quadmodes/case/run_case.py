@@ -8,12 +8,20 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Self
+from typing import Annotated, Any, Self
 
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    BeforeValidator,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
 
 from quadmodes.case.builtin import builtin_case_names
-from quadmodes.case.errors import CaseError
+from quadmodes.case.errors import CaseError, case_error
 from quadmodes.case.fields import (
     FieldMeta,
     Section,
@@ -23,24 +31,41 @@ from quadmodes.case.fields import (
     toml_value,
     valid_name,
 )
-from quadmodes.case.model_case import Case
+from quadmodes.case.model_case import Case, case_tables
 from quadmodes.case.model_loading import load_case
 from quadmodes.case.run_sections import RunInitial, RunIntegration, RunReduced, RunSpinup
 from quadmodes.case.toml_writing import section_lines, toml_document
 from quadmodes.case.units import format_quantity
 
 
+def _model_value(value: Any, info: ValidationInfo) -> Any:
+    """``model`` given as a table (a whole model case inside the run case): validated as a
+    :class:`Case`; an error names the field below ``model``."""
+    if not isinstance(value, dict):
+        return value
+    try:
+        return Case.model_validate(value, context=info.context)
+    except ValidationError as exc:
+        problem = case_error(exc, None, Case)
+        detail = problem.detail
+        if problem.field and detail.startswith(f"{problem.field}: "):
+            detail = detail[len(problem.field) + 2 :]
+        ctx = {"detail": detail, "sub": problem.field} if problem.field else {"detail": detail}
+        raise PydanticCustomError("case_rule", "{detail}", ctx) from None
+
+
 class RunCase(Section):
     """A run: integrate a model's reduced equations from given initial conditions.
 
-    ``model`` is a built-in case name or the path of a case file (relative paths are taken from
-    the run-case file). A free-body run has ``[initial]`` and ``[integration]``; a hub-driven
+    ``model`` is a built-in case name, the path of a case file (relative paths are taken from
+    the run-case file) or the model case itself (a :class:`Case`; in TOML a ``[model]`` table
+    with ``[model.geometry]`` ... below it), so that a run records exactly the model it ran. A free-body run has ``[initial]`` and ``[integration]``; a hub-driven
     spin-up of a clamped beam has ``[spinup]`` instead."""
 
     name: text("my-run")
     description: text("what this run is for") = ""
     kind: choice("run")
-    model: Annotated[str, FieldMeta('"paper-membrane"')]
+    model: Annotated[str | Case, BeforeValidator(_model_value), FieldMeta('"paper-membrane"')]
     reduced: RunReduced = Field(default_factory=RunReduced)
     initial: RunInitial | None = None
     integration: RunIntegration | None = None
@@ -89,7 +114,9 @@ class RunCase(Section):
 
     @field_validator("model")
     @classmethod
-    def resolve_model(cls, value: str, info: ValidationInfo) -> str:
+    def resolve_model(cls, value: str | Case, info: ValidationInfo) -> str | Case:
+        if isinstance(value, Case):
+            return value
         if not value.strip():
             raise field_error("case_value", 'must name a model case; use e.g. "paper-membrane"')
         if value in builtin_case_names():
@@ -102,12 +129,32 @@ class RunCase(Section):
 
     def model_case(self) -> Case:
         """The model (membrane or beam case); raises :class:`CaseError` naming ``model``."""
+        if isinstance(self.model, Case):
+            return self.model
         try:
             return load_case(self.model)
         except CaseError as exc:
             raise CaseError(
                 f"model = {toml_value(self.model)}: {exc}", source=f"{self.name}", field="model"
             ) from None
+
+    @property
+    def model_name(self) -> str:
+        """The model's built-in name or file path, or the name of an embedded model case."""
+        return self.model.name if isinstance(self.model, Case) else self.model
+
+    def with_model(self, case: Case) -> RunCase:
+        """This run case, recording ``case`` as its model: unchanged if ``model`` already loads
+        to an equal case, else with ``case`` embedded (so that its TOML replays exactly)."""
+        if isinstance(self.model, Case) and self.model == case:
+            return self
+        if isinstance(self.model, str):
+            try:
+                if self.model_case() == case:
+                    return self
+            except CaseError:
+                pass
+        return self.model_copy(update={"model": case})
 
     @property
     def reference_spin(self) -> float:
@@ -133,14 +180,16 @@ def _initial_lines(initial: RunInitial) -> list[str]:
 
 def run_case_to_toml(run: RunCase) -> str:
     """TOML text for ``run`` with quantities in SI units (comments give familiar units);
-    ``run_case_from_toml(run_case_to_toml(run)) == run``."""
+    ``run_case_from_toml(run_case_to_toml(run)) == run``. An embedded model case is written as
+    a ``[model]`` table (and ``[model.geometry]`` ...) after the run's own tables."""
     tables = [
         (f"[{name}]", _initial_lines(section) if name == "initial" else section_lines(section))
         for name in ("reduced", "initial", "integration", "spinup")
         if (section := getattr(run, name)) is not None
     ]
-    return toml_document(
-        f"quadmodes run case {run.name!s}: quantities in SI units",
-        {"name": run.name, "description": run.description, "kind": run.kind, "model": run.model},
-        tables,
-    )
+    keys: dict[str, object] = {"name": run.name, "description": run.description, "kind": run.kind}
+    if isinstance(run.model, Case):
+        tables += case_tables(run.model, prefix="model")
+    else:
+        keys["model"] = run.model
+    return toml_document(f"quadmodes run case {run.name!s}: quantities in SI units", keys, tables)

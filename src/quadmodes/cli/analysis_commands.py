@@ -18,18 +18,20 @@ from quadmodes.cli.common import (
     NoCacheFlag,
     UserError,
     case_argument,
-    check_output_file,
     check_output_folder,
+    deprecated_bare_number,
     err,
     guard_model_size,
     guard_reduced_model,
     load_model_case,
     one_line_errors,
     out,
+    output_file_in,
     output_path,
     parse_formulations,
     progress_bars,
     staged_output,
+    write_file_in,
 )
 from quadmodes.io.atomic import write_text
 
@@ -37,14 +39,16 @@ from quadmodes.io.atomic import write_text
 
 
 def _campbell_summary(result, case_name: str, formulation: str) -> dict:
-    """The JSON summary of ``campbell``: spin rates and branch frequencies (rad/s, rotating
-    frame), and the spin rates where the rotating stiffness is not positive definite."""
+    """The JSON summary of ``campbell``: spin rates and branch frequencies (rad/s, and Hz as
+    ``rotating`` reports them; rotating frame), and the spin rates where the rotating stiffness
+    is not positive definite."""
     return {
         "case": case_name,
         "formulation": formulation,
         "spin_rate_rad_s": [float(v) for v in result.spin],
         "branches": list(result.labels),
         "frequency_rad_s": np.asarray(result.frequency).tolist(),
+        "frequency_hz": np.asarray(result.frequency_hz).tolist(),
         "unstable_spin_rates_rad_s": [
             float(w)
             for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)
@@ -117,27 +121,68 @@ def campbell(
 
 
 def _parse_spins_hz(spins: str) -> tuple[float, ...]:
-    """The comma-separated, non-negative spin rates (Hz) of ``--spins``."""
+    """The comma-separated, non-negative spin rates (Hz) of ``--spins``: quantities ("0 Hz,
+    20 Hz, 300 rpm") or, as before, bare numbers of Hz (with a deprecation note)."""
+    from quadmodes.case import QuantityError, parse_quantity
+
+    items = [v.strip() for v in spins.split(",") if v.strip()]
     try:
-        spin_list = tuple(float(v) for v in spins.split(",") if v.strip())
+        spin_list = tuple(float(v) for v in items)
     except ValueError:
-        raise UserError(f'--spins: "{spins}" is not a comma-separated list of Hz values, '
-                        'e.g. "0,20,41"') from None  # fmt: skip
+        try:
+            spin_list = tuple(parse_quantity(v, "frequency", "--spins") for v in items)
+        except QuantityError as exc:
+            raise UserError(f'{exc}; give a comma-separated list such as "0 Hz, 20 Hz, '
+                            '41 Hz"') from None  # fmt: skip
+    else:
+        if items:
+            deprecated_bare_number("--spins", spins, "Hz")
     if not spin_list or any(v < 0 for v in spin_list):
-        raise UserError('--spins: give one or more non-negative spin rates in Hz, e.g. "0,20,41"')
+        raise UserError('--spins: give one or more non-negative spin rates, e.g. "0 Hz, 20 Hz, '
+                        '41 Hz"')  # fmt: skip
     return spin_list
 
 
+def _finite(value):
+    """A JSON-safe float (None for NaN or infinity); dicts and lists element by element."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if np.isfinite(value) else None
+    return value
+
+
+def _rotating_summary(table) -> dict:
+    """The JSON of ``rotating --json``: the case, spin rates (Hz), formulations and one object
+    per branch row (frequencies in Hz, rotating frame; growth rates in 1/s)."""
+    import dataclasses
+
+    return {
+        "case": table.case,
+        "formulations": list(table.formulations),
+        "spins_hz": sorted({float(r.spin_hz) for r in table.rows}),
+        "n_nodes": int(table.n_nodes),
+        "rows": [_finite(dataclasses.asdict(r)) for r in table.rows],
+        "unmatched_full_order_roots": [_finite(dataclasses.asdict(r)) for r in table.extra],
+        "text": table.to_text(),
+    }
+
+
 RotatingCase = case_argument("free membrane model case (name or TOML file)")
-RotatingOutput = output_path("write the Markdown table to this file")
+RotatingOutput = output_path("folder to write the Markdown table in (rotating.md)")
 
 
 def rotating_command(
     case: RotatingCase = "paper-membrane-coarse",
-    spins: Annotated[str, typer.Option(help="spin rates, comma-separated, in Hz")] = "0,20,41",
+    spins: Annotated[
+        str, typer.Option(help='spin rates, comma-separated, e.g. "0 Hz, 20 Hz, 41 Hz"')
+    ] = "0 Hz, 20 Hz, 41 Hz",
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
     formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",
     output: RotatingOutput = None,
+    as_json: JsonFlag = False,
     no_cache: NoCacheFlag = False,
     yes: LargeModelFlag = False,
 ) -> None:
@@ -148,7 +193,7 @@ def rotating_command(
     from quadmodes.runs.model_cache import caching_disabled
 
     with one_line_errors(), caching_disabled(no_cache):
-        check_output_file(output)
+        output = output_file_in(output, "rotating.md")
         spin_list = _parse_spins_hz(spins)
         names = parse_formulations(formulations, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
         if modes < 1:
@@ -156,12 +201,15 @@ def rotating_command(
         c = load_model_case(case)
         guard_model_size(c, yes)
         guard_reduced_model(c, modes, yes, spins=True, from_option=True)
-        with progress_bars() as bars:
+        with progress_bars(not as_json) as bars:
             table = rotating_frequency_comparison(c, spin_list, modes, names, progress=bars)
     text = table.to_text()
-    out.print(text, markup=False, highlight=False, soft_wrap=True)
+    if as_json:
+        sys.stdout.write(json.dumps(_rotating_summary(table), indent=2) + "\n")
+    else:
+        out.print(text, markup=False, highlight=False, soft_wrap=True)
     if output is not None:
-        write_text(
-            output, f"# {table.case}: rotating-frame frequencies, full order vs reduced\n\n{text}\n"
-        )
-        err.print(f"written {output}")
+        head = f"# {table.case}: rotating-frame frequencies, full order vs reduced"
+        write_file_in(output, lambda path: write_text(path, f"{head}\n\n{text}\n"))
+        if not as_json:
+            err.print(f"written {output}")

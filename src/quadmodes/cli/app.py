@@ -11,9 +11,12 @@ them; the commands live in ``model_commands``, ``validate_command``, ``run_comma
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import typer
 
-from quadmodes import __version__
+from quadmodes._version import __version__
+from quadmodes.cli import verbosity
 from quadmodes.cli.analysis_commands import campbell, rotating_command
 from quadmodes.cli.cache_commands import cache_app
 from quadmodes.cli.common import out
@@ -24,9 +27,37 @@ from quadmodes.cli.validate_command import validate
 
 app = typer.Typer(
     no_args_is_help=True,
-    add_completion=False,
-    help="Spinning flexible bodies by the method of quadratic modes.",
+    add_completion=True,  # --install-completion, --show-completion (bash, zsh, fish, PowerShell)
 )
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        out.print(f"quadmodes {__version__}", highlight=False)
+        raise typer.Exit()
+
+
+@app.callback()
+def global_options(
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_print_version, is_eager=True,
+                     help="print the version and exit"),
+    ] = False,
+    quiet: Annotated[
+        bool, typer.Option("--quiet", "-q", help="errors and warnings only: no progress, no notes")
+    ] = False,
+    verbose: Annotated[
+        bool, typer.Option("--verbose", "-v", help="also log cache hits and stage timings")
+    ] = False,
+) -> None:
+    """Spinning flexible bodies by the method of quadratic modes.
+
+    -o/--output DIR is the folder a command writes into (run: DIR/<case>/).
+    Dimensional options take quantities with units ("0.25 ms", "41 Hz").
+    Results go to stdout (--json: one JSON object), progress and notes to stderr.
+    """
+    verbosity.configure(quiet=quiet, verbose=verbose)
 
 
 @app.command()

@@ -19,13 +19,11 @@ from pathlib import Path
 from typing import Annotated, Any, NoReturn
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-#: Progress on stderr (bars, warnings, errors); results on stdout.
-err = Console(stderr=True)
-out = Console()
+from quadmodes.cli import verbosity
+from quadmodes.cli.consoles import err, out  # noqa: F401 (out: re-exported to the commands)
 
 DEFAULT_CASE = "paper-membrane"
 
@@ -72,9 +70,25 @@ def one_line_errors(*also: type[BaseException]) -> Iterator[None]:
         fail(exc)
 
 
+def _text_progress() -> ProgressCallback:
+    """Progress for a stderr that is not a terminal (a log file, a pipe, a batch job): one
+    line per stage and 10 % step, e.g. ``inflate: 40 %``."""
+    shown: dict[str, int] = {}
+
+    def progress(stage: str, fraction: float) -> None:
+        tenth = int(10 * fraction + 1e-9)
+        if shown.get(stage, -1) < tenth:
+            shown[stage] = tenth
+            err.print(f"{escape(stage)}: {10 * tenth} %", highlight=False)
+
+    return progress
+
+
 @contextlib.contextmanager
 def progress_bars(enabled: bool = True) -> Iterator[ProgressCallback]:
-    """A ``progress(stage, fraction)`` callback drawing rich bars on stderr."""
+    """A ``progress(stage, fraction)`` callback drawing rich bars on stderr, or printing a line
+    per 10 % when stderr is not a terminal; nothing when not ``enabled`` or after ``--quiet``."""
+    enabled = enabled and not verbosity.quiet()
     bars = Progress(
         TextColumn("{task.description:<12}"),
         BarColumn(),
@@ -85,11 +99,14 @@ def progress_bars(enabled: bool = True) -> Iterator[ProgressCallback]:
         disable=not enabled or not err.is_terminal,
     )
     tasks: dict[str, int] = {}
+    lines = _text_progress() if enabled and not err.is_terminal else None
 
     def update(stage: str, fraction: float) -> None:
         if stage not in tasks:
             tasks[stage] = bars.add_task(stage, total=1.0)
         bars.update(tasks[stage], completed=fraction)
+        if lines is not None:
+            lines(stage, fraction)
 
     with bars:
         yield update
@@ -386,3 +403,49 @@ NoCacheFlag = flag("--no-cache", "build the reduced model; do not read or save t
 LargeModelFlag = flag(
     "--yes", "build above the size limits (50,000 nodes, 60 modes, 4 GB of reduced arrays)"
 )
+
+
+# ------------------------------------------------------------------------- quantities
+
+
+def deprecated_bare_number(option: str, text: str, unit: str) -> None:
+    """The note for a bare number given to a dimensional option (still read in ``unit``)."""
+    if not verbosity.quiet():
+        err.print(f"note: {option} {escape(text)}: a bare number is read in {unit} (deprecated); "
+                  f'give the unit, e.g. "{escape(text)} {unit}"', highlight=False, soft_wrap=True)  # fmt: skip
+
+
+def frequency_option(text: str, option: str) -> float:
+    """The frequency (Hz) of option ``option``: a quantity ("31.2 Hz", "196 rad/s") or, as
+    before, a bare number of Hz (with a deprecation note)."""
+    from quadmodes.case import parse_quantity
+
+    try:
+        value = float(text)
+    except ValueError:
+        return parse_quantity(text, "frequency", option)
+    deprecated_bare_number(option, text, "Hz")
+    return value
+
+
+def output_file_in(output: Path | None, name: str, option: str = "-o") -> Path | None:
+    """The file a command writes for ``-o DIR``: ``DIR/name`` (``-o`` is always the output
+    folder). An ``-o`` ending in the suffix of ``name`` that is not a folder is, as before, the
+    file itself (with a deprecation note). Checked before any long work (UserError)."""
+    if output is None:
+        return None
+    output = Path(output)
+    if output.suffix == Path(name).suffix and not output.is_dir():
+        check_output_file(output, option)
+        if not verbosity.quiet():
+            err.print(f"note: {option} {escape(str(output))}: a file name is deprecated; -o takes "
+                      f"the output folder (writes DIR/{name})", highlight=False, soft_wrap=True)  # fmt: skip
+        return output
+    check_output_folder(output, option)
+    return output / name
+
+
+def write_file_in(path: Path, write: Callable[[Path], Any]) -> None:
+    """``write(path)`` after creating the folder of ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write(path)

@@ -12,7 +12,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.cli.common import (
     DEFAULT_CASE,
     JsonFlag,
@@ -20,33 +20,35 @@ from quadmodes.cli.common import (
     ModelCase,
     NoCacheFlag,
     case_argument,
-    check_output_file,
     check_output_folder,
     err,
     flag,
+    frequency_option,
     guard_model_size,
     guard_reduced_model,
     load_model_case,
     one_line_errors,
     out,
+    output_file_in,
     output_path,
     progress_bars,
     staged_output,
+    write_file_in,
 )
 from quadmodes.io.atomic import write_text
 
 
-def cases() -> None:
-    """List the built-in cases."""
-    from quadmodes.case import builtin_case_names, builtin_run_case_names, load_run_case
+def cases(as_json: JsonFlag = False) -> None:
+    """List the built-in cases (--json: {"cases": [{"name", "kind", "description"}, ...]})."""
+    from quadmodes.api import cases as builtin_cases
 
+    listing = builtin_cases()
+    if as_json:
+        sys.stdout.write(json.dumps({"cases": listing}, indent=2) + "\n")
+        return
     table = Table("name", "kind", "description")
-    for name in builtin_case_names():
-        c = load_model_case(name)
-        table.add_row(name, c.kind, c.description)
-    for name in builtin_run_case_names(spinup=None):
-        r = load_run_case(name)
-        table.add_row(name, r.kind, r.description)
+    for c in listing:
+        table.add_row(c["name"], c["kind"], c["description"])
     out.print(table)
 
 
@@ -184,40 +186,64 @@ def modes(
 # ------------------------------------------------------------------------------ calibrate
 
 
-CalibratedOutput = output_path("write the calibrated case (TOML)")
+CalibratedOutput = output_path("folder to write calibrated.toml in")
 NoAxialFlag = flag("--no-axial", "fit masses only; inertias scale with mass")
+
+
+def _calibration_summary(result, output_file: Path | None, text: str) -> dict:
+    """The JSON of ``calibrate --json``: the calibrated case (TOML text and name), the fitted
+    masses (kg), the modes (Hz) and the family frequencies reached (Hz)."""
+    return {
+        "case": result.case.name,
+        "masses_kg": {k: float(v) for k, v in result.masses_kg.items()},
+        "end_bodies": [{"name": b.name, "mass_kg": b.mass, "inertia_axial_kg_m2": b.inertia_axial,
+                        "inertia_transverse_kg_m2": b.inertia_transverse, "arm_m": b.arm}
+                       for b in result.case.end_body],
+        "frequencies_hz": [float(f) for f in result.frequencies_hz],
+        "labels": list(result.labels),
+        "rocking_hz": float(result.rocking_hz),
+        "bending_hz": float(result.bending_hz),
+        "axial_hz": None if result.axial_hz is None else float(result.axial_hz),
+        "output": str(output_file) if output_file is not None else None,
+        "case_toml": text,
+    }  # fmt: skip
 
 
 def calibrate(
     case: ModelCase = DEFAULT_CASE,
     output_file: CalibratedOutput = None,
-    rocking: Annotated[float, typer.Option(help="rear-mass rocking pair target (Hz)")] = 31.2,
-    bending: Annotated[float, typer.Option(help="bending pair target (Hz)")] = 38.0,
+    rocking: Annotated[
+        str, typer.Option(help='rear-mass rocking pair target, e.g. "31.2 Hz"')
+    ] = "31.2 Hz",
+    bending: Annotated[str, typer.Option(help='bending pair target, e.g. "38 Hz"')] = "38 Hz",
     axial: Annotated[
-        float | None,
-        typer.Option(help="rear-mass axial mode target (Hz); default: geometric mean of the two"),
+        str | None,
+        typer.Option(help='rear-mass axial mode target, e.g. "34.4 Hz"; default: geometric mean '
+                     "of the two"),
     ] = None,
     no_axial: NoAxialFlag = False,
+    as_json: JsonFlag = False,
     yes: LargeModelFlag = False,
 ) -> None:
-    """Fit the end-body masses (and rear inertia) so the modes match the seed's frequencies."""
+    """Fit the end-body masses (and rear inertia) so the modes match the seed's frequencies.
+
+    The calibrated case (TOML) goes to stdout, or to DIR/calibrated.toml with -o DIR; --json
+    prints a JSON object instead (the TOML text is its "case_toml")."""
     from quadmodes.structure.calibrate import calibrate_end_masses
 
-    target_axial = None if no_axial else (axial or float(np.sqrt(rocking * bending)))
     with one_line_errors():
-        check_output_file(output_file)
+        rocking_hz = frequency_option(rocking, "--rocking")
+        bending_hz = frequency_option(bending, "--bending")
+        axial_hz = None if axial is None else frequency_option(axial, "--axial")
+        target_axial = None if no_axial else (axial_hz or float(np.sqrt(rocking_hz * bending_hz)))
+        output_file = output_file_in(output_file, "calibrated.toml")
         c = load_model_case(case)
         guard_model_size(c, yes)
-        with progress_bars() as progress:
-            result = calibrate_end_masses(
-                c, rocking_hz=rocking, bending_hz=bending, axial_hz=target_axial, progress=progress
-            )
-    err.print(_mode_table(f"{c.name}: calibrated modes", result.frequencies_hz, result.labels))
-    for b in result.case.end_body:
-        err.print(
-            f"{b.name}: mass {b.mass:.6g} kg, inertia axial {b.inertia_axial:.6g} kg m², "
-            f"transverse {b.inertia_transverse:.6g} kg m², arm {b.arm:.6g} m"
-        )
+        with progress_bars(not as_json) as progress:
+            result = calibrate_end_masses(c, rocking_hz=rocking_hz, bending_hz=bending_hz,
+                                          axial_hz=target_axial, progress=progress)  # fmt: skip
+    if not as_json:
+        _print_calibration(c.name, result)
     header = (
         f"# Calibrated by `quadmodes calibrate` (quadmodes {__version__}): rocking pair "
         f"{result.rocking_hz:.4f} Hz, bending pair {result.bending_hz:.4f} Hz"
@@ -225,11 +251,25 @@ def calibrate(
         + "\n"
     )
     text = header + result.case.to_toml()
-    if output_file is None:
+    if output_file is not None:
+        write_file_in(output_file, lambda path: write_text(path, text))
+    if as_json:
+        sys.stdout.write(json.dumps(_calibration_summary(result, output_file, text), indent=2)
+                         + "\n")  # fmt: skip
+    elif output_file is None:
         sys.stdout.write(text)
     else:
-        write_text(output_file, text)
-        err.print(f"calibrated case written to {output_file}")
+        err.print(f"calibrated case written to {escape(str(output_file))}")
+
+
+def _print_calibration(name: str, result) -> None:
+    """The calibrated modes and end bodies, on stderr (stdout carries the TOML)."""
+    err.print(_mode_table(f"{name}: calibrated modes", result.frequencies_hz, result.labels))
+    for b in result.case.end_body:
+        err.print(
+            f"{b.name}: mass {b.mass:.6g} kg, inertia axial {b.inertia_axial:.6g} kg m², "
+            f"transverse {b.inertia_transverse:.6g} kg m², arm {b.arm:.6g} m"
+        )
 
 
 # ------------------------------------------------------------------------------ reduce
@@ -253,7 +293,7 @@ def _reduced_summary(model, model_case, info: dict, output_file: Path | None) ->
 
 
 ReducedCase = case_argument("model case, or run case (its model), built-in name or TOML file")
-ReducedOutput = output_path("write the reduced model (NetCDF)")
+ReducedOutput = output_path("folder to write the reduced model in (reduced_model.nc)")
 
 
 def reduce_command(
@@ -279,7 +319,7 @@ def reduce_command(
 
     info: dict = {}
     with one_line_errors(OSError), model_cache.caching_disabled(no_cache):
-        check_output_file(output_file)
+        output_file = output_file_in(output_file, "reduced_model.nc")
         if simulate.is_run_case(case):
             run_case = load_run_case(case)
             model_case = run_case.model_case()
@@ -302,7 +342,7 @@ def reduce_command(
             model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info,
                                                   spin=spin)  # fmt: skip
         if output_file is not None:
-            artifact.save_reduced_model(model, output_file)
+            write_file_in(output_file, lambda path: artifact.save_reduced_model(model, path))
     summary = _reduced_summary(model, model_case, info, output_file)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")

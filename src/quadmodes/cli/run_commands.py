@@ -17,7 +17,6 @@ from rich.table import Table
 from quadmodes.cli import extra_outputs as extras
 from quadmodes.cli.common import (
     NoCacheFlag,
-    ProgressCallback,
     UserError,
     check_output_folder,
     err,
@@ -43,23 +42,6 @@ from quadmodes.cli.run_files import (
     stop,
     stopped_message,
 )
-
-
-def _run_progress(update: ProgressCallback) -> ProgressCallback:
-    """Wrap a bar callback: without a terminal (no bars), print the progress in 10 % steps."""
-    shown: dict[str, int] = {}
-
-    def progress(stage: str, fraction: float) -> None:
-        update(stage, fraction)
-        if err.is_terminal:
-            return
-        tenth = int(10 * fraction + 1e-9)
-        if shown.get(stage, -1) < tenth:
-            shown[stage] = tenth
-            err.print(f"{escape(stage)}: {10 * tenth} %", highlight=False)
-
-    return progress
-
 
 # ------------------------------------------------------------------------------ summary tables
 
@@ -288,8 +270,9 @@ def _prepare_runs(runs: list) -> list:
     from quadmodes.runs import simulate
 
     with progress_bars(True) as bars:
-        return [r if r.spinup is not None else simulate.prepare(r, progress=bars, check_deformation=True)
-                for r in runs]
+        return [r if r.spinup is not None
+                else simulate.prepare(r, progress=bars, check_deformation=True)
+                for r in runs]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -343,14 +326,14 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
     with progress_bars(True) as bars:
         try:
             result = simulate.execute(
-                setup, _run_progress(bars), checkpoint=checkpoint, resume=start
+                setup, bars, checkpoint=checkpoint, resume=start
             )
         except Interrupted as stopped:
             where = save_partial(stopped.partial, folders, stopped.saved)
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {where}{hint}", opts.exit_code) from None
         try:
-            extra = _extras(setup, result, opts, _run_progress(bars))
+            extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:
             kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
                     "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
@@ -454,7 +437,7 @@ def run_command(
     """Integrate run cases; write results.nc, summary.json, PNG figures and report.html per case.
 
     With no CASE, runs the seed's two cases, paper-0.5hz and paper-41hz. A run case with a
-    [spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
+    \\[spinup] table (e.g. kane-spinup) is a hub-driven spin-up of a clamped beam.
 
     A formulation outside its validity (rotating-frame stiffness not positive definite at some
     spin rate up to the run's) prints a warning; the JSON summary says `valid: false`.

@@ -18,8 +18,11 @@ from quadmodes.cli.common import (
     fail,
     flag,
     one_line_errors,
+    output_file_in,
+    output_path,
     progress_bars,
     user_errors,
+    write_file_in,
 )
 from quadmodes.io.atomic import write_text
 
@@ -74,6 +77,7 @@ def _run_checks(
 ValidateWrite = Annotated[
     Path | None, typer.Option("--write", help="write the tables to this Markdown file")
 ]
+ValidateOutput = output_path("folder to write the tables in (validation.md)")
 SuiteOption = Annotated[
     list[str] | None,
     typer.Option(
@@ -89,6 +93,7 @@ def validate(
     suite: SuiteOption = None,
     convergence: ConvergenceFlag = True,
     quick: QuickFlag = False,
+    output_dir: ValidateOutput = None,
 ) -> None:
     """Run the validation suite and print (or write) the measured tables with pass/fail.
 
@@ -103,6 +108,9 @@ def validate(
         fail(UserError(f"--suite: unknown {', '.join(bad)}; choose from fe, reduced, full-order"))
     with one_line_errors():
         check_output_file(write, "--write")  # before tens of minutes of checks
+        if output_dir is not None and write is not None:
+            raise UserError("-o: give either -o DIR (writes DIR/validation.md) or --write FILE")
+        write = output_file_in(output_dir, "validation.md") or write
     todo = _checks_to_run(chosen, quick)
     results: dict[str, list] = {k: [] for k in chosen}
     with progress_bars() as progress:
@@ -113,7 +121,7 @@ def validate(
     if write is None:
         sys.stdout.write(text)
     else:
-        write_text(write, text)
+        write_file_in(write, lambda path: write_text(path, text))
         err.print(f"written {write}")
     failed = [r.check for rows in results.values() for r in rows if not r.passed]
     if failed:

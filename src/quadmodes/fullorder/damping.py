@@ -115,15 +115,16 @@ def save_damping_modes(path: Path, freqs, shapes, labels, cutoff_hz: float, key:
     ds = xr.Dataset(
         {
             "frequency": xr.Variable(("mode",), np.asarray(freqs, float), {
-                "units": "Hz", "description": "prestressed natural frequency of the damped mode"}),
+                "units": "Hz", "long_name": "prestressed natural frequency of the damped mode"}),
             "shape": xr.Variable(("mode", "node", "component"), np.asarray(shapes, float), {
-                "units": "kg-0.5", "description": "mass-normalised mode shape (phi^T M phi = 1)"}),
+                "units": "kg^-0.5", "long_name": "mass-normalised mode shape (phi^T M phi = 1)"}),
             "label": xr.Variable(("mode",), np.asarray(list(labels), dtype=str), {
-                "description": "mode label"}),
+                "units": "1", "long_name": "mode label"}),
         },
         attrs={"cutoff_hz": float(cutoff_hz), "content_key": key,
                "format_version": DAMPING_FORMAT_VERSION,
-               "description": "full-order independent damping modes below the cutoff"},
+               "title": "full-order independent damping modes below the cutoff",
+               "Conventions": "CF-1.10"},
     )  # fmt: skip
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="h5netcdf")

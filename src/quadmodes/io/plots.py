@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
 from quadmodes.io.figures import new_figure, save_png
 from quadmodes.runs.metrics import log_decrement, peak_envelope
@@ -95,9 +96,10 @@ def _plot_energy(ax, ds) -> None:
     ax.legend(fontsize=7, loc="best")
 
 
-def _plot_series(ax, ds, name: str, ylabel: str) -> None:
+def _plot_series(ax, ds, name: str, ylabel: str | None = None) -> None:
+    """``ds[name]`` against time; the axis label is its ``long_name (units)`` unless given."""
     ax.plot(ds["time"].values, ds[name].values, lw=1.0)
-    ax.set_ylabel(ylabel)
+    ax.set_ylabel(ylabel or cf.axis_label(ds[name]))
 
 
 def _plot_envelope(ax, ds) -> None:
@@ -184,12 +186,12 @@ def _single_figures(ds: xr.Dataset) -> list[tuple[str, str, object]]:
         (
             "spin_rate.png",
             "spin rate (cf. seed Figs. 9, 15)",
-            lambda ax: _plot_series(ax, ds, "spin_rate_hz", "spin rate (Hz)"),
+            lambda ax: _plot_series(ax, ds, "spin_rate_hz"),
         ),
         (
             "cone_angle.png",
             "cone angle (cf. seed Figs. 10, 16)",
-            lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
+            lambda ax: _plot_series(ax, ds, "cone_angle_deg"),
         ),
     ]
 
@@ -203,11 +205,11 @@ def _summary_panels(ds: xr.Dataset) -> list[tuple[str, object]]:
         ("energy", lambda ax: _plot_energy(ax, ds)),
         (
             "spin rate",
-            lambda ax: _plot_series(ax, ds, "spin_rate_hz", "spin rate (Hz)"),
+            lambda ax: _plot_series(ax, ds, "spin_rate_hz"),
         ),
         (
             "cone angle",
-            lambda ax: _plot_series(ax, ds, "cone_angle_deg", "cone angle (deg)"),
+            lambda ax: _plot_series(ax, ds, "cone_angle_deg"),
         ),
     ]
 

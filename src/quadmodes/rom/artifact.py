@@ -1,7 +1,7 @@
 """The reduced-model artifact: one self-describing NetCDF file (xarray + h5netcdf).
 
 Every array of :class:`quadmodes.rom.reduced.ReducedModel` is a variable with ``units`` and
-``description`` attributes; provenance (case TOML, package version, mesh size, content key) is
+``long_name`` attributes; provenance (case TOML, package version, mesh size, content key) is
 kept in global attributes. Files are written atomically and checked on load.
 
 Format 2 adds the manifold-potential tensors V3, V4 and the global attribute
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.io.atomic import atomic_path
 from quadmodes.rom.reduced import ReducedModel
 
@@ -36,38 +36,38 @@ class ArtifactError(ValueError):
     """A reduced-model file that cannot be used; one-line message naming the file and the fix."""
 
 
-# name -> (dims, units, description)
+# name -> (dims, units (pint syntax), long_name)
 _VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
     "frequencies_hz": (("mode",), "Hz", "natural frequencies of the retained modes"),
     "damping_ratio": (("mode",), "1", "modal damping ratio"),
-    "J0": (("xyz", "xyz2"), "kg m2", "reference inertia J(X, X) about the origin of X"),
-    "J1": (("mode", "xyz", "xyz2"), "kg0.5 m", "2 J(X, u^k): first-order inertia"),
+    "J0": (("xyz", "xyz2"), "kg m^2", "reference inertia J(X, X) about the origin of X"),
+    "J1": (("mode", "xyz", "xyz2"), "kg^0.5 m", "2 J(X, u^k): first-order inertia"),
     "J2u": (("mode", "mode2", "xyz", "xyz2"), "1", "J(u^m, u^n): spin softening"),
     "J2g": (("mode", "mode2", "xyz", "xyz2"), "1", "2 J(X, g^mn): spin stiffening"),
-    "c": (("mode", "xyz"), "kg0.5 m", "C(X, u^k): rigid-elastic coupling"),
+    "c": (("mode", "xyz"), "kg^0.5 m", "C(X, u^k): rigid-elastic coupling"),
     "Cuu": (("mode", "mode2", "xyz"), "1", "C(u^m, u^n): gyroscopic coupling"),
     "Cxg": (("mode", "mode2", "xyz"), "1", "C(X, g^mn)"),
-    "S1": (("mode", "xyz"), "kg0.5", "sum_j w_j u^k_j (centre-of-mass check)"),
-    "S2": (("mode", "mode2", "xyz"), "kg-0.5", "sum_j w_j g^mn_j (centre-of-mass check)"),
+    "S1": (("mode", "xyz"), "kg^0.5", "sum_j w_j u^k_j (centre-of-mass check)"),
+    "S2": (("mode", "mode2", "xyz"), "kg^-0.5", "sum_j w_j g^mn_j (centre-of-mass check)"),
     "mu": (("mode", "mode2"), "1", "modal mass Phi^T M Phi"),
-    "Lam": (("mode", "mode2"), "s-2", "modal stiffness Phi^T K Phi"),
-    "C": (("mode", "mode2"), "s-1", "modal damping matrix"),
+    "Lam": (("mode", "mode2"), "s^-2", "modal stiffness Phi^T K Phi"),
+    "C": (("mode", "mode2"), "s^-1", "modal damping matrix"),
     "X": (("dof", "xyz"), "m", "prestressed reference vector DOFs"),
     "translational": (("dof",), "1", "1 where the vector DOF is a position, 0 for a slope"),
     "weights": (("dof",), "kg", "nodal mass weights w = M_s t"),
-    "Phi": (("mode", "dof", "xyz"), "kg-0.5", "mass-normalised mode shapes u^k"),
-    "G": (("mode", "mode2", "dof", "xyz"), "kg-1", "quadratic modes g^mn"),
+    "Phi": (("mode", "dof", "xyz"), "kg^-0.5", "mass-normalised mode shapes u^k"),
+    "G": (("mode", "mode2", "dof", "xyz"), "kg^-1", "quadratic modes g^mn"),
     "V3": (
         ("mode", "mode2", "mode3"),
-        "J kg-1.5 m-3",
+        "J kg^-1.5 m^-3",
         "cubic manifold-potential coefficients (symmetric): V3_mnp s_m s_n s_p",
     ),
     "V4": (
         ("mode", "mode2", "mode3", "mode4"),
-        "J kg-2 m-4",
+        "J kg^-2 m^-4",
         "quartic manifold-potential coefficients (symmetric): V4_mnpq s_m s_n s_p s_q",
     ),
-    "F1": (("mode",), "J kg-0.5 m-1", "linear potential coefficient Phi^T f(X) (spinning reference)"),
+    "F1": (("mode",), "J kg^-0.5 m^-1", "linear potential coefficient Phi^T f(X) (spinning reference)"),
     "reference_axis": (("xyz",), "1", "spin axis of the reference state (body frame)"),
 }
 
@@ -78,13 +78,13 @@ def content_key(text: str) -> str:
 
 
 def to_dataset(model: ReducedModel) -> xr.Dataset:
-    """The model as an xarray Dataset with units and descriptions."""
+    """The model as an xarray Dataset with units and long names."""
     data = {}
     for name, (dims, units, desc) in _VARIABLES.items():
         value = np.asarray(getattr(model, name))
         if value.dtype == bool:
             value = value.astype(np.int8)
-        data[name] = xr.Variable(dims, value, attrs={"units": units, "description": desc})
+        data[name] = xr.Variable(dims, value, attrs={"units": units, "long_name": desc})
     ds = xr.Dataset(data, coords={"mode": np.arange(model.n_modes) + 1})
     ds["label"] = xr.Variable(("mode",), np.array(model.labels, dtype=object))
     attrs = {

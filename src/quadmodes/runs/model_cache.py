@@ -23,14 +23,16 @@ import dataclasses
 import functools
 import hashlib
 import json
+import logging
 import os
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.case import Case, CaseError, Modes
 from quadmodes.io.atomic import write_text
 from quadmodes.io.locking import file_lock
@@ -39,6 +41,8 @@ from quadmodes.rom import reduced as red
 from quadmodes.rom.spinning_reduction import reduce_spinning, spinning_modes
 from quadmodes.structure import pipeline
 from quadmodes.structure.labels import DEGENERATE_TOLERANCE, PAIR_TOLERANCE
+
+log = logging.getLogger(__name__)
 
 Progress = Callable[[str, float], None]
 
@@ -329,13 +333,17 @@ def reduced_model_for(
         return build_reduced_model(case, n_modes, progress, spin)
     model, info["cache"] = _cached_model(case, n_modes, path, spin)
     if model is not None:
+        log.info("reduced model of %s (%d modes): cache hit, %s", case.name, n_modes, path)
         return model
     with file_lock(path, _waiting_notice(progress, info)):
         model, state = _cached_model(case, n_modes, path, spin)  # built meanwhile by another?
         if model is not None:
             info["cache"] = state
             return model
+        start = time.perf_counter()
         model = build_reduced_model(case, n_modes, progress, spin)
+        log.info("reduced model of %s (%d modes) built in %.1f s, saved to %s", case.name,
+                 n_modes, time.perf_counter() - start, path)  # fmt: skip
         try:
             artifact.save_reduced_model(model, path)
         except OSError as exc:  # a read-only cache is not an error: the run goes on

@@ -1,9 +1,11 @@
 """Results of a run: a self-describing NetCDF file (``results.nc``) and a JSON summary.
 
-``results.nc`` (xarray, written with h5netcdf) has a ``time`` coordinate (s) and variables with
-``units`` and ``description`` attributes; global attributes carry the run case TOML, the model
-case TOML, the method, step, formulation, status and work counters, the package version and
-``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
+``results.nc`` (xarray, written with h5netcdf) follows the CF conventions as far as they fit
+(:mod:`quadmodes.io.cf`): a ``time`` coordinate (s), ``long_name`` and ``units`` (parsed by pint)
+on every variable and coordinate, ``Conventions = "CF-1.10"``; global attributes carry the
+provenance (the run case TOML ``case_toml``, which embeds a model built in Python, the model
+case TOML, ``model_hash``, ``source`` and the package version), the method, step, formulation,
+status and work counters and ``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
 from the dataset alone, so it can be recomputed from a saved file.
 
 The log decrement of the summary is :func:`quadmodes.runs.metrics.log_decrement`.
@@ -19,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from quadmodes import __version__
+from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.runs.metrics import log_decrement
 
@@ -29,8 +31,7 @@ XYZ = ["x", "y", "z"]
 QUAT = ["w", "x", "y", "z"]
 
 
-def _var(dims, value, units: str, description: str) -> xr.Variable:
-    return xr.Variable(dims, np.asarray(value), attrs={"units": units, "description": description})
+_var = cf.variable
 
 
 def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variable]:
@@ -42,9 +43,9 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
     tm = ("time", "mode")
     data = {
         "angular_momentum": _var(
-            tx, d.H, "kg m2 s-1", "angular momentum about the centre of mass, inertial frame"
+            tx, d.H, "kg m^2/s", "angular momentum about the centre of mass, inertial frame"
         ),
-        "angular_momentum_norm": _var(t, d.H_norm, "kg m2 s-1", "magnitude |H|"),
+        "angular_momentum_norm": _var(t, d.H_norm, "kg m^2/s", "magnitude |H|"),
         "kinetic_energy": _var(t, d.T, "J", "kinetic energy of rotation and vibration"),
         "potential_energy": _var(t, d.V, "J", "elastic potential energy 1/2 s^T Lambda s"),
         "total_energy": _var(t, d.E, "J", "total mechanical energy E = T + V"),
@@ -53,23 +54,23 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
         ),
         "energy_balance": _var(t, d.E_balance, "J", "E + dissipated energy (constant for Q)"),
         "spin_rate": _var(
-            t, d.spin_rate, "rad s-1", "spin rate omega . v_a about the tracked minor axis"
+            t, d.spin_rate, "rad/s", "spin rate omega . v_a about the tracked minor axis"
         ),
-        "spin_rate_hz": _var(t, d.spin_rate / (2 * math.pi), "Hz", "spin rate in Hz"),
+        "spin_rate_hz": _var(t, d.spin_rate / (2 * math.pi), "Hz", "spin rate"),
         "cone_angle": _var(
             t, d.cone_angle, "rad", "angle between H and the instantaneous minor principal axis"
         ),
-        "cone_angle_deg": _var(t, np.degrees(d.cone_angle), "degree", "cone angle in degrees"),
+        "cone_angle_deg": _var(t, np.degrees(d.cone_angle), "degree", "cone angle"),
         "principal_axis": _var(
             tx, d.axis_inertial, "1", "tracked minor principal axis of J~(s), inertial frame"
         ),
-        "axial_inertia": _var(t, d.I_a, "kg m2", "moment of inertia about the tracked axis"),
+        "axial_inertia": _var(t, d.I_a, "kg m^2", "moment of inertia about the tracked axis"),
         "transverse_inertia": _var(
-            t, d.I_t, "kg m2", "mean of the other two principal moments of inertia"
+            t, d.I_t, "kg m^2", "mean of the other two principal moments of inertia"
         ),
-        "modal_coordinates": _var(tm, s, "kg0.5 m", "modal coordinates s (mass-normalised)"),
-        "modal_velocities": _var(tm, sd, "kg0.5 m s-1", "modal velocities ds/dt"),
-        "omega_body": _var(tx, w, "rad s-1", "angular velocity, body frame"),
+        "modal_coordinates": _var(tm, s, "kg^0.5 m", "modal coordinates s (mass-normalised)"),
+        "modal_velocities": _var(tm, sd, "kg^0.5 m/s", "modal velocities ds/dt"),
+        "omega_body": _var(tx, w, "rad/s", "angular velocity, body frame"),
         "quaternion": _var(
             ("time", "quat"), q, "1", "attitude quaternion (scalar first), body to inertial"
         ),
@@ -77,7 +78,7 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
     if pair:
         amp = np.sqrt(np.sum(s[:, list(pair)] ** 2, axis=1))
         data["bending_amplitude"] = _var(
-            t, amp, "kg0.5 m", "first bending pair amplitude sqrt(s_b1^2 + s_b2^2)"
+            t, amp, "kg^0.5 m", "first bending pair amplitude sqrt(s_b1^2 + s_b2^2)"
         )
     return data
 
@@ -85,17 +86,14 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
 def _mode_coords(time: np.ndarray, labels: list[str], freqs: np.ndarray) -> dict:
     """Coordinates: time (s), xyz, quat, and the retained modes (number, label, frequency Hz)."""
     n = len(freqs)
+    c = cf.coordinate
     return {
-        "time": ("time", np.asarray(time, float), {"units": "s", "description": "time"}),
-        "xyz": ("xyz", XYZ),
-        "quat": ("quat", QUAT),
-        "mode": ("mode", np.arange(1, n + 1), {"description": "retained mode number"}),
-        "mode_label": ("mode", np.array(labels, dtype=object), {"description": "mode label"}),
-        "mode_frequency_hz": (
-            "mode",
-            freqs,
-            {"units": "Hz", "description": "natural frequency (not spinning)"},
-        ),
+        "time": c("time", np.asarray(time, float), "s", "time"),
+        "xyz": c("xyz", XYZ, "1", "Cartesian axis"),
+        "quat": c("quat", QUAT, "1", "quaternion component"),
+        "mode": c("mode", np.arange(1, n + 1), "1", "retained mode number"),
+        "mode_label": c("mode", np.array(labels, dtype=object), "1", "mode label"),
+        "mode_frequency_hz": c("mode", freqs, "Hz", "natural frequency (not spinning)"),
     }
 
 
@@ -106,15 +104,16 @@ def _run_attrs(result, n: int) -> dict:
     sol, run, model = result.solution, result.run, result.model
     pair = result.initial.bending_modes
     stats = sol.stats
+    key = str(model.provenance.get("content_key", ""))
     attrs = {
+        **cf.provenance(f"quadmodes run {run.name}", key),
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
-        "title": f"quadmodes run {run.name}",
         "case": run.name,
         "case_toml": run.to_toml(),
         "model_case": result.model_case.name,
         "model_case_toml": result.model_case.to_toml(),
-        "reduced_model_key": str(model.provenance.get("content_key", "")),
+        "reduced_model_key": key,
         "method": run.integration.method,
         "dt": float(sol.dt) if sol.dt is not None else float(run.integration.dt),
         "dt_units": "s",
@@ -136,10 +135,9 @@ def _run_attrs(result, n: int) -> dict:
         "n_newton": int(stats.get("n_newton", 0)),
         "n_jac": int(stats.get("n_jac", 0)),
         "wall_s": float(result.wall_s),
-        "quadmodes_version": __version__,
         "spin_axis_body": np.asarray(result.initial.spin_axis, float),
         "bending_modes": np.asarray([k + 1 for k in pair], np.int64),
-        "conventions": "SI; modal coordinates s in kg^0.5 m; time in s",
+        "comment": "SI units; modal coordinates s in kg^0.5 m (mass-normalised); time in s",
     }
     if pair:
         attrs["bending_displacement_per_unit"] = largest_nodal_displacement(model, pair[0])
@@ -190,7 +188,7 @@ def validity_attrs(validity) -> dict:
     return {
         "valid": int(validity.valid),
         "rotating_stiffness_min_eigenvalue": float(validity.min_eigenvalue),
-        "rotating_stiffness_min_eigenvalue_units": "s-2",
+        "rotating_stiffness_min_eigenvalue_units": "s^-2",
         "validity_spin_rate": float(validity.spin_rate),
         "validity_lost_at_spin_rate": float("nan") if lost is None else float(lost),
         "validity_message": validity.message(),
@@ -215,7 +213,7 @@ def validity_summary(ds: xr.Dataset) -> dict:
             "rotating_stiffness_min_eigenvalue": _float(
                 ds.attrs.get("rotating_stiffness_min_eigenvalue", float("nan"))
             ),
-            "rotating_stiffness_min_eigenvalue_units": "s-2",
+            "rotating_stiffness_min_eigenvalue_units": "s^-2",
             "spin_rate_rad_s": _float(ds.attrs.get("validity_spin_rate", float("nan"))),
             "lost_at_spin_rate_rad_s": lost,
             "message": str(ds.attrs.get("validity_message", "")),
@@ -224,8 +222,10 @@ def validity_summary(ds: xr.Dataset) -> dict:
 
 
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
+    """Write ``ds`` to ``path`` (NetCDF4 via h5netcdf) atomically, with the CF attributes
+    completed (:func:`quadmodes.io.cf.complete`)."""
     path = Path(path)
+    cf.complete(ds)
     encoding = {
         name: {"zlib": True, "complevel": 4, "shuffle": True}
         for name, var in ds.data_vars.items()
@@ -364,7 +364,7 @@ def spinup_dataset(run) -> xr.Dataset:
     t = ("time",)
     tm = ("time", "mode")
     data = {
-        "hub_rate": _var(t, r.rate, "rad s-1", "prescribed hub rate Omega(t) about z"),
+        "hub_rate": _var(t, r.rate, "rad/s", "prescribed hub rate Omega(t) about z"),
         "tip_displacement": _var(
             ("time", "xyz"), r.tip, "m", "tip displacement U_tip, hub frame (x axial)"
         ),
@@ -373,30 +373,17 @@ def spinup_dataset(run) -> xr.Dataset:
             t, r.tip[:, 1], "m", "in-plane tip deflection v (hub y; negative = lag)"
         ),
         "tip_outofplane": _var(t, r.tip[:, 2], "m", "out-of-plane tip deflection (hub z)"),
-        "modal_coordinates": _var(tm, r.s, "kg0.5 m", "modal coordinates s (mass-normalised)"),
-        "modal_velocities": _var(tm, r.sdot, "kg0.5 m s-1", "modal velocities ds/dt"),
+        "modal_coordinates": _var(tm, r.s, "kg^0.5 m", "modal coordinates s (mass-normalised)"),
+        "modal_velocities": _var(tm, r.sdot, "kg^0.5 m/s", "modal velocities ds/dt"),
     }
-    coords = {
-        "time": ("time", np.asarray(r.time, float), {"units": "s", "description": "time"}),
-        "xyz": ("xyz", XYZ),
-        "mode": ("mode", np.arange(1, n + 1), {"description": "retained mode number"}),
-        "mode_label": (
-            "mode",
-            np.array(list(model.labels[:n]), dtype=object),
-            {"description": "mode label"},
-        ),
-        "mode_frequency_hz": (
-            "mode",
-            np.asarray(model.frequencies_hz[:n], float),
-            {"units": "Hz", "description": "natural frequency (not spinning)"},
-        ),
-    }
+    coords = _mode_coords(r.time, list(model.labels[:n]), np.asarray(model.frequencies_hz[:n]))
+    del coords["quat"]
     ds = xr.Dataset(data, coords=coords)
     sp = run.run.spinup
     attrs = {
+        **cf.provenance(f"quadmodes spin-up {run.run.name}"),
         "format": SPINUP_FORMAT,
         "format_version": FORMAT_VERSION,
-        "title": f"quadmodes spin-up {run.run.name}",
         "case": run.run.name,
         "case_toml": run.run.to_toml(),
         "model_case": run.model_case.name,
@@ -406,7 +393,7 @@ def spinup_dataset(run) -> xr.Dataset:
         "formulation": r.formulation,
         "n_modes": int(n),
         "omega_s": float(r.omega_s),
-        "omega_s_units": "rad s-1",
+        "omega_s_units": "rad/s",
         "ramp_time": float(r.t_ramp),
         "duration": float(sp.duration),
         "peak_tip_deflection": float(r.peak_deflection),
@@ -417,8 +404,7 @@ def spinup_dataset(run) -> xr.Dataset:
         "complete": int(run.complete),
         "n_steps": int(r.n_steps),
         "wall_s": float(run.wall_s),
-        "quadmodes_version": __version__,
-        "conventions": "SI; hub frame, beam along +x, rotation about +z",
+        "comment": "SI units; hub frame, beam along +x, rotation about +z",
     }
     attrs.update(validity_attrs(run.validity))
     if not run.complete:

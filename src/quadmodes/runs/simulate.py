@@ -19,6 +19,7 @@ raises :class:`~quadmodes.runs.chunked.Interrupted` carrying that partial result
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import time
 from collections.abc import Callable
@@ -47,6 +48,7 @@ from quadmodes.runs.validity import Validity, initial_validity, rotating_validit
 from quadmodes.structure import pipeline
 
 Progress = Callable[[str, float], None]
+log = logging.getLogger(__name__)
 
 PAPER_RUN_CASES = ("paper-0.5hz", "paper-41hz")
 
@@ -100,7 +102,7 @@ def _model_for_run(run: RunCase, model: red.ReducedModel) -> red.ReducedModel:
     hub-clamped model or one with too few modes."""
     if not model.free:
         raise CaseError(
-            f'model = "{run.model}": clamped to a hub; a run needs a free-floating body',
+            f'model = "{run.model_name}": clamped to a hub; a run needs a free-floating body',
             field="model",
         )
     if run.reduced.formulation != "rigid":
@@ -133,7 +135,10 @@ def prepare(
             "[spinup]: a hub-driven spin-up, not a free-body run; use simulate_spinup",
             field="spinup",
         )
-    model_case = model_case if model_case is not None else run.model_case()
+    if model_case is not None:  # record the model it runs (results' case_toml replays it)
+        run = run.with_model(model_case)
+    else:
+        model_case = run.model_case()
     run, choice = resolve_modes(run, model_case, progress)
     if model is None:
         model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin)
@@ -166,6 +171,31 @@ def _result(setup: RunSetup, chunks) -> RunResult:
     )
 
 
+_KERNEL_READY: list[bool] = []  # [True] once the compiled kernel is loaded in this process
+
+
+def warm_up_kernel(run: RunCase, progress: Progress | None = None) -> float | None:
+    """Compile (or load from numba's on-disk cache) the compiled midpoint kernel a free-body
+    ``run`` will use, as the stage "compile" of ``progress``, so that its first call (about
+    8 s) is not counted in the run's wall time; returns the seconds it took, None if the run
+    does not use the kernel, numba is not installed or the kernel is already loaded."""
+    from quadmodes.rom.integrators import numba_kernel
+
+    if run.integration is None or run.integration.method != "midpoint" or _KERNEL_READY:
+        return None
+    kernel = numba_kernel()
+    if kernel is None:  # numba (the [jit] extra) not installed: the numpy steppers
+        return None
+    if progress:
+        progress("compile", 0.0)
+    seconds = kernel.warm_up()
+    _KERNEL_READY.append(True)
+    if progress:
+        progress("compile", 1.0)
+    log.info("compiled midpoint kernel ready in %.1f s", seconds)
+    return seconds
+
+
 def execute(
     setup: RunSetup,
     progress: Progress | None = None,
@@ -183,6 +213,7 @@ def execute(
     ``resume``). Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial``
     is the :class:`RunResult` up to the last whole chunk (``complete`` False)."""
     run, system, init = setup.run, setup.system, setup.initial
+    warm_up_kernel(run, progress)  # the compile step is not part of the run's wall time
     try:
         chunks = integrate_in_chunks(
             system, init.y0, run.integration, progress, run.name, max_chunks,
@@ -401,7 +432,7 @@ def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedMod
     case = model_case if model_case is not None else run.model_case()
     if case.kind != "beam" or case.beam.support != "clamped":
         raise CaseError(
-            f'model = "{run.model}": a [spinup] run needs a beam clamped to the hub '
+            f'model = "{run.model_name}": a [spinup] run needs a beam clamped to the hub '
             '(kind = "beam", support = "clamped"), e.g. "kane-beam"',
             field="model",
         )
@@ -434,7 +465,10 @@ def simulate_spinup(
 
     if run.spinup is None:
         raise CaseError("not a spin-up run: it has no [spinup] table", field="spinup")
-    model_case = model_case if model_case is not None else run.model_case()
+    if model_case is not None:  # record the model it runs (results' case_toml replays it)
+        run = run.with_model(model_case)
+    else:
+        model_case = run.model_case()
     if model is None:
         model = spinup_model(run, model_case)
     sp = run.spinup

@@ -82,7 +82,7 @@ def validation_markdown(
 ) -> str:
     """The validation page (docs/validation.md) from measured rows, a convergence study and
     further titled sections of rows (dynamics, full order)."""
-    from quadmodes import __version__
+    from quadmodes._version import __version__
 
     parts = [
         "# Validation",

@@ -1,0 +1,260 @@
+"""Computations from Python, each delegating to the stage that does it: the modal model
+(inflation and modes), the reduced model, a run, its results file, the Campbell diagram, the
+rotating-frame comparison, the comparison with the full order, the end-mass calibration.
+
+Inputs are SI inside; every dimensional argument here also takes a quantity string or a pint
+quantity (:func:`quadmodes.api.quantities.si`). Cases may be given as objects, built-in names or
+TOML paths.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from quadmodes.api.cases import load
+from quadmodes.api.quantities import QuantityLike, si
+from quadmodes.case import Case, CaseError, RunCase
+
+#: ``progress(stage, fraction)``: a stage name and its completed fraction in [0, 1].
+Progress = Callable[[str, float], None]
+
+
+def _model(case: Case | str | os.PathLike[str]) -> Case:
+    """A model case from a case object, a name or a path (a run case gives its model)."""
+    if isinstance(case, Case):
+        return case
+    loaded = case if isinstance(case, RunCase) else load(case)
+    return loaded.model_case() if isinstance(loaded, RunCase) else loaded
+
+
+def _run(run: RunCase | str | os.PathLike[str]) -> RunCase:
+    loaded = run if isinstance(run, RunCase) else load(run)
+    if not isinstance(loaded, RunCase):
+        raise CaseError(f"{loaded.name} is a model case; give a run case (kind = \"run\")")
+    return loaded
+
+
+def modal_model(case, progress: Progress | None = None):
+    """Mesh, finite-element structure, inflated (prestressed) state and free-free modes.
+
+    Parameters
+    ----------
+    case : Case, str or path
+        Model case (or a run case: its model).
+
+    Returns
+    -------
+    quadmodes.structure.pipeline.ModalModel
+        ``structure``; ``x`` (n, 3) m, the inflated positions; ``modes.frequencies_hz`` (N,) Hz
+        and ``modes.shapes`` (N, n, 3) mass-normalised (kg^-0.5); ``labels`` (N,).
+        :func:`modes_summary` gives what ``quadmodes modes`` prints.
+    """
+    from quadmodes.structure.pipeline import build_modal_model
+
+    return build_modal_model(_model(case), progress)
+
+
+def modes_summary(modal) -> dict:
+    """What ``quadmodes modes --json`` prints for a :func:`modal_model`: ``frequencies_hz``
+    (Hz), ``labels``, ``mass_kg`` (kg), ``inertia_kg_m2`` (3, 3) kg m^2, ``pressure_pa`` (Pa),
+    prestress figures (N/m)."""
+    from quadmodes.structure.pipeline import modes_summary as summary
+
+    return summary(modal)
+
+
+def reduced_model(
+    case, n_modes: int = 5, *, spin: QuantityLike = 0.0, progress: Progress | None = None,
+    cache: bool = True,
+):  # fmt: skip
+    """The reduced model (quadratic modes, floating-frame arrays) of a model case, from the
+    model cache ($QUADMODES_CACHE) unless ``cache`` is False.
+
+    Parameters
+    ----------
+    n_modes
+        Elastic modes kept (1).
+    spin
+        Angular rate of the state the model is expanded about: 0 (at rest) or e.g. "41 Hz";
+        a bare float is rad/s.
+
+    Returns
+    -------
+    quadmodes.rom.reduced.ReducedModel
+        ``frequencies_hz`` (N,) Hz, ``labels``, ``mass`` kg, ``J0`` (3, 3) kg m^2, ...
+    """
+    from quadmodes.runs.model_cache import reduced_model_for
+
+    rate = si(spin, "angular_rate", "spin")
+    return reduced_model_for(_model(case), int(n_modes), progress, use_cache=cache, spin=rate)
+
+
+def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None):
+    """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
+    spin-up (``[spinup]``).
+
+    Parameters
+    ----------
+    run : RunCase, str or path
+        The run (:func:`quadmodes.run_case`); times in s, rates in rad/s inside.
+    model_case
+        Run this model instead of the one the run names; it is recorded in the result's run case
+        (``result.run.model``), so its TOML (``case_toml`` of ``results.nc``) replays it.
+    model
+        An already reduced model to use (else from the cache).
+
+    Returns
+    -------
+    quadmodes.runs.simulate.RunResult or SpinupRun
+        ``solution`` (t (nt,) s, y (nt, 7 + 2N)), ``diagnostics`` (angular momentum kg m^2/s,
+        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``;
+        :func:`summary` gives what ``quadmodes run`` prints.
+    """
+    from quadmodes.runs import simulate as sim
+
+    run = _run(run)
+    if run.spinup is not None:
+        return sim.simulate_spinup(run, model, model_case=model_case)
+    return sim.simulate(run, model, progress, model_case=model_case)
+
+
+def results_dataset(result):
+    """The ``results.nc`` dataset (xarray, CF attributes: ``long_name``, ``units``) of a
+    :func:`simulate` result; time in s, angles in rad, rates in rad/s, modal coordinates in
+    kg^0.5 m."""
+    from quadmodes.runs import results
+
+    if hasattr(result, "diagnostics"):
+        return results.to_dataset(result)
+    return results.spinup_dataset(result)
+
+
+def summary(result) -> dict:
+    """The run summary (``summary.json``, the table ``quadmodes run`` prints) of a
+    :func:`simulate` result; keys carry their units: ``_hz`` (Hz), ``_deg`` (deg), ``_J`` (J),
+    ``_s`` (s)."""
+    from quadmodes.runs import results
+
+    ds = results_dataset(result)
+    return results.summary(ds) if hasattr(result, "diagnostics") else results.spinup_summary(ds)
+
+
+def write_results(result, folder: str | os.PathLike[str], plots: bool = True) -> dict:
+    """Write ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
+    rad/s, J, kg m^2/s, kg^0.5 m), ``summary.json`` and (if ``plots``) the PNG figures of a
+    :func:`simulate` result into ``folder`` (created); returns the summary (:func:`summary`)."""
+    from quadmodes.runs import results
+
+    folder = Path(folder)
+    if hasattr(result, "diagnostics"):
+        return results.write_outputs(result, folder, plots=plots)
+    return results.write_spinup_outputs(result, folder, plots=plots)
+
+
+def campbell(
+    case, spin_min: QuantityLike = 0.0, spin_max: QuantityLike = "10 rad/s", points: int = 41,
+    *, formulation: str = "Q", output_dir: str | os.PathLike[str] | None = None,
+    progress: Progress | None = None,
+):  # fmt: skip
+    """Frequencies of the reduced model linearised about steady spin at ``points`` spin rates
+    from ``spin_min`` to ``spin_max`` (quantities, e.g. "20 Hz"; bare floats are rad/s),
+    tracked by MAC (what ``quadmodes campbell`` prints).
+
+    Returns
+    -------
+    quadmodes.analysis.campbell.CampbellResult
+        ``spin`` (ns,) rad/s, ``labels`` (nb,), ``frequency`` (ns, nb) rad/s (rotating frame),
+        ``growth`` (ns, nb) 1/s, ``min_stiffness`` (ns,) 1/s^2. With ``output_dir``
+        campbell.png/.nc/.csv are written there.
+    """
+    from quadmodes.analysis.campbell_output import campbell_main
+
+    lo = si(spin_min, "angular_rate", "spin_min")
+    hi = si(spin_max, "angular_rate", "spin_max")
+    result, _ = campbell_main(_model(case), lo, hi, int(points), formulation=formulation,
+                              output_dir=output_dir, progress=progress)  # fmt: skip
+    return result
+
+
+def rotating(
+    case, spins: Sequence[QuantityLike] = ("0 Hz", "20 Hz", "41 Hz"), n_modes: int = 5,
+    formulations: Sequence[str] = ("Q", "L"), *, progress: Progress | None = None,
+):  # fmt: skip
+    """Rotating-frame frequencies of the full-order model about its spinning equilibrium
+    against the reduced model's, branch by branch (what ``quadmodes rotating`` prints).
+
+    ``spins``: spin rates (quantities, e.g. "20 Hz"; bare floats are Hz). Returns a
+    :class:`quadmodes.analysis.rotating_comparison.ComparisonTable` (frequencies in Hz,
+    rotating frame); ``table.to_text()`` is the printed table."""
+    from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
+
+    hz = tuple(si(v, "frequency", "spins") for v in spins)
+    return rotating_frequency_comparison(_model(case), hz, int(n_modes), tuple(formulations),
+                                         progress=progress)  # fmt: skip
+
+
+def compare(
+    run, window: QuantityLike = "1 s", *, formulations: Sequence[str] = ("rigid", "L", "P", "Q"),
+    full_order_dt: QuantityLike | None = None, progress: Progress | None = None,
+):  # fmt: skip
+    """Reduced formulations against the full-order finite-element transient over
+    ``[0, window]`` (a time; bare floats are s). Expensive: the full order of the paper model
+    takes minutes per simulated second.
+
+    Returns
+    -------
+    quadmodes.analysis.compare.Comparison
+        ``table``: per formulation the relative errors (1), wall time (s), speed-up (1) and the
+        secular rates; :func:`quadmodes.analysis.compare.write_comparison` writes
+        ``comparison.nc``.
+    """
+    from quadmodes.analysis.compare import compare as run_compare
+
+    dt = None if full_order_dt is None else si(full_order_dt, "time", "full_order_dt")
+    return run_compare(_run(run), si(window, "time", "window"), formulations=tuple(formulations),
+                       full_order_dt=dt, progress=progress)  # fmt: skip
+
+
+def calibrate(
+    case, rocking: QuantityLike = "31.2 Hz", bending: QuantityLike = "38 Hz",
+    axial: QuantityLike | None = None, *, progress: Progress | None = None,
+) -> Any:  # fmt: skip
+    """Fit the end-body masses (and the rear inertia when ``axial`` is given) so that the rear
+    rocking pair, the bending pair (and the rear axial mode) are at the target frequencies
+    (quantities, e.g. "31.2 Hz"; bare floats are Hz).
+
+    Returns
+    -------
+    quadmodes.structure.calibrate.CalibrationResult
+        ``case`` (the calibrated :class:`~quadmodes.case.Case`), ``masses_kg`` (kg),
+        ``frequencies_hz`` (N,) Hz, ``labels``.
+    """
+    from quadmodes.structure.calibrate import calibrate_end_masses
+
+    target = None if axial is None else si(axial, "frequency", "axial")
+    return calibrate_end_masses(
+        _model(case), rocking_hz=si(rocking, "frequency", "rocking"),
+        bending_hz=si(bending, "frequency", "bending"), axial_hz=target, progress=progress,
+    )  # fmt: skip
+
+
+def dt_convergence(run, *, progress: Progress | None = None) -> list[dict]:
+    """The run at its step dt, dt/2 and dt/4 (fixed-step methods): one row per step with
+    ``dt_s`` (s), ``steps``, the final ``cone_angle_deg`` (deg), ``spin_rate_hz`` (Hz),
+    ``dissipated_energy_J`` (J) and their relative changes (1), as ``run --dt-convergence``."""
+    from quadmodes.runs import simulate as sim
+
+    return sim.dt_convergence(sim.prepare(_run(run), progress=progress), progress=progress)
+
+
+def mode_convergence(run, *, progress: Progress | None = None) -> dict:
+    """The run with its N modes and the next two pair-whole mode counts above N:
+    ``{"rows": [...], "converged", "text", ...}`` with the headline numbers (deg, Hz, J, their
+    units in the keys) and their relative changes (1), as ``run --mode-convergence``."""
+    from quadmodes.runs import simulate as sim
+    from quadmodes.runs.mode_convergence import mode_convergence as convergence
+
+    return convergence(sim.prepare(_run(run), progress=progress), progress=progress)
