@@ -41,3 +41,24 @@ def test_no_deformation_no_check():
     run = bending_run(0.0)
     validity = simulate.prepare(run, check_deformation=True).validity
     assert math.isnan(validity.deformation_error) and validity.valid
+
+
+def test_run_command_flags_a_large_initial_deformation(tmp_path):
+    """`quadmodes run` checks the deformation, warns in one line and records both energies."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from quadmodes.cli import app
+
+    case = tmp_path / "bend2.toml"
+    case.write_text(bending_run(2.0).to_toml())
+    result = CliRunner().invoke(app, ["run", str(case), "--duration", "0.02 s", "--no-plots",
+                                      "-o", str(tmp_path / "out")])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "initial.bending_amplitude" in result.output
+    summary = json.loads(next((tmp_path / "out").rglob("summary.json")).read_text())
+    v = summary["validity"]
+    assert summary["valid"] is False
+    red, cond = v["initial_deformation_energy_reduced_J"], v["initial_deformation_energy_condensed_J"]
+    assert red > cond > 0 and (red - cond) / cond > 0.02

@@ -217,6 +217,13 @@ def validity_summary(ds: xr.Dataset) -> dict:
             "spin_rate_rad_s": _float(ds.attrs.get("validity_spin_rate", float("nan"))),
             "lost_at_spin_rate_rad_s": lost,
             "message": str(ds.attrs.get("validity_message", "")),
+            # the initial deformation beside the FE model's condensed energy (J; null if unchecked)
+            "initial_deformation_energy_reduced_J": _float(
+                ds.attrs.get("initial_deformation_energy_reduced", float("nan"))
+            ),
+            "initial_deformation_energy_condensed_J": _float(
+                ds.attrs.get("initial_deformation_energy_condensed", float("nan"))
+            ),
         },
     }
 
