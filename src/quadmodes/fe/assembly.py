@@ -61,23 +61,63 @@ class CsrPattern:
     slots: np.ndarray
 
 
-def csr_pattern(conns: Sequence[np.ndarray], n: int) -> CsrPattern:
+def element_entries(conn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns ``(ne·m²,)`` of the entries of element matrices ``(ne, m, m)`` (m = 3k)
+    raveled, for a connectivity ``conn`` ``(ne, k)``."""
+    dofs = element_dofs(conn)
+    m = dofs.shape[1]
+    return np.repeat(dofs, m, axis=1).ravel(), np.tile(dofs, (1, m)).ravel()
+
+
+def csr_pattern(
+    conns: Sequence[np.ndarray], n: int, extra: Sequence[tuple[np.ndarray, np.ndarray]] = ()
+) -> CsrPattern:
     """The :class:`CsrPattern` of element sets with connectivities ``conns`` (each ``(ne, k)``)
-    over ``n`` vector DOFs."""
+    over ``n`` vector DOFs. ``extra``: further entries as ``(rows, cols)`` scalar-DOF index
+    arrays (e.g. the COO entries of a mass matrix); their slots follow the sets' in order."""
     size = 3 * n
     keys = []
     for conn in conns:
-        dofs = element_dofs(conn)
-        m = dofs.shape[1]
-        rows = np.repeat(dofs, m, axis=1).ravel()
-        cols = np.tile(dofs, (1, m)).ravel()
+        rows, cols = element_entries(conn)
         keys.append(rows.astype(np.int64) * size + cols)
+    for rows, cols in extra:
+        keys.append(np.asarray(rows, np.int64) * size + np.asarray(cols, np.int64))
     unique, slots = np.unique(np.concatenate(keys), return_inverse=True)
     rows = unique // size
     indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=size))])
     index_type = np.int32 if unique.size < 2**31 else np.int64
     return CsrPattern(size, indptr.astype(index_type), (unique % size).astype(index_type),
                       slots.astype(index_type))  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class SubmatrixMap:
+    """CSC pattern of the submatrix ``A[keep][:, keep]`` of a :class:`CsrPattern` and, for each
+    of its entries, the position in the pattern's CSR data: ``data_sub = data[positions]``.
+
+    size: ``len(keep)``; indptr ``(size + 1,)``, indices ``(nnz_sub,)``, positions ``(nnz_sub,)``."""
+
+    size: int
+    indptr: np.ndarray
+    indices: np.ndarray
+    positions: np.ndarray
+
+    def csc(self, data: np.ndarray) -> sp.csc_matrix:
+        """The submatrix (CSC) of the full matrix with CSR data ``data`` ``(nnz,)``."""
+        shape = (self.size, self.size)
+        return sp.csc_matrix((data[self.positions], self.indices, self.indptr), shape=shape)
+
+
+def submatrix_map(pattern: CsrPattern, keep: np.ndarray) -> SubmatrixMap:
+    """The :class:`SubmatrixMap` of ``pattern`` on the scalar DOFs ``keep`` (sorted indices)."""
+    nnz = pattern.indices.size
+    shape = (pattern.size, pattern.size)
+    # data = 1 + position, so that no entry is an explicit zero that scipy could drop
+    marks = sp.csr_matrix((np.arange(1, nnz + 1, dtype=np.int64), pattern.indices,
+                           pattern.indptr), shape=shape)  # fmt: skip
+    sub = marks[keep][:, keep].tocsc()
+    sub.sort_indices()
+    return SubmatrixMap(len(keep), sub.indptr, sub.indices, sub.data - 1)
 
 
 def assemble_csr(pattern: CsrPattern, element_matrices: Sequence[np.ndarray]) -> sp.csr_matrix:

@@ -74,7 +74,9 @@ class Body:
     ms (n,n) kg: scalar mass. t (n,) float: translational indicator. w (n,) kg: ``M_s t``.
     mass kg. X (n,3): reference about the CoM (free body) or the hub point (clamped).
     MX (n,3) = ``M_s X``. Phi (N,n,3), G (N,N,n,3): retained modes and quadratic modes (may be
-    N = 0). MPhi (N,n,3) = ``M_s Φ``. tip: index of the tip position row (clamped) or None."""
+    N = 0). MPhi (N,n,3) = ``M_s Φ``. tip: index of the tip position row (clamped) or None.
+    GM (N,N,N) √kg·m⁻¹: ``Φ_kᵀ M g^{mn}`` (indexed k, m, n) for :func:`modal_coordinates`, or
+    None (computed there)."""
 
     ms: sp.csr_matrix
     t: np.ndarray
@@ -86,6 +88,7 @@ class Body:
     G: np.ndarray
     MPhi: np.ndarray
     tip: int | None = None
+    GM: np.ndarray | None = None
 
     @property
     def n_modes(self) -> int:
@@ -105,7 +108,8 @@ def make_body(ms, translational, X, model: ReducedModel | None, hub: bool) -> Bo
     if hub:
         r = np.where(t > 0, np.linalg.norm(X, axis=1), -np.inf)
         tip = int(np.argmax(r))
-    return Body(ms, t, w, float(w.sum()), X, ms @ X, phi, g, mphi, tip)
+    gm = np.einsum("mnia,kia->kmn", g, mphi)  # Φᵀ M g^{mn}, once instead of per sample
+    return Body(ms, t, w, float(w.sum()), X, ms @ X, phi, g, mphi, tip, gm)
 
 
 def centre(body: Body, x: np.ndarray) -> np.ndarray:
@@ -141,7 +145,7 @@ def modal_coordinates(
     lin = np.einsum("kia,ia->k", body.MPhi, u)
     s = lin
     if quadratic:
-        gm = np.einsum("mnia,kia->kmn", body.G, body.MPhi)  # Φᵀ M g^{mn}
+        gm = body.GM if body.GM is not None else np.einsum("mnia,kia->kmn", body.G, body.MPhi)
         for _ in range(iterations):
             s = lin - np.einsum("kmn,m,n->k", gm, s, s)
     return s
