@@ -39,13 +39,30 @@ def _rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product ``(ne, 3)`` (np.cross without its axis handling)."""
-    out = np.empty_like(a)
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product ``(ne, 3)`` of ``(ne, 3)`` arrays, or of a ``(3,)`` vector with
+    the rows of the other (np.cross without its axis handling)."""
+    a, b = np.broadcast_arrays(a, b)
+    out = np.empty(a.shape)
     out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
     out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
     out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     return out
+
+
+def jit_module():
+    """:mod:`quadmodes.fullorder.jit` if numba is importable, else None (looked up once)."""
+    global _JIT
+    if _JIT is None:
+        try:
+            from quadmodes.fullorder import jit
+        except ImportError:  # numba (the [jit] / [fast] extra) not installed
+            jit = False
+        _JIT = jit
+    return _JIT or None
+
+
+_JIT = None
 
 
 def _node_operator(conn: np.ndarray, weights: np.ndarray, n: int) -> sp.csr_matrix:
@@ -62,11 +79,12 @@ class _Membrane:
 
     tie = False
 
-    def __init__(self, e: MembraneSet, n: int):
-        self.set, self.conn = e, e.conn
+    def __init__(self, e: MembraneSet, n: int, jit=None):
+        self.set, self.conn, self.n, self.jit = e, np.ascontiguousarray(e.conn), n, jit
         self.g0, self.g1 = e.gradients[:, :, 0].copy(), e.gradients[:, :, 1].copy()
         self.vol = e._volume()
         self.ne = len(self.vol)
+        self.vg0, self.vg1 = self.vol[:, None] * self.g0, self.vol[:, None] * self.g1
         # F columns = G x (2ne × n); nodal forces = (vol G)ᵀ [F S̄ columns] (n × 2ne)
         self.grad_op = sp.vstack([_node_operator(e.conn, self.g0, n),
                                   _node_operator(e.conn, self.g1, n)], format="csr")  # fmt: skip
@@ -96,6 +114,11 @@ class _Membrane:
     def force(self, start, x1: np.ndarray) -> np.ndarray:
         """Nodal forces (n,3) of ``A₀t F(x½) S̄ Gᵀ``, S̄ the stress of (ε₀ + ε₁)/2."""
         a0, b0, e0 = start
+        if self.jit is not None:
+            out = np.zeros((self.n, 3))
+            self.jit.membrane_force(self.conn, self.g0, self.g1, self.vg0, self.vg1, self.d,
+                                    a0, b0, e0, np.ascontiguousarray(x1), out)  # fmt: skip
+            return out
         a1, b1 = self.columns(x1)
         s11, s22, s12 = self._stress(0.5 * (e0 + self.strain(a1, b1)))
         fh0, fh1 = 0.5 * (a0 + a1), 0.5 * (b0 + b1)
@@ -177,8 +200,8 @@ class _Pressure:
 
     tie = False
 
-    def __init__(self, e: PressureSet, n: int):
-        self.set, self.conn, self.n = e, e.conn, n
+    def __init__(self, e: PressureSet, n: int, jit=None):
+        self.set, self.conn, self.n, self.jit = e, np.ascontiguousarray(e.conn), n, jit
         ne = e.conn.shape[0]
         # corners a = 0, 1, 2 of every triangle stacked (3ne × n); its transpose scatters
         rows = np.arange(3 * ne)
@@ -191,10 +214,16 @@ class _Pressure:
 
     def force(self, start, x1: np.ndarray) -> np.ndarray:
         e, ne = self.set, self.ne
+        p = e.load_factor * e.reference_pressure
+        if self.jit is not None:
+            grad = np.zeros((self.n, 3))
+            volume = self.jit.pressure_gradient(self.conn, 0.5 * (start + x1), grad)
+            if e.gas_law_exponent:
+                p *= (e.reference_volume / volume) ** e.gas_law_exponent
+            return (-p) * grad
         corners = self.gather @ (0.5 * (start + x1))
         x0, x1_, x2 = corners[:ne], corners[ne : 2 * ne], corners[2 * ne :]
-        grad = np.concatenate([_cross(x1_, x2), _cross(x2, x0), _cross(x0, x1_)])
-        p = e.load_factor * e.reference_pressure
+        grad = np.concatenate([cross_rows(x1_, x2), cross_rows(x2, x0), cross_rows(x0, x1_)])
         if e.gas_law_exponent:
             volume = float(np.sum(x0 * grad[:ne])) / 6.0  # Σ x₁·(x₂×x₃)/6
             p *= (e.reference_volume / volume) ** e.gas_law_exponent
@@ -222,11 +251,11 @@ class _Midpoint:
         return 0.5 * self.set.stiffness(0.5 * (x0 + x1))
 
 
-def _kernel(e, n: int, energy_momentum: bool):
+def _kernel(e, n: int, energy_momentum: bool, jit):
     if isinstance(e, PressureSet):
-        return _Pressure(e, n)
+        return _Pressure(e, n, jit)
     if energy_momentum and isinstance(e, MembraneSet):
-        return _Membrane(e, n)
+        return _Membrane(e, n, jit)
     if energy_momentum and isinstance(e, BarSet):
         return _Bar(e, n)
     return _Midpoint(e, n)
@@ -251,10 +280,15 @@ class StepOperators:
 
     @classmethod
     def build(cls, structure: Structure, m_full: sp.spmatrix, free: np.ndarray,
-              energy_momentum: bool) -> StepOperators:  # fmt: skip
+              energy_momentum: bool, jit: bool | None = None) -> StepOperators:  # fmt: skip
         """Operators of ``structure`` with mass ``m_full`` (3n,3n) and free scalar DOFs
-        ``free`` (sorted)."""
-        kernels = tuple(_kernel(e, structure.n, energy_momentum) for e in structure.elements)
+        ``free`` (sorted). jit: the compiled membrane and pressure forces
+        (:mod:`~quadmodes.fullorder.jit`; None: if numba is importable; False: numpy)."""
+        module = jit_module() if jit is None or jit else None
+        if jit and module is None:
+            raise ValueError("jit: numba is not installed (pip install 'quadmodes[fast]')")
+        kernels = tuple(_kernel(e, structure.n, energy_momentum, module)
+                        for e in structure.elements)  # fmt: skip
         conns = [np.asarray(e.conn) for e in structure.elements]
         m = sp.coo_matrix(m_full)
         pattern = csr_pattern(conns, structure.n, [(m.row, m.col)])

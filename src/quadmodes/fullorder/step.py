@@ -23,6 +23,7 @@ from quadmodes.fe.membrane import MembraneSet, _voigt_stress, green_strain
 from quadmodes.fe.model import Structure, internal_force
 from quadmodes.fullorder.kernels import StepOperators
 from quadmodes.fullorder.setup import FullOrderProblem
+from quadmodes.rotations import skew
 
 # ---------------------------------------------------------------------------------------------
 # step force: midpoint with the Simo–Tarnow stress average
@@ -144,12 +145,13 @@ def damping_force(
 def _rigid_moments(body: kin.Body, r: np.ndarray, u: np.ndarray) -> np.ndarray:
     """``Ψᵀu`` (6,): the net ``Σ tᵢuᵢ`` and the moment ``Σ rᵢ × uᵢ`` of u (n,3) about the
     point of r = x − t p (n,3) (:func:`rigid_basis` without forming it)."""
-    return np.concatenate([body.t @ u, np.sum(np.cross(r, u), axis=0)])
+    p = r.T @ u  # Σ rᵢ uᵢᵀ; its antisymmetric part is the moment
+    return np.concatenate([body.t @ u, [p[1, 2] - p[2, 1], p[2, 0] - p[0, 2], p[0, 1] - p[1, 0]]])
 
 
 def _rigid_motion(body: kin.Body, r: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``Ψa`` (n,3): the rigid motion ``tᵢ a_t + a_r × rᵢ`` of a (6,)."""
-    return np.outer(body.t, a[:3]) + np.cross(a[3:], r)
+    return np.outer(body.t, a[:3]) + r @ skew(a[3:]).T
 
 
 def _rigid_gram_inverse(body: kin.Body, r: np.ndarray) -> np.ndarray:
@@ -161,7 +163,7 @@ def _rigid_gram_inverse(body: kin.Body, r: np.ndarray) -> np.ndarray:
     s = body.w @ r
     g = np.zeros((6, 6))
     g[:3, :3] = float(body.t @ body.w) * np.eye(3)
-    g[:3, 3:] = np.cross(np.eye(3), s).T  # column b: e_b × s
+    g[:3, 3:] = -skew(s)  # column b: e_b × s = −[s]× e_b
     g[3:, :3] = g[:3, 3:].T
     g[3:, 3:] = np.trace(p) * np.eye(3) - p
     return _symmetric_pinv(g)

@@ -1,0 +1,61 @@
+"""Compiled (numba) loops of the two largest element forces of a full-order step: the
+energy–momentum membrane force and the follower-pressure force at x½. Used by
+:mod:`quadmodes.fullorder.kernels` when numba (the ``[jit]`` / ``[fast]`` extra) is importable;
+the numpy forms there are the fallback and the reference (same arithmetic per element, so the
+two agree to round-off). ``@njit(cache=True)``: compiled once per machine and numba version.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(cache=True)
+def membrane_force(conn, g0, g1, vg0, vg1, d, a0, b0, e0, x1, out):  # pragma: no cover - jit
+    """Add the membrane step forces to ``out`` (n,3): per element F(x₁) columns from ``g0, g1``
+    (ne,3), S̄ = D (ε₀ + ε₁)/2 with ``e0`` (3,ne) the Voigt start strain, F(x½) from the start
+    columns ``a0, b0`` (ne,3), and ``f_a = vg0_a F½S̄[:,0] + vg1_a F½S̄[:,1]`` (vg = A₀t G)."""
+    a1 = np.empty(3)  # F(x₁) columns of the current element (allocated once)
+    b1 = np.empty(3)
+    for e in range(conn.shape[0]):
+        n0, n1, n2 = conn[e, 0], conn[e, 1], conn[e, 2]
+        for i in range(3):
+            a1[i] = g0[e, 0] * x1[n0, i] + g0[e, 1] * x1[n1, i] + g0[e, 2] * x1[n2, i]
+            b1[i] = g1[e, 0] * x1[n0, i] + g1[e, 1] * x1[n1, i] + g1[e, 2] * x1[n2, i]
+        e11 = 0.5 * (e0[0, e] + 0.5 * (a1[0] * a1[0] + a1[1] * a1[1] + a1[2] * a1[2] - 1.0))
+        e22 = 0.5 * (e0[1, e] + 0.5 * (b1[0] * b1[0] + b1[1] * b1[1] + b1[2] * b1[2] - 1.0))
+        g12 = 0.5 * (e0[2, e] + (a1[0] * b1[0] + a1[1] * b1[1] + a1[2] * b1[2]))
+        s11 = d[0, 0] * e11 + d[0, 1] * e22 + d[0, 2] * g12
+        s22 = d[1, 0] * e11 + d[1, 1] * e22 + d[1, 2] * g12
+        s12 = d[2, 0] * e11 + d[2, 1] * e22 + d[2, 2] * g12
+        for i in range(3):
+            fh0 = 0.5 * (a0[e, i] + a1[i])
+            fh1 = 0.5 * (b0[e, i] + b1[i])
+            p0 = fh0 * s11 + fh1 * s12
+            p1 = fh0 * s12 + fh1 * s22
+            out[n0, i] += vg0[e, 0] * p0 + vg1[e, 0] * p1
+            out[n1, i] += vg0[e, 1] * p0 + vg1[e, 1] * p1
+            out[n2, i] += vg0[e, 2] * p0 + vg1[e, 2] * p1
+
+
+@nb.njit(cache=True)
+def pressure_gradient(conn, xh, out):  # pragma: no cover - jit
+    """Add ``∇V`` at xh (n,3) of the triangles ``conn`` (nt,3) to ``out`` (n,3) (m²) and
+    return the enclosed volume V (m³)."""
+    volume = 0.0
+    for e in range(conn.shape[0]):
+        p, q, r = conn[e, 0], conn[e, 1], conn[e, 2]
+        for a in range(3):
+            u = xh[q] if a == 0 else (xh[r] if a == 1 else xh[p])
+            w = xh[r] if a == 0 else (xh[p] if a == 1 else xh[q])
+            node = p if a == 0 else (q if a == 1 else r)
+            c0 = (u[1] * w[2] - u[2] * w[1]) / 6.0
+            c1 = (u[2] * w[0] - u[0] * w[2]) / 6.0
+            c2 = (u[0] * w[1] - u[1] * w[0]) / 6.0
+            out[node, 0] += c0
+            out[node, 1] += c1
+            out[node, 2] += c2
+            if a == 0:
+                volume += xh[p, 0] * c0 + xh[p, 1] * c1 + xh[p, 2] * c2
+    return volume
