@@ -15,7 +15,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from quadmodes.fe.assembly import assemble_matrix, csr_pattern, submatrix_map
-from quadmodes.fe.model import centre_of_mass, mass_matrix, tangent_stiffness
+from quadmodes.fe.model import centre_of_mass, mass_matrix, strain_energy, tangent_stiffness
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.fullorder import initial_state_from_reduced, integrate_full_order
 from quadmodes.fullorder import kinematics as kin
@@ -63,6 +63,13 @@ def test_step_force_kernels_match_the_reference(pair, jit):
         ref = stp.step_force(s, x0, x1)
         got = ops.step_force(ops.start(x0), x1)
         assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()
+
+
+def test_potential_energy_through_the_kernels(pair):
+    structure, gas, x0, _ = pair
+    for s in (structure, gas):
+        ops = StepOperators.build(s, mass_matrix(s), s.free_dofs, True)
+        assert ops.energy(x0) == pytest.approx(strain_energy(s, x0), rel=1e-12)
 
 
 def test_newton_matrix_in_its_pattern_equals_a_coo_assembly(pair):

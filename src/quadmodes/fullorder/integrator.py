@@ -114,8 +114,9 @@ def integrate_full_order(
     the initial body frame for the axis tracking (default: the minor axis of the initial
     inertia). newton_tol: relative (to the body size) Newton correction at convergence.
     max_newton: iterations per step. full_newton: a fresh factorisation of the whole Newton
-    matrix at every iteration, assembled the straightforward way (the reference the tests
-    compare the default with; several times slower). checkpoint: .npz path written every ``checkpoint_every``
+    matrix at every iteration, matrix and step force computed the straightforward way
+    (:func:`~quadmodes.fullorder.newton.step_jacobian`, :func:`~quadmodes.fullorder.step.step_force`;
+    the reference the tests compare the default with; several times slower). checkpoint: .npz path written every ``checkpoint_every``
     steps (atomic); ``resume``: continue from it (same t0, dt; the end may differ) — the result
     equals the uninterrupted run's (the factorisation is renewed after every checkpoint in both).
     rotation_map: map the initial state to the scheme's steady-rotation form and the sampled
@@ -128,7 +129,8 @@ def integrate_full_order(
         structure, x_ref, t_span, dt, model=model, damping=damping, hub=hub,
         newton_tol=newton_tol, energy_momentum=energy_momentum, rotation_map=rotation_map,
     )  # fmt: skip
-    samples = SampledSeries(problem, spin_axis)
+    ops = StepOperators.build(structure, problem.m_full, problem.free, energy_momentum)
+    samples = SampledSeries(problem, spin_axis, ops.energy)
     ck = Path(checkpoint) if checkpoint is not None else None
     state = initial_run_state(x0, v0)
     if resume and ck is not None and ck.is_file():
@@ -137,7 +139,7 @@ def integrate_full_order(
         state = discrete_initial_state(problem, state)
         samples.record(problem.t0, state.x, state.v, state.e_d)
     state, status, message = _run_steps(
-        problem, state, samples, max_newton=max_newton, full_newton=full_newton,
+        problem, state, samples, ops, max_newton=max_newton, full_newton=full_newton,
         save_every=save_every, checkpoint=ck,
         checkpoint_every=checkpoint_every, progress=progress, start=start,
     )  # fmt: skip
@@ -151,8 +153,8 @@ def integrate_full_order(
 
 
 def _run_steps(
-    problem: FullOrderProblem, state: RunState, samples: SampledSeries, *, max_newton: int,
-    full_newton: bool, save_every: int, checkpoint: Path | None, checkpoint_every: int,
+    problem: FullOrderProblem, state: RunState, samples: SampledSeries, ops: StepOperators, *,
+    max_newton: int, full_newton: bool, save_every: int, checkpoint: Path | None, checkpoint_every: int,
     progress: Callable[[float], None] | None, start: float,
 ) -> tuple[RunState, int, str]:  # fmt: skip
     """Step ``state`` to the end of the problem, sampling every ``save_every`` steps (and the
@@ -162,8 +164,6 @@ def _run_steps(
     reached is sampled)."""
     n_steps, matrix = problem.n_steps, None
     report = max(1, n_steps // 100)
-    ops = StepOperators.build(problem.structure, problem.m_full, problem.free,
-                              problem.energy_momentum)  # fmt: skip
     make = matrix_factory(problem, ops, full_newton)
     try:
         while state.step < n_steps:
@@ -197,7 +197,7 @@ def _advance(
     t_now, t1 = problem.time(state.step), problem.time(state.step + 1)
     frame_now = body_frame(problem.body, x, problem.hub, t_now)
     x1, rot = predict(problem, x, v, state.frame_prev, frame_now, t1)
-    residual = StepResidual.start(problem, x, v, t_now, ops)
+    residual = StepResidual.start(problem, x, v, t_now, None if full_newton else ops)
     res = solve_step(problem, matrix, x, x1, rot, residual, max_newton, make, full_newton)
     if not res.converged:
         kept = checkpoint if checkpoint is not None and checkpoint.is_file() else None

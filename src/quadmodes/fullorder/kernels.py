@@ -298,6 +298,18 @@ class StepOperators:
         return cls(structure.n, kernels, pattern, n_blocks, mass,
                    submatrix_map(pattern, np.asarray(free)))  # fmt: skip
 
+    def energy(self, x: np.ndarray) -> float:
+        """Total potential energy (J) at x (n,3), as :func:`quadmodes.fe.model.strain_energy`
+        (the membranes' through their kernels, which are faster)."""
+        total = 0.0
+        for k in self.kernels:
+            if isinstance(k, _Membrane):
+                e = k.strain(*k.columns(x))
+                total += 0.5 * float(np.sum(k.vol * np.sum(e * k._stress(e), axis=0)))
+            else:
+                total += float(k.set.energy(x))
+        return total
+
     def start(self, x0: np.ndarray) -> list:
         """Per-set data of the step's start state x0 (n,3) (strains, gradients)."""
         return [k.start(x0) for k in self.kernels]

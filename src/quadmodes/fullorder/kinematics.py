@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from quadmodes.fe import model as fem
 from quadmodes.rom.reduced import ReducedModel, cross_form
-from quadmodes.rotations import axis_rotation, polar_rotation, rotation_matrix
+from quadmodes.rotations import axis_rotation, polar_rotation, rotation_matrix, skew
 from quadmodes.structure.bordered import bordered_solver
 
 # ---------------------------------------------------------------------------------------------
@@ -347,7 +347,7 @@ def _rescale(body: Body, c, pd, r, w_from, w_to, radial: float, v_el) -> tuple:
     """State with ``r⊥`` (normal to ω) scaled by ``radial`` and the rigid velocity ω_to × r."""
     a = w_to / np.linalg.norm(w_to)
     r_new = r + (radial - 1.0) * (r - np.outer(r @ a, a))
-    return np.outer(body.t, c) + r_new, np.outer(body.t, pd) + np.cross(w_to, r_new) + v_el
+    return np.outer(body.t, c) + r_new, np.outer(body.t, pd) + r_new @ skew(w_to).T + v_el
 
 
 def to_discrete_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, expand: bool = True):
@@ -366,7 +366,7 @@ def to_discrete_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, exp
     phi = float(np.linalg.norm(w)) * h
     if phi == 0.0:
         return x.copy(), v.copy()
-    v_el = v - np.outer(body.t, pd) - np.cross(w, r)
+    v_el = v - np.outer(body.t, pd) - r @ skew(w).T  # − ω × r
     kappa = np.tan(0.5 * phi) / (0.5 * phi)
     radial = 1.0 / np.cos(0.5 * phi) if expand else 1.0
     return _rescale(body, c, pd, r, w, kappa * w, radial, v_el)
@@ -381,6 +381,6 @@ def to_physical_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, exp
     if phi_d == 0.0:
         return x.copy(), v.copy()
     phi = 2.0 * np.arctan(0.5 * phi_d)
-    v_el = v - np.outer(body.t, pd) - np.cross(w, r)
+    v_el = v - np.outer(body.t, pd) - r @ skew(w).T  # − ω × r
     radial = np.cos(0.5 * phi) if expand else 1.0
     return _rescale(body, c, pd, r, w, w * (phi / phi_d), radial, v_el)

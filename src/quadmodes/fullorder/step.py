@@ -134,7 +134,7 @@ def damping_force(
     else:
         rot = hub_rotation
         r = x - np.outer(body.t, hub_point)
-        vel = v - np.cross(hub_omega, r)
+        vel = v - r @ skew(hub_omega).T  # v − Ω × r
     q = c @ (mphi_flat @ (vel @ rot).ravel())
     f = (q @ mphi_flat).reshape(n, 3) @ rot.T
     if hub_rotation is None:
