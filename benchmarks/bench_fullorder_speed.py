@@ -55,12 +55,14 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
 
 
 def build_setup(case: str, folder: Path) -> Path:
-    """Pickle the full-order setup of ``case`` (this tree) into ``folder``."""
+    """Pickle the full-order setup of ``case`` (this tree) into ``folder`` (kept if there)."""
     from quadmodes.fullorder.runs import setup_for_run
 
+    path = folder / f"{case}.pkl"
+    if path.is_file():
+        return path
     st = setup_for_run(case)
     st.structure.pattern_cache.clear()  # plain arrays only: both trees unpickle it
-    path = folder / f"{case}.pkl"
     with open(path, "wb") as fh:
         pickle.dump(st, fh)
     return path
@@ -94,8 +96,9 @@ def differences(old: dict, new: dict) -> dict:
     }
 
 
-def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp: Path) -> dict:
-    setup = build_setup(case, tmp)
+def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp: Path,
+            setups: Path) -> dict:  # fmt: skip
+    setup = build_setup(case, setups)
     runs = {"old": [], "new": []}
     for k in range(repeat):
         for label, src in (("old", old_src), ("new", NEW_SRC)):
@@ -142,6 +145,8 @@ def main() -> None:
     ap.add_argument("--window", type=float, default=0.2, help="simulated window (s)")
     ap.add_argument("--dt", type=float, default=2.5e-4, help="full-order step (s)")
     ap.add_argument("--repeat", type=int, default=2, help="old/new pairs per case")
+    ap.add_argument("--setups", type=Path, default=None,
+                    help="folder keeping the pickled setups between runs (default: temporary)")
     args = ap.parse_args()
     if not (args.old / "quadmodes" / "__init__.py").is_file():
         print(f"error: --old {args.old}: not a source folder with quadmodes/ in it; give the "
@@ -150,8 +155,10 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for case in args.cases.split(","):
+            setups = args.setups if args.setups is not None else Path(tmp)
+            setups.mkdir(parents=True, exist_ok=True)
             rows.append(measure(case.strip(), args.old, args.window, args.dt, args.repeat,
-                                Path(tmp)))  # fmt: skip
+                                Path(tmp), setups))  # fmt: skip
     report(rows)
 
 

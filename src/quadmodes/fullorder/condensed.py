@@ -76,9 +76,13 @@ class CondensedNewtonMatrix:
         a = ops.newton_matrix(z0, z1, self.weight, skip=split.stiff).tocsr()
         soft, tie = split.soft, split.tie
         self.a_ti = a[tie][:, soft]
-        a_it = a[soft][:, tie].toarray()
+        a_it = a[soft][:, tie].tocsc()
         self.lu = factorize(a[soft][:, soft].tocsc(), symmetric=True)
-        self.z = self.lu.solve(a_it)  # A_II⁻¹ A_IT (|I|, |T|)
+        # Z = A_II⁻¹ A_IT (|I|, |T|); the columns of the end-body points (no membrane) are zero
+        coupled = np.flatnonzero(np.diff(a_it.indptr))
+        self.z = np.zeros((len(soft), len(tie)))
+        if len(coupled):
+            self.z[:, coupled] = self.lu.solve(a_it[:, coupled].toarray())
         self.s_soft = a[tie][:, tie].toarray() - self.a_ti @ self.z
         self.s_lu = None
         self.low = []
