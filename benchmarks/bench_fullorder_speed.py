@@ -6,7 +6,8 @@ then two child processes integrate the same window from it, one importing this t
 importing an older source tree given by ``--old`` (e.g. a ``git worktree`` of main before
 issue 10: ``git worktree add --detach /tmp/qm-old 55d0bce``). The runs alternate old/new
 ``--repeat`` times so that both see the same machine load. Printed per case: wall time per
-simulated second (best of the repeats) and the ratio old/new, Newton iterations and
+simulated second (best of the repeats) and the ratio old/new, in wall and in CPU time (the
+CPU time of the child, less disturbed by other jobs on a shared machine), Newton iterations and
 factorisations per step, and how far the results differ: the |H| drift, the energy E and
 the balance E + E_d relative to the kinetic energy, and the modal envelope (max |s_k| over the
 window) relative to the largest. Nothing here asserts on timings. Usage::
@@ -42,15 +43,15 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
     with open(setup_file, "rb") as fh:
         st = pickle.load(fh)
     save_every = max(1, int(round(st.sample_interval / dt)))
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     sol = integrate_full_order(
         st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, model=st.model,
         damping=st.integrator_damping(), save_every=save_every, hub=st.hub,
         spin_axis=st.spin_axis,
     )  # fmt: skip
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     arrays = {k: np.asarray(getattr(sol, k)) for k in SERIES}
-    np.savez(out, wall=wall, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
+    np.savez(out, wall=wall, cpu=cpu, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
              n_factor=sol.stats["n_factor"], **arrays)  # fmt: skip
 
 
@@ -103,15 +104,17 @@ def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp
     for k in range(repeat):
         for label, src in (("old", old_src), ("new", NEW_SRC)):
             runs[label].append(run_child(src, setup, window, dt, tmp / f"{case}-{label}-{k}.npz"))
-            print(f"  {case} {label} run {k + 1}: {float(runs[label][-1]['wall']):.1f} s",
-                  flush=True)  # fmt: skip
+            last = runs[label][-1]
+            print(f"  {case} {label} run {k + 1}: {float(last['wall']):.1f} s wall, "
+                  f"{float(last['cpu']):.1f} s CPU", flush=True)  # fmt: skip
     best = {label: min(float(r["wall"]) for r in rs) for label, rs in runs.items()}
+    cpu = {label: min(float(r["cpu"]) for r in rs) for label, rs in runs.items()}
     old, new = runs["old"][0], runs["new"][0]
     steps = int(new["n_steps"])
     return {
         "case": case, "window": window, "dt": dt, "steps": steps,
         "old_s": best["old"] / window, "new_s": best["new"] / window,
-        "ratio": best["old"] / best["new"],
+        "ratio": best["old"] / best["new"], "cpu_ratio": cpu["old"] / cpu["new"],
         "old_newton": int(old["n_newton"]) / steps, "new_newton": int(new["n_newton"]) / steps,
         "old_factor": int(old["n_factor"]) / steps, "new_factor": int(new["n_factor"]) / steps,
         "diff": differences(old, new),
@@ -120,11 +123,12 @@ def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp
 
 def report(rows: list[dict]) -> None:
     print("\n| case | window (s) | steps | old (s per sim. s) | new (s per sim. s) | old / new "
-          "| Newton/step old → new | factorisations/step old → new |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|")
+          "| CPU old / new | Newton/step old → new | factorisations/step old → new |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['case']} | {r['window']:g} | {r['steps']} | {r['old_s']:.1f} | "
-              f"{r['new_s']:.1f} | **{r['ratio']:.2f}** | {r['old_newton']:.2f} → "
+              f"{r['new_s']:.1f} | **{r['ratio']:.2f}** | {r['cpu_ratio']:.2f} | "
+              f"{r['old_newton']:.2f} → "
               f"{r['new_newton']:.2f} | {r['old_factor']:.3f} → {r['new_factor']:.4f} |")  # fmt: skip
     print("\n| case | Δ|H| drift | |H| drift (old) | ΔE / T | Δ(E + E_d) / T | Δ envelope "
           "| Δ modal coordinates |")  # fmt: skip

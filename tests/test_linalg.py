@@ -71,3 +71,16 @@ def test_factorize_interface_and_missing_optional_back_end(monkeypatch, capsys):
     assert factor.factorize(a).backend == "superlu"
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "pypardiso" in err
+
+
+def test_single_precision_factorisation_is_an_approximate_inverse():
+    from quadmodes.linalg.factor import factorize
+
+    lap1 = sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(40, 40))
+    a = sp.kronsum(lap1, lap1, format="csc")  # SPD, condition ~3
+    b = np.random.default_rng(6).standard_normal(a.shape[0])
+    x = factorize(a, single=True).solve(b)
+    assert x.dtype == np.float64
+    exact = factorize(a).solve(b)
+    err = np.abs(x - exact).max() / np.abs(exact).max()
+    assert 0.0 < err <= 1e-5  # single-precision round-off, not double

@@ -67,17 +67,21 @@ class TieSplit:
 class CondensedNewtonMatrix:
     """``A = M + (Δt²/2)[J_soft(z_f) + J_ties(z)]`` on the free DOFs, solved by condensing
     onto the tie DOFs (module docstring): the soft part at the frozen pair z_f given here,
-    the ties at the pair of :meth:`update` (call it before :meth:`solve`)."""
+    the ties at the pair of :meth:`update` (call it before :meth:`solve`). single: A_II
+    factorised in float32 (:func:`~quadmodes.linalg.factor.factorize`), so solves are exact to
+    about 1e-5 relative, which only adds that much to the Newton contraction factor."""
 
     def __init__(self, problem: FullOrderProblem, ops: StepOperators, split: TieSplit,
-                 z0: np.ndarray, z1: np.ndarray):  # fmt: skip
+                 z0: np.ndarray, z1: np.ndarray, single: bool = True):  # fmt: skip
         self.problem, self.ops, self.split = problem, ops, split
         self.weight = 0.5 * problem.h * problem.h
         a = ops.newton_matrix(z0, z1, self.weight, skip=split.stiff).tocsr()
         soft, tie = split.soft, split.tie
         self.a_ti = a[tie][:, soft]
         a_it = a[soft][:, tie].tocsc()
-        self.lu = factorize(a[soft][:, soft].tocsc(), symmetric=True)
+        # single precision (default): this is an approximate inverse already (the soft part is
+        # frozen over many steps); its round-off (~1e-5 relative) is far below the staleness
+        self.lu = factorize(a[soft][:, soft].tocsc(), symmetric=True, single=single)
         # Z = A_II⁻¹ A_IT (|I|, |T|); the columns of the end-body points (no membrane) are zero
         coupled = np.flatnonzero(np.diff(a_it.indptr))
         self.z = np.zeros((len(soft), len(tie)))
@@ -95,7 +99,8 @@ class CondensedNewtonMatrix:
                                  for k in self.split.stiff])  # fmt: skip
         keep = self.split.scatter >= 0
         ties = np.bincount(self.split.scatter[keep], weights=blocks[keep], minlength=nt * nt)
-        self.s_lu = sla.lu_factor(self.s_soft + self.weight * ties.reshape(nt, nt))
+        self.s_lu = sla.lu_factor(self.s_soft + self.weight * ties.reshape(nt, nt),
+                                   check_finite=False)  # fmt: skip
         low = tangent_low_rank(self.problem.structure, 0.5 * (z0 + z1))
         self.low = []
         for coef, vec in low:
@@ -105,7 +110,7 @@ class CondensedNewtonMatrix:
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         soft, tie = self.split.soft, self.split.tie
         y_soft = self.lu.solve(rhs[soft])
-        y_tie = sla.lu_solve(self.s_lu, rhs[tie] - self.a_ti @ y_soft)
+        y_tie = sla.lu_solve(self.s_lu, rhs[tie] - self.a_ti @ y_soft, check_finite=False)
         out = np.empty_like(rhs)
         out[soft] = y_soft - self.z @ y_tie
         out[tie] = y_tie

@@ -192,7 +192,10 @@ class _Bar:
             self._mean_strain(e0, d1)[:, None, None] * np.eye(3)
             + dh[:, :, None] * d1[:, None, :] / self.l2[:, None, None]
         )
-        return np.block([[kb, -kb], [-kb, kb]])
+        out = np.empty((kb.shape[0], 2, 3, 2, 3))  # [[kb, −kb], [−kb, kb]]
+        out[:, 0, :, 0], out[:, 1, :, 1] = kb, kb
+        out[:, 0, :, 1], out[:, 1, :, 0] = -kb, -kb
+        return out.reshape(-1, 6, 6)
 
 
 class _Pressure:

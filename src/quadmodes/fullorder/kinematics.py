@@ -121,7 +121,7 @@ def best_fit_rotation(body: Body, x: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Mass-weighted best-fit (Kabsch) rotation R (3,3) of ``x`` about ``p`` onto the reference:
     the polar factor of ``Σ M_ij (x_i − t_i p) X_jᵀ``. It is the mean-axes (Buckens) frame,
     ``𝒞(X, Rᵀ(x − p)) = 0`` (theory.md §2)."""
-    r = x - np.outer(body.t, p)
+    r = x - body.t[:, None] * p
     return polar_rotation(r.T @ body.MX)
 
 
@@ -217,7 +217,7 @@ def sample(
     (clamped; else the mean-axes ω is computed)."""
     p = centre(body, x)
     pd = (body.w @ v) / body.mass
-    r = x - np.outer(body.t, p)
+    r = x - body.t[:, None] * p
     mv = body.ms @ v
     h = cross_form(r.T @ mv)
     t_kin = 0.5 * float(np.sum(v * mv)) - 0.5 * body.mass * float(pd @ pd)
@@ -225,9 +225,9 @@ def sample(
     inertia = np.trace(pm) * np.eye(3) - pm
     o = p if origin is None else np.asarray(origin, float)
     rot = best_fit_rotation(body, x, o) if frame is None else frame
-    rb = (x - np.outer(body.t, o)) @ rot
+    rb = (x - body.t[:, None] * o) @ rot
     if omega is None:
-        vb = (v - np.outer(body.t, pd)) @ rot
+        vb = (v - body.t[:, None] * pd) @ rot
         w_in = rot @ mean_axes_omega(body, rb, vb)
     else:
         w_in = np.asarray(omega, float)
@@ -337,9 +337,9 @@ def _rotation_parts(body: Body, x: np.ndarray, v: np.ndarray):
     mean-axes angular velocity ω (3,) rad/s of state (x, v)."""
     c = centre(body, x)
     pd = (body.w @ v) / body.mass
-    r = x - np.outer(body.t, c)
+    r = x - body.t[:, None] * c
     rot = best_fit_rotation(body, x, c)
-    w = rot @ mean_axes_omega(body, r @ rot, (v - np.outer(body.t, pd)) @ rot)
+    w = rot @ mean_axes_omega(body, r @ rot, (v - body.t[:, None] * pd) @ rot)
     return c, pd, r, w
 
 
@@ -347,7 +347,7 @@ def _rescale(body: Body, c, pd, r, w_from, w_to, radial: float, v_el) -> tuple:
     """State with ``r⊥`` (normal to ω) scaled by ``radial`` and the rigid velocity ω_to × r."""
     a = w_to / np.linalg.norm(w_to)
     r_new = r + (radial - 1.0) * (r - np.outer(r @ a, a))
-    return np.outer(body.t, c) + r_new, np.outer(body.t, pd) + r_new @ skew(w_to).T + v_el
+    return body.t[:, None] * c + r_new, body.t[:, None] * pd + r_new @ skew(w_to).T + v_el
 
 
 def to_discrete_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, expand: bool = True):
@@ -366,7 +366,7 @@ def to_discrete_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, exp
     phi = float(np.linalg.norm(w)) * h
     if phi == 0.0:
         return x.copy(), v.copy()
-    v_el = v - np.outer(body.t, pd) - r @ skew(w).T  # − ω × r
+    v_el = v - body.t[:, None] * pd - r @ skew(w).T  # − ω × r
     kappa = np.tan(0.5 * phi) / (0.5 * phi)
     radial = 1.0 / np.cos(0.5 * phi) if expand else 1.0
     return _rescale(body, c, pd, r, w, kappa * w, radial, v_el)
@@ -381,6 +381,6 @@ def to_physical_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, exp
     if phi_d == 0.0:
         return x.copy(), v.copy()
     phi = 2.0 * np.arctan(0.5 * phi_d)
-    v_el = v - np.outer(body.t, pd) - r @ skew(w).T  # − ω × r
+    v_el = v - body.t[:, None] * pd - r @ skew(w).T  # − ω × r
     radial = np.cos(0.5 * phi) if expand else 1.0
     return _rescale(body, c, pd, r, w, w * (phi / phi_d), radial, v_el)

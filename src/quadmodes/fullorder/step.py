@@ -81,7 +81,7 @@ def rigid_basis(body: kin.Body, x: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Rigid motions Ψ (n,3,6) of state x about p: translations (positions only), rotations
     ``e_a × (x − t p)``."""
     n = x.shape[0]
-    r = x - np.outer(body.t, p)
+    r = x - body.t[:, None] * p
     psi = np.zeros((n, 3, 6))
     for a in range(3):
         psi[:, a, a] = body.t
@@ -128,12 +128,12 @@ def damping_force(
     if hub_rotation is None:
         p = kin.centre(body, x)
         rot = kin.best_fit_rotation(body, x, p)
-        r = x - np.outer(body.t, p)
+        r = x - body.t[:, None] * p
         g_inv = _rigid_gram_inverse(body, r)
         vel = v - _rigid_motion(body, r, g_inv @ _rigid_moments(body, r, body.ms @ v))  # Πᵀv
     else:
         rot = hub_rotation
-        r = x - np.outer(body.t, hub_point)
+        r = x - body.t[:, None] * hub_point
         vel = v - r @ skew(hub_omega).T  # v − Ω × r
     q = c @ (mphi_flat @ (vel @ rot).ravel())
     f = (q @ mphi_flat).reshape(n, 3) @ rot.T
@@ -151,7 +151,7 @@ def _rigid_moments(body: kin.Body, r: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 def _rigid_motion(body: kin.Body, r: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``Ψa`` (n,3): the rigid motion ``tᵢ a_t + a_r × rᵢ`` of a (6,)."""
-    return np.outer(body.t, a[:3]) + r @ skew(a[3:]).T
+    return body.t[:, None] * a[:3] + r @ skew(a[3:]).T
 
 
 def _rigid_gram_inverse(body: kin.Body, r: np.ndarray) -> np.ndarray:
@@ -212,7 +212,7 @@ def body_frame(
     else:
         c = np.asarray(hub.point, float)
         rot = hub.rotation(t)
-    return c, rot, (x - np.outer(body.t, c)) @ rot
+    return c, rot, (x - body.t[:, None] * c) @ rot
 
 
 def extrapolate(
@@ -228,7 +228,7 @@ def extrapolate(
     c_0, r_0, b_0 = now
     c_1 = 2.0 * c_0 - c_m
     r_1 = hub.rotation(t1) if hub is not None else r_0 @ (r_m.T @ r_0)
-    return np.outer(body.t, c_1) + (2.0 * b_0 - b_m) @ r_1.T
+    return body.t[:, None] * c_1 + (2.0 * b_0 - b_m) @ r_1.T
 
 
 def newton_frame(problem: FullOrderProblem, t: float, xh: np.ndarray) -> np.ndarray:

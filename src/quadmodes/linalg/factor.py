@@ -110,12 +110,30 @@ def backend_choice(backend: str | None = None) -> str:
     return name
 
 
-def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None) -> Factorization:
+class _Single:
+    """A float32 SuperLU factorisation of a real matrix behind float64 solves."""
+
+    backend = "superlu (float32)"
+
+    def __init__(self, a: sp.spmatrix, symmetric: bool):
+        self.lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric)
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        return self.lu.solve(np.asarray(rhs, np.float32)).astype(np.float64)
+
+
+def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None,
+              single: bool = False) -> Factorization:  # fmt: skip
     """Factorise the real or complex square sparse matrix ``a`` once, for many solves.
 
     symmetric: ``a`` has a symmetric pattern and usable diagonal pivots (the SuperLU ordering
     of :func:`lu_factor`). backend: see :func:`backend_choice` (complex matrices always use
-    SuperLU). Every back end solves to round-off; only the cost differs."""
+    SuperLU). Every back end solves to round-off; only the cost differs. single: factorise a
+    real matrix in single precision (SuperLU, float32; solves take and return float64, to
+    about 1e-7 × cond(a) relative): an approximate inverse for an iteration whose residual is
+    computed in double (modified Newton), half the memory and faster solves."""
+    if single and not np.iscomplexobj(a.data if sp.issparse(a) else a):
+        return _Single(a, symmetric)
     name = backend_choice(backend)
     if name == "pardiso" and not np.iscomplexobj(a.data if sp.issparse(a) else a):
         return _Pardiso(a, symmetric)
