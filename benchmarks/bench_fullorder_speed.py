@@ -15,6 +15,11 @@ window) relative to the largest. Nothing here asserts on timings. Usage::
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_fullorder_speed.py --old /tmp/qm-old/src
     python benchmarks/bench_fullorder_speed.py --old /tmp/qm-old/src --cases paper-41hz \\
         --window 0.05 --repeat 1
+    python benchmarks/bench_fullorder_speed.py --old /tmp/qm-old/src --offline "1 in,0.39 in"
+
+``--offline`` times the offline build instead (mesh + structure, inflation, 10 modes of
+``paper-membrane`` at the given mesh edges), old and new, with the differences of the inflated
+state and the frequencies.
 """
 
 from __future__ import annotations
@@ -53,6 +58,49 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
     arrays = {k: np.asarray(getattr(sol, k)) for k in SERIES}
     np.savez(out, wall=wall, cpu=cpu, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
              n_factor=sol.stats["n_factor"], **arrays)  # fmt: skip
+
+
+def offline_child(case_name: str, edge: str, n_modes: int, out: str) -> None:
+    """Offline build (mesh + structure, inflation, modes) of ``case_name`` at mesh edge
+    ``edge`` with whatever quadmodes is importable: stage times and results to ``out``."""
+    from quadmodes.case import load_case, parse_quantity
+    from quadmodes.structure import modes as qmodes
+    from quadmodes.structure import pipeline
+
+    base = load_case(case_name)
+    h = parse_quantity(edge, "length", "--offline")
+    case = base.model_copy(update={"mesh": base.mesh.model_copy(update={"edge_length": h})})
+    t0 = time.perf_counter()
+    structure = pipeline.structure_for_case(case)
+    t1 = time.perf_counter()
+    x, _ = pipeline.reference_state(case, structure)
+    t2 = time.perf_counter()
+    freqs = qmodes.compute_modes(pipeline.with_gas_law(case, structure, x), x, n_modes)
+    t3 = time.perf_counter()
+    np.savez(out, x=x, f=np.asarray(freqs.frequencies_hz), mesh=t1 - t0, inflate=t2 - t1,
+             modes=t3 - t2)  # fmt: skip
+
+
+def offline(old_src: Path, edges: str, n_modes: int, tmp: Path) -> None:
+    """Print old/new stage times of the offline build of paper-membrane per mesh edge."""
+    print("\n| edge | nodes | stage | old (s) | new (s) | old / new |\n|---|---|---|---|---|---|")
+    for edge in (e.strip() for e in edges.split(",")):
+        res = {}
+        for label, src in (("old", old_src), ("new", NEW_SRC)):
+            out = tmp / f"offline-{label}.npz"
+            env = dict(os.environ, PYTHONPATH=str(src), OPENBLAS_NUM_THREADS="1")
+            cmd = [sys.executable, __file__, "--offline-child", "paper-membrane", edge,
+                   str(n_modes), str(out)]  # fmt: skip
+            subprocess.run(cmd, env=env, check=True)
+            with np.load(out) as z:
+                res[label] = {k: z[k] for k in z.files}
+        old, new = res["old"], res["new"]
+        for stage in ("mesh", "inflate", "modes"):
+            a, b = float(old[stage]), float(new[stage])
+            print(f"| {edge} | {old['x'].shape[0]} | {stage} | {a:.2f} | {b:.2f} | {a / b:.2f} |")
+        df = float(np.max(np.abs(new["f"] - old["f"]) / old["f"]))
+        dx = float(np.abs(new["x"] - old["x"]).max() / np.ptp(old["x"], axis=0).max())
+        print(f"| {edge} | | max Δf/f {df:.1e}, max Δx/extent {dx:.1e} | | | |", flush=True)
 
 
 def build_setup(case: str, folder: Path) -> Path:
@@ -143,12 +191,18 @@ def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
         child(sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), sys.argv[5])
         return
+    if len(sys.argv) > 1 and sys.argv[1] == "--offline-child":
+        offline_child(sys.argv[2], sys.argv[3], int(sys.argv[4]), sys.argv[5])
+        return
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--old", required=True, type=Path, help="src/ folder of the old version")
     ap.add_argument("--cases", default="paper-41hz-coarse", help="comma-separated run cases")
     ap.add_argument("--window", type=float, default=0.2, help="simulated window (s)")
     ap.add_argument("--dt", type=float, default=2.5e-4, help="full-order step (s)")
     ap.add_argument("--repeat", type=int, default=2, help="old/new pairs per case")
+    ap.add_argument("--offline", default=None,
+                    help='instead: the offline build of paper-membrane at these mesh edges, '
+                         'e.g. "1 in,0.39 in" (inflation + 10 modes)')  # fmt: skip
     ap.add_argument("--setups", type=Path, default=None,
                     help="folder keeping the pickled setups between runs (default: temporary)")
     args = ap.parse_args()
@@ -157,6 +211,10 @@ def main() -> None:
               "src/ of a checkout of the old version", file=sys.stderr)  # fmt: skip
         raise SystemExit(2)
     rows = []
+    if args.offline:
+        with tempfile.TemporaryDirectory() as tmp:
+            offline(args.old, args.offline, 10, Path(tmp))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         for case in args.cases.split(","):
             setups = args.setups if args.setups is not None else Path(tmp)
