@@ -114,7 +114,11 @@ def _explicit_damping(body, c, x, v, mphi):
     return (w @ (c @ (w.T @ v.ravel()))).reshape(n, 3)
 
 
-def test_damping_force_without_w_equals_the_explicit_form(pair, small_reduced_model):
+@pytest.mark.parametrize("jit", JIT)
+def test_damping_force_without_w_equals_the_explicit_form(pair, small_reduced_model, jit,
+                                                          monkeypatch):  # fmt: skip
+    if not jit:
+        monkeypatch.setattr(stp, "jit_module", lambda: None)
     structure, _, x0, x1 = pair
     model = small_reduced_model
     body = kin.make_body(structure.mass_scalar, structure.translational, model.X, model, False)

@@ -82,12 +82,14 @@ class CondensedNewtonMatrix:
         # single precision (default): this is an approximate inverse already (the soft part is
         # frozen over many steps); its round-off (~1e-5 relative) is far below the staleness
         self.lu = factorize(a[soft][:, soft].tocsc(), symmetric=True, single=single)
-        # Z = A_II⁻¹ A_IT (|I|, |T|); the columns of the end-body points (no membrane) are zero
-        coupled = np.flatnonzero(np.diff(a_it.indptr))
-        self.z = np.zeros((len(soft), len(tie)))
-        if len(coupled):
-            self.z[:, coupled] = self.lu.solve(a_it[:, coupled].toarray())
-        self.s_soft = a[tie][:, tie].toarray() - self.a_ti @ self.z
+        # Z = A_II⁻¹ A_IT (|I|, |T|), kept for the coupled columns only (those of the end-body
+        # points, which no membrane touches, are zero) and in the precision of A_II's factors
+        self.coupled = np.flatnonzero(np.diff(a_it.indptr))
+        z = (self.lu.solve(a_it[:, self.coupled].toarray()) if len(self.coupled)
+             else np.zeros((len(soft), 0)))  # fmt: skip
+        self.z = z.astype(np.float32 if single else np.float64)
+        self.s_soft = a[tie][:, tie].toarray()
+        self.s_soft[:, self.coupled] -= self.a_ti @ z
         self.s_lu = None
         self.low = []
 
@@ -112,7 +114,7 @@ class CondensedNewtonMatrix:
         y_soft = self.lu.solve(rhs[soft])
         y_tie = sla.lu_solve(self.s_lu, rhs[tie] - self.a_ti @ y_soft, check_finite=False)
         out = np.empty_like(rhs)
-        out[soft] = y_soft - self.z @ y_tie
+        out[soft] = y_soft - self.z @ y_tie[self.coupled].astype(self.z.dtype)
         out[tie] = y_tie
         return out
 

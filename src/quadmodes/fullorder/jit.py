@@ -59,3 +59,72 @@ def pressure_gradient(conn, xh, out):  # pragma: no cover - jit
             if a == 0:
                 volume += xh[p, 0] * c0 + xh[p, 1] * c1 + xh[p, 2] * c2
     return volume
+
+
+@nb.njit(cache=True)
+def damping_frame(x, v, t, w, mx, indptr, indices, data):  # pragma: no cover - jit
+    """The n-sized sums of the free-body damping force at state (x, v) (n,3), M_s in CSR
+    (indptr, indices, data), t (n,) translational indicator, w = M_s t, mx = M_s X (n,3):
+    ``(p, r, A, P, s, a)``: centre of mass p (3,), r = x − t p (n,3), ``A = rᵀ M_s X``
+    (3,3; its polar factor is the best-fit rotation), ``P = rᵀ M_s r`` (3,3), ``s = Σ wᵢrᵢ``
+    (3,) and ``a = Ψᵀ M v`` (6,) (net and moment of M v about p)."""
+    n = x.shape[0]
+    mass = 0.0
+    p = np.zeros(3)
+    for i in range(n):
+        mass += w[i]
+        for k in range(3):
+            p[k] += w[i] * x[i, k]
+    p /= mass
+    r = np.empty((n, 3))
+    for i in range(n):
+        for k in range(3):
+            r[i, k] = x[i, k] - t[i] * p[k]
+    big_a, big_p, mom = np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 3))
+    s, net = np.zeros(3), np.zeros(3)
+    mr, mv = np.empty(3), np.empty(3)
+    for i in range(n):
+        mr[:] = 0.0
+        mv[:] = 0.0
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            for k in range(3):
+                mr[k] += data[q] * r[j, k]
+                mv[k] += data[q] * v[j, k]
+        for a in range(3):
+            s[a] += w[i] * r[i, a]
+            net[a] += t[i] * mv[a]
+            for b in range(3):
+                big_a[a, b] += r[i, a] * mx[i, b]
+                big_p[a, b] += r[i, a] * mr[b]
+                mom[a, b] += r[i, a] * mv[b]
+    moments = np.array([net[0], net[1], net[2], mom[1, 2] - mom[2, 1],
+                        mom[2, 0] - mom[0, 2], mom[0, 1] - mom[1, 0]])  # fmt: skip
+    return p, r, big_a, big_p, s, moments
+
+
+@nb.njit(cache=True)
+def damping_modal(r, v, t, c6, rot, mphi_flat, cmat):  # pragma: no cover - jit
+    """``(f, b)``: the modal damping force before its projection, ``f = Y C Yᵀ (v − Ψ c6)``
+    (n,3) with ``Y = M 𝒬 Φ`` (``mphi_flat`` = M_s Φ (K, 3n), rot the frame), and its net and
+    moment ``b = Ψᵀ f`` (6,) about the point of r (n,3)."""
+    n = r.shape[0]
+    u = np.empty((n, 3))
+    for i in range(n):
+        w0 = v[i, 0] - t[i] * c6[0] - (c6[4] * r[i, 2] - c6[5] * r[i, 1])
+        w1 = v[i, 1] - t[i] * c6[1] - (c6[5] * r[i, 0] - c6[3] * r[i, 2])
+        w2 = v[i, 2] - t[i] * c6[2] - (c6[3] * r[i, 1] - c6[4] * r[i, 0])
+        for b in range(3):  # (v − Ψc) @ rot: body-frame components
+            u[i, b] = w0 * rot[0, b] + w1 * rot[1, b] + w2 * rot[2, b]
+    q = cmat @ (mphi_flat @ u.reshape(3 * n))
+    g = (q @ mphi_flat).reshape(n, 3)
+    f = np.empty((n, 3))
+    moments = np.zeros(6)
+    for i in range(n):
+        for a in range(3):
+            f[i, a] = g[i, 0] * rot[a, 0] + g[i, 1] * rot[a, 1] + g[i, 2] * rot[a, 2]
+            moments[a] += t[i] * f[i, a]
+        moments[3] += r[i, 1] * f[i, 2] - r[i, 2] * f[i, 1]
+        moments[4] += r[i, 2] * f[i, 0] - r[i, 0] * f[i, 2]
+        moments[5] += r[i, 0] * f[i, 1] - r[i, 1] * f[i, 0]
+    return f, moments

@@ -21,9 +21,9 @@ from quadmodes.fe.assembly import assemble_vector
 from quadmodes.fe.bar import BarSet
 from quadmodes.fe.membrane import MembraneSet, _voigt_stress, green_strain
 from quadmodes.fe.model import Structure, internal_force
-from quadmodes.fullorder.kernels import StepOperators
+from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.fullorder.setup import FullOrderProblem
-from quadmodes.rotations import skew
+from quadmodes.rotations import polar_rotation, skew
 
 # ---------------------------------------------------------------------------------------------
 # step force: midpoint with the Simo–Tarnow stress average
@@ -123,6 +123,17 @@ def damping_force(
     n_modes = mphi.shape[0]
     n = x.shape[0]
     mphi_flat = mphi.reshape(n_modes, 3 * n)
+    jit = jit_module()
+    if hub_rotation is None and jit is not None:  # the same sums, compiled (fullorder.jit)
+        ms = body.ms
+        x, v = np.ascontiguousarray(x, float), np.ascontiguousarray(v, float)
+        p, r, a, pm, s, mv = jit.damping_frame(x, v, body.t, body.w, body.MX, ms.indptr,
+                                               ms.indices, ms.data)  # fmt: skip
+        g_inv = _gram_inverse(body, pm, s)
+        f, moments = jit.damping_modal(r, v, body.t, g_inv @ mv, polar_rotation(a),
+                                       np.ascontiguousarray(mphi_flat),
+                                       np.ascontiguousarray(c, float))  # fmt: skip
+        return f - ms @ _rigid_motion(body, r, g_inv @ moments)
     # W = Π Y, Y = M 𝒬 Φ: Yᵀu = (M Φ)ᵀ(Qᵀ-rotated u), Y q = (Σ q_k M φ_k) rotated by Q;
     # neither Y (3n × K) nor Ψ (3n × 6) is formed
     if hub_rotation is None:
@@ -155,12 +166,15 @@ def _rigid_motion(body: kin.Body, r: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def _rigid_gram_inverse(body: kin.Body, r: np.ndarray) -> np.ndarray:
+    """``(ΨᵀMΨ)⁻¹`` (6,6) for r = x − t p (n,3) (:func:`_gram_inverse`)."""
+    return _gram_inverse(body, r.T @ (body.ms @ r), body.w @ r)
+
+
+def _gram_inverse(body: kin.Body, p: np.ndarray, s: np.ndarray) -> np.ndarray:
     """``(ΨᵀMΨ)⁻¹`` (6,6) (pseudo-inverse, as ``np.linalg.pinv(·, 1e-12, hermitian=True)``)
-    for r = x − t p (n,3): translation block ``(tᵀM_s t) I``, coupling ``e_b × Σ wᵢrᵢ``
-    (w = M_s t; zero about the centre of mass of a body without slope rows), rotation block
-    ``tr(P) I − P`` with ``P = rᵀ M_s r``."""
-    p = r.T @ (body.ms @ r)
-    s = body.w @ r
+    from ``P = rᵀ M_s r`` (3,3) and ``s = Σ wᵢrᵢ`` (3,) (w = M_s t): translation block
+    ``(tᵀM_s t) I``, coupling ``e_b × s`` (zero about the centre of mass of a body without
+    slope rows), rotation block ``tr(P) I − P``."""
     g = np.zeros((6, 6))
     g[:3, :3] = float(body.t @ body.w) * np.eye(3)
     g[:3, 3:] = -skew(s)  # column b: e_b × s = −[s]× e_b
