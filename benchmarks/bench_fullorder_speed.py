@@ -5,7 +5,9 @@ reduced model, independent damping, initial state) is built once with this tree 
 then two child processes integrate the same window from it, one importing this tree and one
 importing an older source tree given by ``--old`` (e.g. a ``git worktree`` of main before
 issue 10: ``git worktree add --detach /tmp/qm-old 55d0bce``). The runs alternate old/new
-``--repeat`` times so that both see the same machine load. Printed per case: wall time per
+``--repeat`` times so that both see the same machine load. Each child first integrates one
+step (printed: the one-off costs of a fresh process, e.g. loading the compiled kernels, about
+1 s for the new version), then times the window. Printed per case: wall time per
 simulated second (best of the repeats) and the ratio old/new, in wall and in CPU time (the
 CPU time of the child, less disturbed by other jobs on a shared machine), Newton iterations and
 factorisations per step, and how far the results differ: the |H| drift, the energy E and
@@ -48,15 +50,22 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
     with open(setup_file, "rb") as fh:
         st = pickle.load(fh)
     save_every = max(1, int(round(st.sample_interval / dt)))
+
+    def run(span: float):
+        return integrate_full_order(
+            st.structure, st.x_ref, st.x0, st.v0, (0.0, span), dt, model=st.model,
+            damping=st.integrator_damping(), save_every=save_every, hub=st.hub,
+            spin_axis=st.spin_axis,
+        )  # fmt: skip
+
+    start = time.perf_counter()
+    run(dt)  # one step: the one-off costs of a process (first calls, compiled kernels)
+    first = time.perf_counter() - start
     start, cpu = time.perf_counter(), time.process_time()
-    sol = integrate_full_order(
-        st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, model=st.model,
-        damping=st.integrator_damping(), save_every=save_every, hub=st.hub,
-        spin_axis=st.spin_axis,
-    )  # fmt: skip
+    sol = run(window)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     arrays = {k: np.asarray(getattr(sol, k)) for k in SERIES}
-    np.savez(out, wall=wall, cpu=cpu, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
+    np.savez(out, wall=wall, cpu=cpu, first=first, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
              n_factor=sol.stats["n_factor"], **arrays)  # fmt: skip
 
 
@@ -154,7 +163,8 @@ def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp
             runs[label].append(run_child(src, setup, window, dt, tmp / f"{case}-{label}-{k}.npz"))
             last = runs[label][-1]
             print(f"  {case} {label} run {k + 1}: {float(last['wall']):.1f} s wall, "
-                  f"{float(last['cpu']):.1f} s CPU", flush=True)  # fmt: skip
+                  f"{float(last['cpu']):.1f} s CPU (one step before it, in a fresh process: "
+                  f"{float(last['first']):.2f} s)", flush=True)  # fmt: skip
     best = {label: min(float(r["wall"]) for r in rs) for label, rs in runs.items()}
     cpu = {label: min(float(r["cpu"]) for r in rs) for label, rs in runs.items()}
     old, new = runs["old"][0], runs["new"][0]

@@ -31,6 +31,9 @@ RHO_REFACTOR = 0.5
 #: so what is left grows slowly with the age of the soft part: on paper-41hz the contraction
 #: goes from 0.02 to 0.07 over 20 steps; renewing at 0.1 saves a Newton iteration per step).
 RHO_SOFT = 0.1
+#: Condense the ties only when they touch at most this many free DOFs (their Schur system is
+#: dense and refactorised at every iteration; the paper models have 75 and 123).
+MAX_TIE_DOFS = 600
 
 #: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
 LINE_SEARCH = 1e-5
@@ -225,12 +228,13 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
                    full_newton: bool = False) -> Callable:  # fmt: skip
     """``make(z0, z1)``: the Newton matrix of a run at a body-frame pair (n,3). With ``ops``
     and ties in the structure: a :class:`~quadmodes.fullorder.condensed.CondensedNewtonMatrix`
-    (the ties renewed at every iteration); with ``ops`` only: a :class:`NewtonMatrix` assembled
+    (the ties renewed at every iteration; at most :data:`MAX_TIE_DOFS` of them); otherwise, with
+    ``ops``: a :class:`NewtonMatrix` assembled
     by ``ops``; ``full_newton`` or no ``ops``: the straightforward :class:`NewtonMatrix`."""
     if full_newton or ops is None:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1)
     split = TieSplit.of(ops, problem.free)
-    if split is None:
+    if split is None or len(split.tie) > MAX_TIE_DOFS:  # no ties, or too many for dense LU
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)
     return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
 
