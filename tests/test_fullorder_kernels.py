@@ -15,7 +15,7 @@ import pytest
 from quadmodes.fe.assembly import assemble_matrix, csr_pattern, submatrix_map
 from quadmodes.fe.model import centre_of_mass, mass_matrix, strain_energy, tangent_stiffness
 from quadmodes.fe.pressure import PressureSet
-from quadmodes.fullorder import initial_state_from_reduced, integrate_full_order
+from quadmodes.fullorder import condensed, initial_state_from_reduced, integrate_full_order
 from quadmodes.fullorder import kinematics as kin
 from quadmodes.fullorder import step as stp
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
@@ -129,7 +129,11 @@ def test_damping_force_without_w_equals_the_explicit_form(pair, small_reduced_mo
     assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()
 
 
-def test_condensed_solve_is_the_block_elimination_of_the_whole_matrix(pair, small_modal_model):
+@pytest.mark.parametrize("jit", JIT)
+def test_condensed_solve_is_the_block_elimination_of_the_whole_matrix(pair, small_modal_model,
+                                                                      jit, monkeypatch):  # fmt: skip
+    if not jit:
+        monkeypatch.setattr(condensed, "jit_module", lambda: None)
     _, gas, x0, x1 = pair
     m = small_modal_model
     problem = setup_problem(gas, m.x, (0.0, H), H, model=None, damping=False, hub=None,

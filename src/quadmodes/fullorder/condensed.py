@@ -25,7 +25,7 @@ import scipy.linalg as sla
 
 from quadmodes.fe.assembly import element_dofs
 from quadmodes.fe.model import tangent_low_rank
-from quadmodes.fullorder.kernels import StepOperators
+from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.fullorder.setup import FullOrderProblem
 from quadmodes.linalg.factor import factorize
 
@@ -54,6 +54,7 @@ class TieSplit:
             rows, cols = np.repeat(loc, m, axis=1).ravel(), np.tile(loc, (1, m)).ravel()
             parts.append(np.where((rows >= 0) & (cols >= 0), rows * nt + cols, -1))
         self.scatter = np.concatenate(parts)
+        self.positions = [part.reshape(-1, 36) for part in parts]  # per tie set (nb, 36)
         self.stiff = stiff
 
     @classmethod
@@ -97,12 +98,21 @@ class CondensedNewtonMatrix:
         """Take the ties' block (and the gas-law rank-one terms) at the body-frame pair
         (z0, z1) (n,3)."""
         nt = len(self.split.tie)
-        blocks = np.concatenate([self.ops.kernels[k].block(z0, z1).ravel()
-                                 for k in self.split.stiff])  # fmt: skip
-        keep = self.split.scatter >= 0
-        ties = np.bincount(self.split.scatter[keep], weights=blocks[keep], minlength=nt * nt)
-        self.s_lu = sla.lu_factor(self.s_soft + self.weight * ties.reshape(nt, nt),
-                                   check_finite=False)  # fmt: skip
+        jit = jit_module()
+        if jit is not None:  # the bars' blocks summed straight into the Schur matrix
+            s = self.s_soft.copy().ravel()
+            z0, z1 = np.ascontiguousarray(z0, float), np.ascontiguousarray(z1, float)
+            for k, pos in zip(self.split.stiff, self.split.positions, strict=True):
+                kern = self.ops.kernels[k]
+                jit.tie_blocks(kern.conn, kern.l2, kern.k, z0, z1, pos, self.weight, s)
+            s = s.reshape(nt, nt)
+        else:
+            blocks = np.concatenate([self.ops.kernels[k].block(z0, z1).ravel()
+                                     for k in self.split.stiff])  # fmt: skip
+            keep = self.split.scatter >= 0
+            ties = np.bincount(self.split.scatter[keep], weights=blocks[keep], minlength=nt * nt)
+            s = self.s_soft + self.weight * ties.reshape(nt, nt)
+        self.s_lu = sla.lu_factor(s, check_finite=False)
         low = tangent_low_rank(self.problem.structure, 0.5 * (z0 + z1))
         self.low = []
         for coef, vec in low:

@@ -128,3 +128,82 @@ def damping_modal(r, v, t, c6, rot, mphi_flat, cmat):  # pragma: no cover - jit
         moments[4] += r[i, 2] * f[i, 0] - r[i, 0] * f[i, 2]
         moments[5] += r[i, 0] * f[i, 1] - r[i, 1] * f[i, 0]
     return f, moments
+
+
+@nb.njit(cache=True)
+def _pinv_symmetric(g, rcond):  # pragma: no cover - jit
+    w, u = np.linalg.eigh(g)
+    big = np.max(np.abs(w))
+    out = np.zeros_like(g)
+    for k in range(w.shape[0]):
+        if abs(w[k]) > rcond * big:
+            out += np.outer(u[:, k], u[:, k]) / w[k]
+    return out
+
+
+@nb.njit(cache=True)
+def damping_free(x, v, t, w, mx, indptr, indices, data, mphi_flat, cmat):  # pragma: no cover
+    """The free-body modal damping force (n,3) N at state (x, v) of
+    :func:`quadmodes.fullorder.step.damping_force` in one compiled call: the frame sums
+    (:func:`damping_frame`), the best-fit rotation (polar factor by SVD), the pseudo-inverse
+    of ``ΨᵀMΨ`` (rcond 1e-12), the modal force (:func:`damping_modal`) and its projection."""
+    p, r, big_a, big_p, s, mv = damping_frame(x, v, t, w, mx, indptr, indices, data)
+    u, _, vt = np.linalg.svd(big_a)
+    d = np.linalg.det(u @ vt)
+    sign = 1.0 if d >= 0.0 else -1.0
+    for k in range(3):
+        u[k, 2] *= sign
+    rot = u @ vt
+    g = np.zeros((6, 6))
+    tw = 0.0
+    for i in range(t.shape[0]):
+        tw += t[i] * w[i]
+    trace = big_p[0, 0] + big_p[1, 1] + big_p[2, 2]
+    skew = np.array([[0.0, -s[2], s[1]], [s[2], 0.0, -s[0]], [-s[1], s[0], 0.0]])
+    for a in range(3):
+        g[a, a] = tw
+        for b in range(3):
+            g[a, 3 + b] = -skew[a, b]
+            g[3 + b, a] = -skew[a, b]
+            g[3 + a, 3 + b] = (trace if a == b else 0.0) - big_p[a, b]
+    g_inv = _pinv_symmetric(g, 1e-12)
+    f, moments = damping_modal(r, v, t, g_inv @ mv, rot, mphi_flat, cmat)
+    c7 = g_inv @ moments
+    n = x.shape[0]
+    rigid = np.empty((n, 3))
+    for i in range(n):
+        rigid[i, 0] = t[i] * c7[0] + c7[4] * r[i, 2] - c7[5] * r[i, 1]
+        rigid[i, 1] = t[i] * c7[1] + c7[5] * r[i, 0] - c7[3] * r[i, 2]
+        rigid[i, 2] = t[i] * c7[2] + c7[3] * r[i, 1] - c7[4] * r[i, 0]
+    for i in range(n):  # f − M_s Ψ c7
+        for q in range(indptr[i], indptr[i + 1]):
+            j = indices[q]
+            for k in range(3):
+                f[i, k] -= data[q] * rigid[j, k]
+    return f
+
+
+@nb.njit(cache=True)
+def tie_blocks(conn, l2, k, x0, x1, positions, weight, out):  # pragma: no cover - jit
+    """Add ``weight ×`` the Green-strain bars' energy–momentum Jacobian blocks
+    ``½k(ε̄ I + d½ d₁ᵀ/L₀²)`` (as ``[[kb, −kb], [−kb, kb]]``) at the pair (x0, x1) (n,3) to the
+    raveled dense matrix ``out``, entry ``(r, c)`` of bar e at ``positions[e, 6r + c]`` (−1:
+    dropped). conn (nb,2), l2 = L₀² (nb,), k = EA/L₀ (nb,)."""
+    kb = np.empty((3, 3))
+    for e in range(conn.shape[0]):
+        a, b = conn[e, 0], conn[e, 1]
+        d0 = x0[b] - x0[a]
+        d1 = x1[b] - x1[a]
+        e0 = (d0[0] * d0[0] + d0[1] * d0[1] + d0[2] * d0[2] - l2[e]) / (2.0 * l2[e])
+        e1 = (d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2] - l2[e]) / (2.0 * l2[e])
+        half = 0.5 * k[e]
+        for i in range(3):
+            for j in range(3):
+                kb[i, j] = half * ((0.5 * (e0 + e1) if i == j else 0.0)
+                                   + 0.5 * (d0[i] + d1[i]) * d1[j] / l2[e])  # fmt: skip
+        for r in range(6):
+            for c in range(6):
+                pos = positions[e, 6 * r + c]
+                if pos >= 0:
+                    sign = 1.0 if (r < 3) == (c < 3) else -1.0
+                    out[pos] += weight * sign * kb[r % 3, c % 3]

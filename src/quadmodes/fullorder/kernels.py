@@ -161,7 +161,7 @@ class _Bar:
     tie = True
 
     def __init__(self, e: BarSet, n: int):
-        self.set, self.conn = e, e.conn
+        self.set, self.conn = e, np.ascontiguousarray(e.conn)
         self.l2 = e.length0**2
         self.k = e.EA / e.length0
         signs = np.broadcast_to(np.array([-1.0, 1.0]), e.conn.shape)

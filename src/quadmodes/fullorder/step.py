@@ -23,7 +23,7 @@ from quadmodes.fe.membrane import MembraneSet, _voigt_stress, green_strain
 from quadmodes.fe.model import Structure, internal_force
 from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.fullorder.setup import FullOrderProblem
-from quadmodes.rotations import polar_rotation, skew
+from quadmodes.rotations import skew
 
 # ---------------------------------------------------------------------------------------------
 # step force: midpoint with the Simo–Tarnow stress average
@@ -127,13 +127,8 @@ def damping_force(
     if hub_rotation is None and jit is not None:  # the same sums, compiled (fullorder.jit)
         ms = body.ms
         x, v = np.ascontiguousarray(x, float), np.ascontiguousarray(v, float)
-        p, r, a, pm, s, mv = jit.damping_frame(x, v, body.t, body.w, body.MX, ms.indptr,
-                                               ms.indices, ms.data)  # fmt: skip
-        g_inv = _gram_inverse(body, pm, s)
-        f, moments = jit.damping_modal(r, v, body.t, g_inv @ mv, polar_rotation(a),
-                                       np.ascontiguousarray(mphi_flat),
-                                       np.ascontiguousarray(c, float))  # fmt: skip
-        return f - ms @ _rigid_motion(body, r, g_inv @ moments)
+        return jit.damping_free(x, v, body.t, body.w, body.MX, ms.indptr, ms.indices, ms.data,
+                                np.ascontiguousarray(mphi_flat), np.ascontiguousarray(c, float))
     # W = Π Y, Y = M 𝒬 Φ: Yᵀu = (M Φ)ᵀ(Qᵀ-rotated u), Y q = (Σ q_k M φ_k) rotated by Q;
     # neither Y (3n × K) nor Ψ (3n × 6) is formed
     if hub_rotation is None:
