@@ -195,3 +195,19 @@ def test_modified_newton_matches_full_newton_to_the_newton_tolerance(spin_runs):
     for sol in (new, ref):
         hd = np.linalg.norm(sol.H_discrete, axis=1)
         assert np.max(np.abs(hd / hd[0] - 1.0)) <= 1e-8
+
+
+def test_plain_midpoint_path_matches_full_newton(small_modal_model, small_reduced_model):
+    # energy_momentum=False: f(x½) kernels, no condensation (the bars are not averaged)
+    model, m = small_reduced_model, small_modal_model
+    system = rsys.reduced_system(model, "Q")
+    omega = dyn.coning_omega(model.J0, 2 * np.pi * 5.0, math.radians(3.0))
+    y0 = rsys.pack_state(system, omega=omega, s=np.zeros(model.n_modes))
+    x0, v0 = initial_state_from_reduced(model, y0, p=centre_of_mass(m.structure, m.x))
+    sols = [integrate_full_order(m.structure, m.x, x0, v0, (0.0, 10 * H), H, model=model,
+                                 energy_momentum=False, full_newton=full)
+            for full in (False, True)]  # fmt: skip
+    new, ref = sols
+    assert new.status == 0 and ref.status == 0
+    assert np.abs(new.H_norm - ref.H_norm).max() <= 1e-8 * ref.H_norm[0]  # the scheme's test
+    assert np.abs(new.E - ref.E).max() <= 1e-7 * np.abs(ref.T).max()
