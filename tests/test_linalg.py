@@ -45,3 +45,42 @@ def test_rank_one_terms_match_a_dense_solve():
     expected = np.linalg.solve(dense, b)
     assert np.allclose(solve(b), expected, rtol=0, atol=1e-10 * np.abs(expected).max())
     assert with_rank_one_terms(np.negative, []) is np.negative
+
+
+def test_factorize_interface_and_missing_optional_back_end(monkeypatch, capsys):
+    import importlib.util
+
+    from quadmodes.linalg import factor
+
+    a = _bordered_laplacian(12)
+    b = np.random.default_rng(4).standard_normal(a.shape[0])
+    f = factor.factorize(a)
+    assert f.backend == "superlu"
+    assert np.linalg.norm(a @ f.solve(b) - b) <= 1e-10 * np.linalg.norm(b)
+    many = f.solve(np.stack([b, 2 * b], 1))  # several right-hand sides at once
+    assert np.allclose(many[:, 1], 2 * many[:, 0], rtol=0, atol=1e-12 * np.abs(many).max())
+    with pytest.raises(ValueError, match="choose from"):
+        factor.factorize(a, backend="nonsense")
+    # a missing optional back end: one line, then the default
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "pypardiso" else real(name, *a))  # fmt: skip
+    monkeypatch.setattr(factor, "_REPORTED", set())
+    monkeypatch.setenv("QUADMODES_LINALG", "pardiso")
+    assert factor.factorize(a).backend == "superlu"
+    assert factor.factorize(a).backend == "superlu"
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pypardiso" in err
+
+
+def test_single_precision_factorisation_is_an_approximate_inverse():
+    from quadmodes.linalg.factor import factorize
+
+    lap1 = sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(40, 40))
+    a = sp.kronsum(lap1, lap1, format="csc")  # SPD, condition ~3
+    b = np.random.default_rng(6).standard_normal(a.shape[0])
+    x = factorize(a, single=True).solve(b)
+    assert x.dtype == np.float64
+    exact = factorize(a).solve(b)
+    err = np.abs(x - exact).max() / np.abs(exact).max()
+    assert 0.0 < err <= 1e-5  # single-precision round-off, not double

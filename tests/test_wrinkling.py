@@ -154,3 +154,26 @@ def test_tension_field_leaves_a_taut_membrane_unchanged():
     assert relaxed.energy(x) == pytest.approx(svk.energy(x), rel=1e-13)
     np.testing.assert_allclose(relaxed.force(x), svk.force(x), rtol=1e-13)
     np.testing.assert_allclose(relaxed.stiffness(x), svk.stiffness(x), rtol=1e-12, atol=1e-9)
+
+
+def test_fast_step_kernel_matches_the_reference_through_wrinkling():
+    """The full order's step kernel of a wrinkling membrane (fullorder.kernels) gives the
+    reference step force and Newton block (fullorder.step / fullorder.newton)."""
+    from quadmodes.fullorder.kernels import StepOperators
+    from quadmodes.fullorder.newton import _membrane_block
+
+    pts, mem = two_triangles(True)
+    structure = Structure(pts, np.ones(4, bool), (mem,), sp.identity(4, format="csr"),
+                          np.zeros((4, 3), bool))  # fmt: skip
+    ops = StepOperators.build(structure, sp.identity(12, format="csr"), np.arange(12), True)
+    (kernel,) = ops.kernels
+    rng = np.random.default_rng(6)
+    x0 = pts * np.array([1.01, 0.995, 1.0]) + rng.normal(scale=5e-4, size=pts.shape)
+    x1 = x0 + rng.normal(scale=5e-4, size=pts.shape)
+    ref = step_force(structure, x0, x1, step_strains(structure, x0))
+    np.testing.assert_allclose(kernel.force(kernel.start(x0), x1), ref, rtol=1e-10,
+                               atol=1e-10 * np.max(np.abs(ref)))  # fmt: skip
+    block = _membrane_block(mem, x0, x1, 0.5 * (x0 + x1))
+    np.testing.assert_allclose(kernel.block(x0, x1), block, rtol=1e-10,
+                               atol=1e-10 * np.max(np.abs(block)))  # fmt: skip
+    assert ops.energy(x1) == pytest.approx(mem.energy(x1), rel=1e-12)

@@ -61,23 +61,84 @@ class CsrPattern:
     slots: np.ndarray
 
 
-def csr_pattern(conns: Sequence[np.ndarray], n: int) -> CsrPattern:
+def element_entries(conn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns ``(ne·m²,)`` of the entries of element matrices ``(ne, m, m)`` (m = 3k)
+    raveled, for a connectivity ``conn`` ``(ne, k)``."""
+    dofs = element_dofs(conn)
+    m = dofs.shape[1]
+    return np.repeat(dofs, m, axis=1).ravel(), np.tile(dofs, (1, m)).ravel()
+
+
+def csr_pattern(
+    conns: Sequence[np.ndarray], n: int, extra: Sequence[tuple[np.ndarray, np.ndarray]] = ()
+) -> CsrPattern:
     """The :class:`CsrPattern` of element sets with connectivities ``conns`` (each ``(ne, k)``)
-    over ``n`` vector DOFs."""
-    size = 3 * n
-    keys = []
-    for conn in conns:
-        dofs = element_dofs(conn)
-        m = dofs.shape[1]
-        rows = np.repeat(dofs, m, axis=1).ravel()
-        cols = np.tile(dofs, (1, m)).ravel()
-        keys.append(rows.astype(np.int64) * size + cols)
-    unique, slots = np.unique(np.concatenate(keys), return_inverse=True)
-    rows = unique // size
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=size))])
-    index_type = np.int32 if unique.size < 2**31 else np.int64
-    return CsrPattern(size, indptr.astype(index_type), (unique % size).astype(index_type),
-                      slots.astype(index_type))  # fmt: skip
+    over ``n`` vector DOFs. ``extra``: further entries as ``(rows, cols)`` scalar-DOF index
+    arrays (e.g. the COO entries of a mass matrix); their slots follow the sets' in order.
+
+    Every element couples all three components of its vector DOFs, so the pattern is a node
+    pattern times 3×3 blocks: the node pairs are sorted once (k² keys per element instead of
+    9k²) and expanded (an extra entry brings its whole 3×3 block, the rest stored zeros)."""
+    conns = [np.asarray(c, np.int64) for c in conns]
+    extra = [(np.asarray(r, np.int64), np.asarray(c, np.int64)) for r, c in extra]
+    keys = [(np.repeat(c, c.shape[1], axis=1) * n + np.tile(c, (1, c.shape[1]))).ravel()
+            for c in conns]  # fmt: skip
+    keys += [(r // 3) * n + c // 3 for r, c in extra]
+    pairs, pair_of = np.unique(np.concatenate(keys), return_inverse=True)
+    node_rows, node_cols = pairs // n, pairs % n
+    nptr = np.concatenate([[0], np.cumsum(np.bincount(node_rows, minlength=n))])
+    rank = np.arange(pairs.size) - nptr[node_rows]  # place of the column node in its row
+    row_len = 3 * np.repeat(np.diff(nptr), 3)  # scalar row 3I+i: 3 deg(I) entries
+    indptr = np.concatenate([[0], np.cumsum(row_len)])
+    base = indptr[3 * node_rows[:, None] + np.arange(3)] + 3 * rank[:, None]  # (pairs, 3 rows)
+    indices = np.empty(9 * pairs.size, np.int64)
+    for j in range(3):
+        indices[base + j] = (3 * node_cols + j)[:, None]
+    slots, offset = [], 0
+    for c in conns:
+        ne, k = c.shape
+        pair = pair_of[offset : offset + ne * k * k].reshape(ne, k, k)
+        offset += ne * k * k
+        b = base[pair].transpose(0, 1, 3, 2)  # (ne, a, i, b): rows 3a+i, columns 3b+j
+        slots.append((b[..., None] + np.arange(3)).ravel())
+    for r, c in extra:
+        pair = pair_of[offset : offset + r.size]
+        offset += r.size
+        slots.append(base[pair, r % 3] + c % 3)
+    index_type = np.int32 if indices.size < 2**31 else np.int64
+    slot_all = np.concatenate(slots) if slots else np.zeros(0, np.int64)
+    return CsrPattern(3 * n, indptr.astype(index_type), indices.astype(index_type),
+                      slot_all.astype(index_type))  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class SubmatrixMap:
+    """CSC pattern of the submatrix ``A[keep][:, keep]`` of a :class:`CsrPattern` and, for each
+    of its entries, the position in the pattern's CSR data: ``data_sub = data[positions]``.
+
+    size: ``len(keep)``; indptr ``(size + 1,)``, indices ``(nnz_sub,)``, positions ``(nnz_sub,)``."""
+
+    size: int
+    indptr: np.ndarray
+    indices: np.ndarray
+    positions: np.ndarray
+
+    def csc(self, data: np.ndarray) -> sp.csc_matrix:
+        """The submatrix (CSC) of the full matrix with CSR data ``data`` ``(nnz,)``."""
+        shape = (self.size, self.size)
+        return sp.csc_matrix((data[self.positions], self.indices, self.indptr), shape=shape)
+
+
+def submatrix_map(pattern: CsrPattern, keep: np.ndarray) -> SubmatrixMap:
+    """The :class:`SubmatrixMap` of ``pattern`` on the scalar DOFs ``keep`` (sorted indices)."""
+    nnz = pattern.indices.size
+    shape = (pattern.size, pattern.size)
+    # data = 1 + position, so that no entry is an explicit zero that scipy could drop
+    marks = sp.csr_matrix((np.arange(1, nnz + 1, dtype=np.int64), pattern.indices,
+                           pattern.indptr), shape=shape)  # fmt: skip
+    sub = marks[keep][:, keep].tocsc()
+    sub.sort_indices()
+    return SubmatrixMap(len(keep), sub.indptr, sub.indices, sub.data - 1)
 
 
 def assemble_csr(pattern: CsrPattern, element_matrices: Sequence[np.ndarray]) -> sp.csr_matrix:

@@ -32,7 +32,13 @@ Choices (and why)
   for the averaged stress), assembled in the body frame and applied through the current frame
   rotation (frame covariance ``J(𝒬z) = 𝒬 J(z) 𝒬ᵀ``), so one factorisation is reused across
   iterations *and* steps while successive corrections shrink at least twofold (modified Newton);
-  refactored otherwise. Backtracking on the residual norm for large corrections. Converged when
+  refactored otherwise. With end-body ties (far stiffer than the step resolves) the free DOFs
+  are split: the ties' block is renewed at every iteration and condensed onto their few DOFs,
+  the rest is factorised once for many steps (:mod:`~quadmodes.fullorder.condensed`; the step
+  force and the matrix come from :mod:`~quadmodes.fullorder.kernels`, compiled by
+  :mod:`~quadmodes.fullorder.jit` when numba is installed; docs/performance.md). Only the
+  linear solves differ from full Newton (``full_newton=True``), not the equations or the
+  stopping test. Backtracking on the residual norm for large corrections. Converged when
   the largest correction is below ``newton_tol × body size``. Predictor: the last two states'
   body frames extrapolated (exact for steady rotation; uses no velocity or acceleration, which
   carry the unresolved stiff components).

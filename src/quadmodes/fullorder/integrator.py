@@ -18,7 +18,13 @@ import quadmodes.fullorder.kinematics as kin
 from quadmodes.fe.model import Structure
 from quadmodes.fullorder.checkpoint import checkpoint_data, resume_from, write_checkpoint
 from quadmodes.fullorder.damping import DampingModes
-from quadmodes.fullorder.newton import FullOrderNewtonError, NewtonMatrix, solve_step
+from quadmodes.fullorder.kernels import StepOperators
+from quadmodes.fullorder.newton import (
+    FullOrderNewtonError,
+    NewtonMatrix,
+    matrix_factory,
+    solve_step,
+)
 from quadmodes.fullorder.sampling import SampledSeries
 from quadmodes.fullorder.setup import (
     FullOrderProblem,
@@ -89,6 +95,7 @@ def integrate_full_order(
     energy_momentum: bool = True,
     newton_tol: float = 1e-11,
     max_newton: int = 40,
+    full_newton: bool = False,
     checkpoint: Path | None = None,
     checkpoint_every: int = 1000,
     resume: bool = False,
@@ -107,7 +114,10 @@ def integrate_full_order(
     DOFs; default for a clamped structure: a fixed clamp). spin_axis (3,): nominal spin axis in
     the initial body frame for the axis tracking (default: the minor axis of the initial
     inertia). newton_tol: relative (to the body size) Newton correction at convergence.
-    max_newton: iterations per step. checkpoint: .npz path written every ``checkpoint_every``
+    max_newton: iterations per step. full_newton: a fresh factorisation of the whole Newton
+    matrix at every iteration, matrix and step force computed the straightforward way
+    (:func:`~quadmodes.fullorder.newton.step_jacobian`, :func:`~quadmodes.fullorder.step.step_force`;
+    the reference the tests compare the default with; several times slower). checkpoint: .npz path written every ``checkpoint_every``
     steps (atomic); ``resume``: continue from it (same t0, dt; the end may differ) — the result
     equals the uninterrupted run's (the factorisation is renewed after every checkpoint in both).
     rotation_map: map the initial state to the scheme's steady-rotation form and the sampled
@@ -121,7 +131,9 @@ def integrate_full_order(
         structure, x_ref, t_span, dt, model=model, damping=damping, hub=hub,
         newton_tol=newton_tol, energy_momentum=energy_momentum, rotation_map=rotation_map,
     )  # fmt: skip
-    samples = SampledSeries(problem, spin_axis, on_sample)
+    ops = StepOperators.build(structure, problem.m_full, problem.free, energy_momentum)
+    samples = SampledSeries(problem, spin_axis, ops.energy if ops is not None else None,
+                            on_sample)  # fmt: skip
     ck = Path(checkpoint) if checkpoint is not None else None
     state = initial_run_state(x0, v0)
     if resume and ck is not None and ck.is_file():
@@ -130,7 +142,8 @@ def integrate_full_order(
         state = discrete_initial_state(problem, state)
         samples.record(problem.t0, state.x, state.v, state.e_d)
     state, status, message = _run_steps(
-        problem, state, samples, max_newton=max_newton, save_every=save_every, checkpoint=ck,
+        problem, state, samples, ops, max_newton=max_newton, full_newton=full_newton,
+        save_every=save_every, checkpoint=ck,
         checkpoint_every=checkpoint_every, progress=progress, start=start,
     )  # fmt: skip
     modes = problem.damping
@@ -143,8 +156,8 @@ def integrate_full_order(
 
 
 def _run_steps(
-    problem: FullOrderProblem, state: RunState, samples: SampledSeries, *, max_newton: int,
-    save_every: int, checkpoint: Path | None, checkpoint_every: int,
+    problem: FullOrderProblem, state: RunState, samples: SampledSeries, ops: StepOperators, *,
+    max_newton: int, full_newton: bool, save_every: int, checkpoint: Path | None, checkpoint_every: int,
     progress: Callable[[float], None] | None, start: float,
 ) -> tuple[RunState, int, str]:  # fmt: skip
     """Step ``state`` to the end of the problem, sampling every ``save_every`` steps (and the
@@ -154,9 +167,11 @@ def _run_steps(
     reached is sampled)."""
     n_steps, matrix = problem.n_steps, None
     report = max(1, n_steps // 100)
+    make = matrix_factory(problem, ops, full_newton)
     try:
         while state.step < n_steps:
-            state, matrix = _advance(problem, state, matrix, max_newton, checkpoint)
+            state, matrix = _advance(problem, state, matrix, max_newton, checkpoint, ops, make,
+                                     full_newton)  # fmt: skip
             step = state.step
             if step % save_every == 0 or step == n_steps:
                 samples.record(problem.time(step), state.x, state.v, state.e_d)
@@ -176,7 +191,7 @@ def _run_steps(
 
 def _advance(
     problem: FullOrderProblem, state: RunState, matrix: NewtonMatrix | None, max_newton: int,
-    checkpoint: Path | None,
+    checkpoint: Path | None, ops: StepOperators | None = None, make=None, full_newton=False,
 ) -> tuple[RunState, NewtonMatrix]:  # fmt: skip
     """One step: predictor, Newton (reusing ``matrix`` if given), end velocity ``v₁ = 2v½ − v₀``
     and the damping work. Returns the new state and the Newton matrix in use. Raises
@@ -185,8 +200,8 @@ def _advance(
     t_now, t1 = problem.time(state.step), problem.time(state.step + 1)
     frame_now = body_frame(problem.body, x, problem.hub, t_now)
     x1, rot = predict(problem, x, v, state.frame_prev, frame_now, t1)
-    residual = StepResidual.start(problem, x, v, t_now)
-    res = solve_step(problem, matrix, x, x1, rot, residual, max_newton)
+    residual = StepResidual.start(problem, x, v, t_now, None if full_newton else ops)
+    res = solve_step(problem, matrix, x, x1, rot, residual, max_newton, make, full_newton)
     if not res.converged:
         kept = checkpoint if checkpoint is not None and checkpoint.is_file() else None
         raise FullOrderNewtonError(state.step + 1, t1, res.correction / problem.scale, kept)

@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from quadmodes.fe import model as fem
 from quadmodes.rom.reduced import ReducedModel, cross_form
-from quadmodes.rotations import axis_rotation, polar_rotation, rotation_matrix
+from quadmodes.rotations import axis_rotation, polar_rotation, rotation_matrix, skew
 from quadmodes.structure.bordered import bordered_solver
 
 # ---------------------------------------------------------------------------------------------
@@ -74,7 +74,9 @@ class Body:
     ms (n,n) kg: scalar mass. t (n,) float: translational indicator. w (n,) kg: ``M_s t``.
     mass kg. X (n,3): reference about the CoM (free body) or the hub point (clamped).
     MX (n,3) = ``M_s X``. Phi (N,n,3), G (N,N,n,3): retained modes and quadratic modes (may be
-    N = 0). MPhi (N,n,3) = ``M_s Φ``. tip: index of the tip position row (clamped) or None."""
+    N = 0). MPhi (N,n,3) = ``M_s Φ``. tip: index of the tip position row (clamped) or None.
+    GM (N,N,N) √kg·m⁻¹: ``Φ_kᵀ M g^{mn}`` (indexed k, m, n) for :func:`modal_coordinates`, or
+    None (computed there)."""
 
     ms: sp.csr_matrix
     t: np.ndarray
@@ -86,6 +88,7 @@ class Body:
     G: np.ndarray
     MPhi: np.ndarray
     tip: int | None = None
+    GM: np.ndarray | None = None
 
     @property
     def n_modes(self) -> int:
@@ -105,7 +108,8 @@ def make_body(ms, translational, X, model: ReducedModel | None, hub: bool) -> Bo
     if hub:
         r = np.where(t > 0, np.linalg.norm(X, axis=1), -np.inf)
         tip = int(np.argmax(r))
-    return Body(ms, t, w, float(w.sum()), X, ms @ X, phi, g, mphi, tip)
+    gm = np.einsum("mnia,kia->kmn", g, mphi)  # Φᵀ M g^{mn}, once instead of per sample
+    return Body(ms, t, w, float(w.sum()), X, ms @ X, phi, g, mphi, tip, gm)
 
 
 def centre(body: Body, x: np.ndarray) -> np.ndarray:
@@ -117,7 +121,7 @@ def best_fit_rotation(body: Body, x: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Mass-weighted best-fit (Kabsch) rotation R (3,3) of ``x`` about ``p`` onto the reference:
     the polar factor of ``Σ M_ij (x_i − t_i p) X_jᵀ``. It is the mean-axes (Buckens) frame,
     ``𝒞(X, Rᵀ(x − p)) = 0`` (theory.md §2)."""
-    r = x - np.outer(body.t, p)
+    r = x - body.t[:, None] * p
     return polar_rotation(r.T @ body.MX)
 
 
@@ -141,7 +145,7 @@ def modal_coordinates(
     lin = np.einsum("kia,ia->k", body.MPhi, u)
     s = lin
     if quadratic:
-        gm = np.einsum("mnia,kia->kmn", body.G, body.MPhi)  # Φᵀ M g^{mn}
+        gm = body.GM if body.GM is not None else np.einsum("mnia,kia->kmn", body.G, body.MPhi)
         for _ in range(iterations):
             s = lin - np.einsum("kmn,m,n->k", gm, s, s)
     return s
@@ -213,7 +217,7 @@ def sample(
     (clamped; else the mean-axes ω is computed)."""
     p = centre(body, x)
     pd = (body.w @ v) / body.mass
-    r = x - np.outer(body.t, p)
+    r = x - body.t[:, None] * p
     mv = body.ms @ v
     h = cross_form(r.T @ mv)
     t_kin = 0.5 * float(np.sum(v * mv)) - 0.5 * body.mass * float(pd @ pd)
@@ -221,9 +225,9 @@ def sample(
     inertia = np.trace(pm) * np.eye(3) - pm
     o = p if origin is None else np.asarray(origin, float)
     rot = best_fit_rotation(body, x, o) if frame is None else frame
-    rb = (x - np.outer(body.t, o)) @ rot
+    rb = (x - body.t[:, None] * o) @ rot
     if omega is None:
-        vb = (v - np.outer(body.t, pd)) @ rot
+        vb = (v - body.t[:, None] * pd) @ rot
         w_in = rot @ mean_axes_omega(body, rb, vb)
     else:
         w_in = np.asarray(omega, float)
@@ -333,9 +337,9 @@ def _rotation_parts(body: Body, x: np.ndarray, v: np.ndarray):
     mean-axes angular velocity ω (3,) rad/s of state (x, v)."""
     c = centre(body, x)
     pd = (body.w @ v) / body.mass
-    r = x - np.outer(body.t, c)
+    r = x - body.t[:, None] * c
     rot = best_fit_rotation(body, x, c)
-    w = rot @ mean_axes_omega(body, r @ rot, (v - np.outer(body.t, pd)) @ rot)
+    w = rot @ mean_axes_omega(body, r @ rot, (v - body.t[:, None] * pd) @ rot)
     return c, pd, r, w
 
 
@@ -343,7 +347,7 @@ def _rescale(body: Body, c, pd, r, w_from, w_to, radial: float, v_el) -> tuple:
     """State with ``r⊥`` (normal to ω) scaled by ``radial`` and the rigid velocity ω_to × r."""
     a = w_to / np.linalg.norm(w_to)
     r_new = r + (radial - 1.0) * (r - np.outer(r @ a, a))
-    return np.outer(body.t, c) + r_new, np.outer(body.t, pd) + np.cross(w_to, r_new) + v_el
+    return body.t[:, None] * c + r_new, body.t[:, None] * pd + r_new @ skew(w_to).T + v_el
 
 
 def to_discrete_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, expand: bool = True):
@@ -362,7 +366,7 @@ def to_discrete_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, exp
     phi = float(np.linalg.norm(w)) * h
     if phi == 0.0:
         return x.copy(), v.copy()
-    v_el = v - np.outer(body.t, pd) - np.cross(w, r)
+    v_el = v - body.t[:, None] * pd - r @ skew(w).T  # − ω × r
     kappa = np.tan(0.5 * phi) / (0.5 * phi)
     radial = 1.0 / np.cos(0.5 * phi) if expand else 1.0
     return _rescale(body, c, pd, r, w, kappa * w, radial, v_el)
@@ -377,6 +381,6 @@ def to_physical_rotation(body: Body, x: np.ndarray, v: np.ndarray, h: float, exp
     if phi_d == 0.0:
         return x.copy(), v.copy()
     phi = 2.0 * np.arctan(0.5 * phi_d)
-    v_el = v - np.outer(body.t, pd) - np.cross(w, r)
+    v_el = v - body.t[:, None] * pd - r @ skew(w).T  # − ω × r
     radial = np.cos(0.5 * phi) if expand else 1.0
     return _rescale(body, c, pd, r, w, w * (phi / phi_d), radial, v_el)

@@ -15,16 +15,26 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from quadmodes.fe.assembly import assemble_matrix
 from quadmodes.fe.bar import BarSet
 from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
+from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
+from quadmodes.fullorder.kernels import StepOperators
 from quadmodes.fullorder.setup import FullOrderProblem
+from quadmodes.linalg.factor import factorize
 
 #: Refactor when successive Newton corrections shrink by less than this factor.
 RHO_REFACTOR = 0.5
+#: The same for the soft part of a condensed matrix (its ties are renewed at every iteration,
+#: so what is left grows slowly with the age of the soft part: on paper-41hz the contraction
+#: goes from 0.02 to 0.07 over 20 steps; renewing at 0.1 saves a Newton iteration per step).
+RHO_SOFT = 0.1
+#: Condense the ties only when they touch at most this many free DOFs (their Schur system is
+#: dense and refactorised at every iteration; the paper models have 75 and 123).
+MAX_TIE_DOFS = 600
+
 #: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
 LINE_SEARCH = 1e-5
 
@@ -111,27 +121,39 @@ def step_jacobian(structure: Structure, x0: np.ndarray, x1: np.ndarray, energy_m
 
 
 class NewtonMatrix:
-    """Sparse LU of ``A = M + (Δt²/2) J`` on the free DOFs, J = ∂f_step/∂x₁ at a body-frame
-    pair (z₀, z₁) (:func:`step_jacobian`).
+    """Sparse factorisation of ``A = M + (Δt²/2) J`` on the free DOFs, J = ∂f_step/∂x₁ at a
+    body-frame pair (z₀, z₁) (:func:`step_jacobian`), with its gas-law rank-one terms.
 
     Frame covariance ``J(𝒬z₀, 𝒬z₁) = 𝒬 J(z₀, z₁) 𝒬ᵀ`` (𝒬 = I ⊗ Q; M commutes with 𝒬) lets one
     factorisation serve later steps whose body-frame pair is close to (z₀, z₁):
     ``A⁻¹ r ≈ 𝒬 A(z)⁻¹ 𝒬ᵀ r`` with Q the current frame, whatever the rigid rotation since."""
 
-    def __init__(self, structure, m_full, z0, z1, dt: float, free: np.ndarray, em: bool):
-        jac, low = step_jacobian(structure, z0, z1, em)
-        a = m_full + (0.5 * dt * dt) * jac
-        self.lu = spla.splu(a[free][:, free].tocsc(), permc_spec="COLAMD")
+    def __init__(self, a_free, low: list, weight: float, free: np.ndarray):
+        """a_free: A on the free DOFs (sparse); low: rank-one terms ``(c, v)`` of J (v over all
+        3n DOFs); weight: Δt²/2 (s²)."""
+        self.lu = factorize(a_free, symmetric=True)
         self.low = []
         for coef, vec in low:
             vf = np.asarray(vec).ravel()[free]
-            self.low.append((0.5 * dt * dt * coef, vf, self.lu.solve(vf)))
+            self.low.append((weight * coef, vf, self.lu.solve(vf)))
 
     @classmethod
-    def at(cls, problem: FullOrderProblem, z0: np.ndarray, z1: np.ndarray) -> NewtonMatrix:
-        """The Newton matrix of ``problem`` at the body-frame pair (z0, z1) (n,3)."""
-        return cls(problem.structure, problem.m_full, z0, z1, problem.h, problem.free,
-                   problem.energy_momentum)  # fmt: skip
+    def at(cls, problem: FullOrderProblem, z0: np.ndarray, z1: np.ndarray,
+           ops: StepOperators | None = None) -> NewtonMatrix:  # fmt: skip
+        """The Newton matrix of ``problem`` at the body-frame pair (z0, z1) (n,3), assembled
+        by ``ops`` (the run's :class:`~quadmodes.fullorder.kernels.StepOperators`; None: the
+        straightforward COO assembly of :func:`step_jacobian`)."""
+        weight, free = 0.5 * problem.h * problem.h, problem.free
+        if ops is None:
+            jac, low = step_jacobian(problem.structure, z0, z1, problem.energy_momentum)
+            a = (problem.m_full + weight * jac)[free][:, free].tocsc()
+        else:
+            low = [(0.5 * c, v) for c, v in tangent_low_rank(problem.structure, 0.5 * (z0 + z1))]
+            a = ops.newton_matrix(z0, z1, weight)
+        return cls(a, low, weight, free)
+
+    def update(self, z0: np.ndarray, z1: np.ndarray) -> None:
+        """Nothing to renew per iterate (the interface of a condensed matrix)."""
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         y = self.lu.solve(rhs)
@@ -189,7 +211,7 @@ class _LastResidual:
         return self.value
 
 
-def _correction(problem: FullOrderProblem, matrix: NewtonMatrix, r, rot) -> np.ndarray:
+def _correction(problem: FullOrderProblem, matrix, r, rot) -> np.ndarray:
     """Newton correction δx (n,3) m of residual r (n,3) N with the matrix applied in frame rot."""
     n = problem.n
     rb = (r @ rot).ravel()[problem.free]
@@ -198,37 +220,57 @@ def _correction(problem: FullOrderProblem, matrix: NewtonMatrix, r, rot) -> np.n
     return dz.reshape(n, 3) @ rot.T
 
 
+def _rho(matrix) -> float:
+    """Contraction above which ``matrix`` is renewed (:data:`RHO_REFACTOR`,
+    :data:`RHO_SOFT` for a condensed one)."""
+    return RHO_SOFT if isinstance(matrix, CondensedNewtonMatrix) else RHO_REFACTOR
+
+
+def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
+                   full_newton: bool = False) -> Callable:  # fmt: skip
+    """``make(z0, z1)``: the Newton matrix of a run at a body-frame pair (n,3). With ``ops``
+    and ties in the structure: a :class:`~quadmodes.fullorder.condensed.CondensedNewtonMatrix`
+    (the ties renewed at every iteration; at most :data:`MAX_TIE_DOFS` of them); otherwise, with
+    ``ops``: a :class:`NewtonMatrix` assembled
+    by ``ops``; ``full_newton`` or no ``ops``: the straightforward :class:`NewtonMatrix`."""
+    if full_newton or ops is None:
+        return lambda z0, z1: NewtonMatrix.at(problem, z0, z1)
+    split = TieSplit.of(ops, problem.free)
+    if split is None or len(split.tie) > MAX_TIE_DOFS:  # no ties, or too many for dense LU
+        return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)
+    return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
+
+
 def solve_step(
-    problem: FullOrderProblem, matrix: NewtonMatrix | None, x: np.ndarray, x1: np.ndarray,
-    rot: np.ndarray, residual: Callable, max_newton: int,
+    problem: FullOrderProblem, matrix, x: np.ndarray, x1: np.ndarray, rot: np.ndarray,
+    residual: Callable, max_newton: int, make: Callable | None = None, full_newton: bool = False,
 ) -> NewtonResult:  # fmt: skip
     """Modified Newton from the predicted end state x1 (n,3) of the step from x (n,3); the
     Newton matrix is applied in frame rot (3,3). ``matrix``: the factorisation to reuse (None:
-    factorise at the start); it is renewed at the current iterate when successive corrections
-    shrink by less than :data:`RHO_REFACTOR` (after at least two iterations with it).
+    factorise at the start with ``make`` (:func:`matrix_factory`; default: the straightforward
+    :class:`NewtonMatrix`)); it is renewed at the current iterate when successive corrections
+    shrink by less than :data:`RHO_REFACTOR` (after at least two iterations with it), and its
+    ``update`` (the ties of a condensed matrix) is taken at every iterate; a condensed matrix is
+    renewed already when they shrink by less than :data:`RHO_SOFT`. ``full_newton``:
+    a fresh factorisation at every iteration (the reference Newton; slow).
     ``residual(y) -> (v½, r, f_d)``. Corrections above :data:`LINE_SEARCH` × body size
     backtrack on the residual norm (:func:`line_search`)."""
+    make = make if make is not None else (lambda z0, z1: NewtonMatrix.at(problem, z0, z1))
     n_newton = n_factor = 0
     since = math.inf  # Newton iterations since the last factorisation
-    if matrix is None:
-        matrix = NewtonMatrix.at(problem, x @ rot, x1 @ rot)
+    if matrix is None or full_newton:
+        matrix = make(x @ rot, x1 @ rot)
         n_factor, since = n_factor + 1, 0
     prev, nd, ok = None, math.inf, False
     stalled = 0  # refactorisations that did not restore contraction (a kink of the law)
     residual_at = _LastResidual(residual)
     for _ in range(max_newton):
         vh, r, fd = residual_at(x1)
-        dx = _correction(problem, matrix, r, rot)
-        if stalled or float(np.max(np.abs(dx))) > LINE_SEARCH * problem.scale:
-            # far from the solution (a violent transient): backtrack on the residual
-            alpha, trial = line_search(
-                lambda y: float(np.linalg.norm(residual_at(y)[1])), x1, dx,
-                float(np.linalg.norm(r)),
-            )  # fmt: skip
-            dx = alpha * dx
-            x1 = trial if trial is not None else x1 + dx
-        else:
-            x1 = x1 + dx
+        if full_newton and since > 0:
+            matrix = make(x @ rot, x1 @ rot)
+            n_factor, since = n_factor + 1, 0
+        matrix.update(x @ rot, x1 @ rot)
+        x1, dx = _step_to(problem, matrix, residual_at, x1, r, rot, search=stalled > 0)
         n_newton, since = n_newton + 1, since + 1
         nd = float(np.max(np.abs(dx)))
         if not np.isfinite(nd):
@@ -236,13 +278,29 @@ def solve_step(
         if nd <= problem.tol:
             ok = True
             break
-        if prev is not None and nd > RHO_REFACTOR * prev and since >= 2:
+        if prev is not None and nd > _rho(matrix) * prev and since >= 2:
             # the frozen matrix no longer contracts well: renew it at this iterate; if a fresh
             # matrix did not help either (the wrinkling law's tangent jumps between iterates,
             # and Newton can cycle), backtrack on the residual from now on
             stalled += since <= 3 and n_factor > 0
-            matrix = NewtonMatrix.at(problem, x @ rot, x1 @ rot)
+            matrix = make(x @ rot, x1 @ rot)
             n_factor, since, prev = n_factor + 1, 0, None
             continue
         prev = nd
     return NewtonResult(x1, vh, fd, matrix, ok, nd, n_newton, n_factor)
+
+
+def _step_to(problem: FullOrderProblem, matrix, residual_at: Callable, x1: np.ndarray, r, rot,
+             search: bool = False):  # fmt: skip
+    """``(x1 + α δx, α δx)``: the Newton correction δx of residual r at x1 (n,3), backtracked
+    on the residual norm when it exceeds :data:`LINE_SEARCH` × body size or ``search`` (α = 1
+    otherwise)."""
+    dx = _correction(problem, matrix, r, rot)
+    if not search and float(np.max(np.abs(dx))) <= LINE_SEARCH * problem.scale:
+        return x1 + dx, dx
+    # far from the solution (a violent transient): backtrack on the residual
+    alpha, trial = line_search(
+        lambda y: float(np.linalg.norm(residual_at(y)[1])), x1, dx, float(np.linalg.norm(r))
+    )
+    dx = alpha * dx
+    return (trial if trial is not None else x1 + dx), dx

@@ -4,6 +4,9 @@ momentum, energies, the tracked minor axis, the spin rate, modal coordinates and
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 
 import quadmodes.fullorder.kinematics as kin
@@ -19,11 +22,14 @@ class SampledSeries:
     """Lists of the sampled values (``series[name]``, one entry a sample; names
     :data:`SERIES`), and the tracked axis ``axis_prev`` (3,) of the last sample (None before
     the first). ``spin_axis`` (3,): nominal spin axis in the initial body frame for the first
-    sample's axis (None: the minor axis of the initial inertia)."""
+    sample's axis (None: the minor axis of the initial inertia). ``energy(x)``: the potential
+    energy (J) of a state (default :func:`~quadmodes.fe.model.strain_energy`)."""
 
     def __init__(self, problem: FullOrderProblem, spin_axis: np.ndarray | None = None,
+                 energy: Callable[[np.ndarray], float] | None = None,
                  on_sample=None):  # fmt: skip
         self.problem, self.spin_axis = problem, spin_axis
+        self.energy = energy if energy is not None else partial(strain_energy, problem.structure)
         self.on_sample = on_sample  # on_sample(t, x): x (n,3) m the sampled physical positions
         self.series: dict[str, list] = {k: [] for k in SERIES}
         self.axis_prev: np.ndarray | None = None
@@ -66,7 +72,7 @@ class SampledSeries:
         series["t"].append(t)
         series["H"].append(smp.H)
         series["T"].append(smp.T)
-        series["V"].append(strain_energy(p.structure, xs) - p.v_ref)
+        series["V"].append(self.energy(xs) - p.v_ref)
         series["E_d"].append(e_d)
         series["omega"].append(smp.omega)
         series["s"].append(smp.s)

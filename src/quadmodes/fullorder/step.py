@@ -21,7 +21,9 @@ from quadmodes.fe.assembly import assemble_vector
 from quadmodes.fe.bar import BarSet
 from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, internal_force
+from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.fullorder.setup import FullOrderProblem
+from quadmodes.rotations import skew
 
 # ---------------------------------------------------------------------------------------------
 # step force: midpoint with the Simo–Tarnow stress average
@@ -80,14 +82,23 @@ def rigid_basis(body: kin.Body, x: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Rigid motions Ψ (n,3,6) of state x about p: translations (positions only), rotations
     ``e_a × (x − t p)``."""
     n = x.shape[0]
-    r = x - np.outer(body.t, p)
+    r = x - body.t[:, None] * p
     psi = np.zeros((n, 3, 6))
     for a in range(3):
         psi[:, a, a] = body.t
-        e = np.zeros(3)
-        e[a] = 1.0
-        psi[:, :, 3 + a] = np.cross(e, r)
+    # e_a × r: e_x × r = (0, −r_z, r_y), e_y × r = (r_z, 0, −r_x), e_z × r = (−r_y, r_x, 0)
+    psi[:, 1, 3], psi[:, 2, 3] = -r[:, 2], r[:, 1]
+    psi[:, 0, 4], psi[:, 2, 4] = r[:, 2], -r[:, 0]
+    psi[:, 0, 5], psi[:, 1, 5] = -r[:, 1], r[:, 0]
     return psi
+
+
+def _symmetric_pinv(g: np.ndarray, rcond: float = 1e-12) -> np.ndarray:
+    """Pseudo-inverse of the symmetric matrix g (k,k) (eigenvalues below ``rcond`` × the
+    largest dropped), as ``np.linalg.pinv(g, rcond, hermitian=True)`` without its overhead."""
+    w, u = np.linalg.eigh(g)
+    keep = np.abs(w) > rcond * np.max(np.abs(w))
+    return (u[:, keep] / w[keep]) @ u[:, keep].T
 
 
 def damping_force(
@@ -112,20 +123,60 @@ def damping_force(
     mphi = body.MPhi if mphi is None else mphi
     n_modes = mphi.shape[0]
     n = x.shape[0]
+    mphi_flat = mphi.reshape(n_modes, 3 * n)
+    jit = jit_module()
+    if hub_rotation is None and jit is not None:  # the same sums, compiled (fullorder.jit)
+        ms = body.ms
+        x, v = np.ascontiguousarray(x, float), np.ascontiguousarray(v, float)
+        return jit.damping_free(x, v, body.t, body.w, body.MX, ms.indptr, ms.indices, ms.data,
+                                np.ascontiguousarray(mphi_flat), np.ascontiguousarray(c, float))
+    # W = Π Y, Y = M 𝒬 Φ: Yᵀu = (M Φ)ᵀ(Qᵀ-rotated u), Y q = (Σ q_k M φ_k) rotated by Q;
+    # neither Y (3n × K) nor Ψ (3n × 6) is formed
     if hub_rotation is None:
         p = kin.centre(body, x)
         rot = kin.best_fit_rotation(body, x, p)
-        w = (mphi @ rot.T).reshape(n_modes, 3 * n).T
-        psi = rigid_basis(body, x, p).reshape(3 * n, 6)
-        mpsi = (body.ms @ psi.reshape(n, 18)).reshape(3 * n, 6)
-        g6 = psi.T @ mpsi
-        w = w - mpsi @ (np.linalg.pinv(g6, rcond=1e-12, hermitian=True) @ (psi.T @ w))
-        vel = v.ravel()
+        r = x - body.t[:, None] * p
+        g_inv = _rigid_gram_inverse(body, r)
+        vel = v - _rigid_motion(body, r, g_inv @ _rigid_moments(body, r, body.ms @ v))  # Πᵀv
     else:
-        w = (mphi @ hub_rotation.T).reshape(n_modes, 3 * n).T
-        r = x - np.outer(body.t, hub_point)
-        vel = (v - np.cross(hub_omega, r)).ravel()
-    return (w @ (c @ (w.T @ vel))).reshape(n, 3)
+        rot = hub_rotation
+        r = x - body.t[:, None] * hub_point
+        vel = v - r @ skew(hub_omega).T  # v − Ω × r
+    q = c @ (mphi_flat @ (vel @ rot).ravel())
+    f = (q @ mphi_flat).reshape(n, 3) @ rot.T
+    if hub_rotation is None:
+        f = f - body.ms @ _rigid_motion(body, r, g_inv @ _rigid_moments(body, r, f))  # Π Y q
+    return f
+
+
+def _rigid_moments(body: kin.Body, r: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``Ψᵀu`` (6,): the net ``Σ tᵢuᵢ`` and the moment ``Σ rᵢ × uᵢ`` of u (n,3) about the
+    point of r = x − t p (n,3) (:func:`rigid_basis` without forming it)."""
+    p = r.T @ u  # Σ rᵢ uᵢᵀ; its antisymmetric part is the moment
+    return np.concatenate([body.t @ u, [p[1, 2] - p[2, 1], p[2, 0] - p[0, 2], p[0, 1] - p[1, 0]]])
+
+
+def _rigid_motion(body: kin.Body, r: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """``Ψa`` (n,3): the rigid motion ``tᵢ a_t + a_r × rᵢ`` of a (6,)."""
+    return body.t[:, None] * a[:3] + r @ skew(a[3:]).T
+
+
+def _rigid_gram_inverse(body: kin.Body, r: np.ndarray) -> np.ndarray:
+    """``(ΨᵀMΨ)⁻¹`` (6,6) for r = x − t p (n,3) (:func:`_gram_inverse`)."""
+    return _gram_inverse(body, r.T @ (body.ms @ r), body.w @ r)
+
+
+def _gram_inverse(body: kin.Body, p: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """``(ΨᵀMΨ)⁻¹`` (6,6) (pseudo-inverse, as ``np.linalg.pinv(·, 1e-12, hermitian=True)``)
+    from ``P = rᵀ M_s r`` (3,3) and ``s = Σ wᵢrᵢ`` (3,) (w = M_s t): translation block
+    ``(tᵀM_s t) I``, coupling ``e_b × s`` (zero about the centre of mass of a body without
+    slope rows), rotation block ``tr(P) I − P``."""
+    g = np.zeros((6, 6))
+    g[:3, :3] = float(body.t @ body.w) * np.eye(3)
+    g[:3, 3:] = -skew(s)  # column b: e_b × s = −[s]× e_b
+    g[3:, :3] = g[:3, 3:].T
+    g[3:, 3:] = np.trace(p) * np.eye(3) - p
+    return _symmetric_pinv(g)
 
 
 def step_damping(problem: FullOrderProblem, t: float, xh: np.ndarray, vh: np.ndarray) -> np.ndarray:
@@ -171,7 +222,7 @@ def body_frame(
     else:
         c = np.asarray(hub.point, float)
         rot = hub.rotation(t)
-    return c, rot, (x - np.outer(body.t, c)) @ rot
+    return c, rot, (x - body.t[:, None] * c) @ rot
 
 
 def extrapolate(
@@ -187,7 +238,7 @@ def extrapolate(
     c_0, r_0, b_0 = now
     c_1 = 2.0 * c_0 - c_m
     r_1 = hub.rotation(t1) if hub is not None else r_0 @ (r_m.T @ r_0)
-    return np.outer(body.t, c_1) + (2.0 * b_0 - b_m) @ r_1.T
+    return body.t[:, None] * c_1 + (2.0 * b_0 - b_m) @ r_1.T
 
 
 def newton_frame(problem: FullOrderProblem, t: float, xh: np.ndarray) -> np.ndarray:
@@ -238,18 +289,24 @@ def predict(
 @dataclass(frozen=True, eq=False)
 class StepResidual:
     """Residual of the step from (x0, v0) (n,3) at ``t0`` (s): ``self(y)`` returns
-    ``(v½, r, f_d)`` (n,3) of the end state y, r in N. ``strain0``: :func:`step_strains` at x0
-    (energy–momentum) or None."""
+    ``(v½, r, f_d)`` (n,3) of the end state y, r in N. ``strain0``: the start data of the step
+    force (``ops.start(x0)``, or :func:`step_strains` at x0 without ``ops``; None for the plain
+    midpoint). ``ops``: the run's :class:`~quadmodes.fullorder.kernels.StepOperators` (None:
+    the straightforward :func:`step_force`)."""
 
     problem: FullOrderProblem
     x0: np.ndarray
     v0: np.ndarray
     t0: float
     strain0: list | None
+    ops: StepOperators | None = None
 
     @classmethod
-    def start(cls, problem: FullOrderProblem, x0, v0, t0: float) -> StepResidual:
+    def start(cls, problem: FullOrderProblem, x0, v0, t0: float,
+              ops: StepOperators | None = None) -> StepResidual:  # fmt: skip
         """The residual of the step from (x0, v0) at t0 (the start strains computed once)."""
+        if ops is not None:
+            return cls(problem, x0, v0, t0, ops.start(x0), ops)
         em = problem.energy_momentum
         return cls(problem, x0, v0, t0, step_strains(problem.structure, x0) if em else None)
 
@@ -258,7 +315,9 @@ class StepResidual:
         h = p.h
         yh, vh = 0.5 * (x + y), (y - x) / h
         fd = step_damping(p, self.t0 + 0.5 * h, yh, vh)
-        if p.energy_momentum:
+        if self.ops is not None:
+            f_int = self.ops.step_force(self.strain0, y)
+        elif p.energy_momentum:
             f_int = step_force(p.structure, x, y, self.strain0)
         else:
             f_int = internal_force(p.structure, yh)
