@@ -270,9 +270,7 @@ def _prepare_runs(runs: list) -> list:
     from quadmodes.runs import simulate
 
     with progress_bars(True) as bars:
-        return [r if r.spinup is not None
-                else simulate.prepare(r, progress=bars, check_deformation=True)
-                for r in runs]  # fmt: skip
+        return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
 
 
 @dataclass(frozen=True)
@@ -315,11 +313,14 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
     the checkpoint and the partial results in the partial folder and exits 130/143."""
     from quadmodes.runs import simulate
     from quadmodes.runs.chunked import Interrupted
+    from quadmodes.runs.deformation_check import with_deformation_check
     from quadmodes.runs.run_checkpoint import RunCheckpoint
 
     name = setup.run.name
     with one_line_errors():  # a damaged checkpoint or one of another run
         start = resume_point(setup, folders, opts.resume)
+    with progress_bars(True) as bars:  # after the input checks: one static FE solve
+        setup = with_deformation_check(setup, bars)
     _warn_validity(name, setup.validity)
     checkpoint = RunCheckpoint(folders.checkpoint, setup, opts.checkpoint_every_s)
     again = f"continue with: {opts.hint} --resume"
