@@ -146,14 +146,14 @@ def load_done(directory: Path, plan: SweepPlan) -> dict[int, dict]:
 @contextlib.contextmanager
 def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator:
     """A :class:`distributed.Client` on ``scheduler`` (an address; :class:`SweepError` if it
-    cannot be reached within 10 s) or on a new LocalCluster with ``workers`` processes (default
+    cannot be reached within 5 s) or on a new LocalCluster with ``workers`` processes (default
     one per core), one thread each, BLAS threads limited, the package's cache folder shared."""
     import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
         try:
-            client = Client(scheduler, timeout="10s", set_as_default=False)
+            client = Client(scheduler, timeout="5s", set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:
             reason = " ".join(str(exc).split()) or type(exc).__name__
             raise SweepError(f"--scheduler {scheduler}: cannot reach the scheduler ({reason}); "
