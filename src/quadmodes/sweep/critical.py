@@ -13,15 +13,16 @@ fixed) between which, in the *undamped* linearisation about the relative equilib
 Each bracket is refined by bisection (:func:`refine`, :data:`STEPS` halvings) on the reduced
 model of its lower point, linearised (undamped) at intermediate spin rates: a reduced model
 expanded about one spin is used a little beyond it, as ``quadmodes campbell`` does. The branches
-are named at the refined crossing by the MAC tracking of
-:func:`quadmodes.analysis.campbell.campbell` over the two ends of the final interval: the branch
-that changes stability (or, for the stiffness crossing, the one of smallest frequency), and for
-flutter its partner, the branch of nearest frequency.
+are named at the refined crossing: for the stiffness crossing by the model mode dominating the
+eigenvector of the smallest eigenvalue of Λ − ωᵀJ2ω (the static mode that passes through zero);
+otherwise by the MAC tracking of :func:`quadmodes.analysis.campbell.campbell` over the two ends
+of the final interval: the branch that changes stability, and for flutter its partner, the
+branch of nearest frequency.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -29,6 +30,7 @@ from quadmodes.analysis.campbell import campbell
 from quadmodes.analysis.reduced_linearisation import linearise
 from quadmodes.analysis.spin_axis import resolve_axis
 from quadmodes.rom import reduced as red
+from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 
 #: Bisection steps of :func:`refine`: the bracket shrinks by 2^-STEPS.
@@ -68,10 +70,14 @@ def _unstable_count(p: dict) -> int:
 
 def brackets(spins: list[float], points: list[dict], indices: list[int]) -> list[Bracket]:
     """Brackets along one line of the sweep: ``spins`` (rad/s) ascending, the point results
-    (:func:`quadmodes.sweep.points.run_point` dicts, None for failed points) and their indices."""
+    (:func:`quadmodes.sweep.points.run_point` dicts, None for failed points) and their indices.
+    A good point followed by a failed one (e.g. no spinning state beyond a divergence) gives a
+    bracket of reason "extend": :func:`extend` decides on the good point's model."""
     out = []
     for k in range(len(spins) - 1):
         a, b = points[k], points[k + 1]
+        if a is not None and b is None:
+            out.append(Bracket(indices[k], indices[k + 1], spins[k], spins[k + 1], "extend"))
         if a is None or b is None:
             continue
         ka, kb = a["min_rotating_stiffness"], b["min_rotating_stiffness"]
@@ -114,6 +120,30 @@ def refine(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q") ->
     return CriticalSpeed(0.5 * (lo + hi), kind, branch, partner, entering, bracket)
 
 
+def extend(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q"):
+    """For a bracket of reason "extend": the model of the good (lower) point linearised at the
+    failed point's spin; the refined :class:`CriticalSpeed` if the rotating stiffness or the
+    number of unstable roots changes there, else None."""
+    sys = rsys.reduced_system(model, formulation)
+    axis = resolve_axis(model, None)
+    below = _linearisation(model, sys, bracket.spin_lo, axis)
+    above = _linearisation(model, sys, bracket.spin_hi, axis)
+    for reason in ("stiffness", "roots"):
+        if _state(below, reason) != _state(above, reason):
+            return refine(model, replace(bracket, reason=reason), formulation)
+    return None
+
+
+def _static_mode_label(model, sys, spin: float, axis) -> str:
+    """Label of the model mode dominating the eigenvector of the smallest eigenvalue of the
+    rotating-frame stiffness at ``spin`` (rad/s): the static mode that passes through zero."""
+    k = rf.rotating_frame_matrices(sys, spin * np.asarray(axis, float))[2]
+    if k.size == 0:
+        return ""
+    vec = np.linalg.eigh(k)[1][:, 0]
+    return str(model.labels[int(np.argmax(np.abs(vec)))])
+
+
 def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: str):
     """(kind, branch, partner, entering) at a refined crossing [lo, hi] (rad/s): the labels from
     the MAC tracking of :func:`~quadmodes.analysis.campbell.campbell` over the two spins."""
@@ -134,6 +164,8 @@ def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: 
     labels, f = track.labels, track.frequency[1 if entering else 0]
     changed = np.flatnonzero(track.unstable[0] != track.unstable[1])
     elastic = [i for i, lab in enumerate(labels) if lab != "nutation"] or list(range(len(labels)))
+    if reason == "stiffness":
+        return "divergence", _static_mode_label(model, sys, 0.5 * (lo + hi), axis), "", bool(entering)
     if divergence:
         i = int(changed[0]) if changed.size else min(elastic, key=lambda j: track.frequency[:, j].min())
         return "divergence", labels[i], "", bool(entering)

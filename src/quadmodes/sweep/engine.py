@@ -189,7 +189,10 @@ def _point_task(point: PointCase, group, position: int, time_run: bool) -> dict:
     return run_point(point, model, counts[position], time_run)
 
 
-def _refine_task(group, bracket: crit.Bracket, formulation: str) -> dict:
+def _refine_task(group, bracket: crit.Bracket, formulation: str) -> dict | None:
+    if bracket.reason == "extend":
+        found = crit.extend(group[0], bracket, formulation)
+        return None if found is None else crit.critical_speed_record(found)
     return crit.critical_speed_record(crit.refine(group[0], bracket, formulation))
 
 
@@ -298,7 +301,9 @@ def _critical_speeds(plan: SweepPlan, results, groups: _Groups, client) -> list[
     records = []
     for b, fut in todo:
         try:
-            records.append(fut.result())
+            record = fut.result()
+            if record is not None:
+                records.append(record)
         except Exception as exc:  # a failed refinement keeps the bracket, reported as such
             records.append({**crit.critical_speed_record(crit.CriticalSpeed(
                 0.5 * (b.spin_lo + b.spin_hi), "unrefined", "", "", False, b)),

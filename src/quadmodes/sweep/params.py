@@ -6,7 +6,8 @@ points they span.
 ``end_body[1].mass`` or ``end_body.rear.mass`` by the end body's name; an explicit ``model.``
 prefix is accepted). ``VALUES`` is one quantity (the field is only overridden), a comma list
 (``"10 Hz, 20 Hz"``) or a range ``start:stop:count`` whose ends carry units
-(``"1 Hz:45 Hz:45"``: 45 evenly spaced values, both ends included). Quantities are parsed by
+(``"1 Hz:45 Hz:45"``: 45 evenly spaced values, both ends included), or a comma list of both
+(``"0.5 Hz, 5 Hz:40 Hz:8, 41 Hz"``). Quantities are parsed by
 :func:`quadmodes.case.units.parse_quantity` with the dimension of the field, so the values are
 SI floats (rad/s, Pa, kg, s, rad, ...). Fields that are not quantities (``reduced.modes``,
 ``reduced.formulation``, ``reduced.reference``) take plain comma lists.
@@ -216,16 +217,20 @@ def parse_values(text: str, path: FieldPath, option: str = "--param") -> tuple:
             raise SweepError(f"{option}: {path.text} is not a quantity: give a comma list, "
                              'not a range (e.g. "reduced.formulation=Q,L")')  # fmt: skip
         return tuple(_plain(v) for v in text.split(",") if v.strip())
-    if text.count(":") == 2:
-        return _range(text, path, option)
-    if ":" in text:
-        raise SweepError(f'{option}: {path.text}: "{text}" is neither a list nor a range '
-                         'start:stop:count; e.g. "1 Hz:45 Hz:45"')  # fmt: skip
-    parts = [v for v in text.split(",")]
+    parts = text.split(",")
     if any(not v.strip() for v in parts):
         raise SweepError(f'{option}: {path.text}: empty item in the list "{text}"; e.g. '
                          '"10 Hz, 20 Hz"')  # fmt: skip
-    return tuple(_quantity(v, path, option) for v in parts)
+    values: list[float] = []
+    for item in parts:
+        if item.count(":") == 2:
+            values.extend(_range(item, path, option))
+        elif ":" in item:
+            raise SweepError(f'{option}: {path.text}: "{item.strip()}" is neither a quantity nor '
+                             'a range start:stop:count; e.g. "1 Hz:45 Hz:45"')  # fmt: skip
+        else:
+            values.append(_quantity(item, path, option))
+    return tuple(values)
 
 
 def _example(path: FieldPath) -> str:
