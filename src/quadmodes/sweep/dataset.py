@@ -28,6 +28,8 @@ SCALARS = (
     ("cone_growth_rate_standard_error", "rad/s", "standard error of the secular cone-growth rate"),
     ("simulated_growth_rate", "1/s", "simulated exponential coning rate: secular cone-growth "
      "rate / mean cone angle over the quasi-steady part"),
+    ("cone_growth_significant", "1", "secular cone-growth rate distinguishable from 0 (|slope| "
+     ">= 2 standard errors)"),
     ("dissipated_power", "W", "mean dissipated power of the time run (slope of the dissipated "
      "energy over the quasi-steady part)"),
     ("spin_rate_change", "rad/s", "fitted spin-rate change over the quasi-steady part"),

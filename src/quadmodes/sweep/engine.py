@@ -13,13 +13,14 @@ is built once and shipped to the workers by dask. A task that raises is retried 
 that dies costs only the points it was running (the scheduler gives each task one more try,
 ``allowed-failures`` = 1 on the local cluster); either failure is then reported for that point
 alone. Each finished point is written at once, atomically, to ``DIR/points/<point>.json``
-(named by the point's index and a hash of its run and model case), so a sweep that stops and
-is run again skips the points already done.
+(named by the point's index and a hash of its run and model case and of the code that computes
+it), so a sweep that stops and is run again skips the points already done.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import json
 import math
@@ -31,7 +32,7 @@ from pathlib import Path
 from quadmodes import __version__
 from quadmodes.case import Case, RunCase
 from quadmodes.io.atomic import write_text
-from quadmodes.runs.model_cache import cache_dir, code_fingerprint
+from quadmodes.runs.model_cache import cache_dir, fingerprint_files
 from quadmodes.sweep import critical as crit
 from quadmodes.sweep.overrides import PointCase, apply_values
 from quadmodes.sweep.params import SweepError, SweepParameter, grid
@@ -78,9 +79,20 @@ class SweepPlan:
         return tuple(p for p in self.params if p.swept)
 
 
+#: Source folders whose code computes a point: a change in any of them re-runs every point (the
+#: reduced models themselves stay cached by their own key).
+POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "runs", "analysis", "sweep")
+
+
+@functools.cache
+def point_code_fingerprint() -> str:
+    """:func:`quadmodes.runs.model_cache.fingerprint_files` of :data:`POINT_CODE`."""
+    return fingerprint_files(Path(__file__).resolve().parents[1], POINT_CODE)
+
+
 def _point_key(case: PointCase, time_run: bool) -> str:
     text = "\n".join([case.run.to_toml(), case.model_case.to_toml(), f"time_run={time_run}",
-                      __version__, code_fingerprint(), f"format={FORMAT_VERSION}"])  # fmt: skip
+                      __version__, point_code_fingerprint(), f"format={FORMAT_VERSION}"])  # fmt: skip
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

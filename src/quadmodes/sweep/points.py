@@ -85,6 +85,7 @@ def _time_run(setup: sim.RunSetup) -> dict:
         "cone_growth_rate": _finite(cone.slope),
         "cone_growth_rate_standard_error": _finite(cone.se),
         "simulated_growth_rate": _finite(cone.slope / mean_cone) if mean_cone > 0 else math.nan,
+        "cone_growth_significant": bool(abs(cone.slope) >= secular.Z_SIGNIFICANT * cone.se),
         "dissipated_power": _finite(power.slope),
         "spin_rate_change": _finite(spin.slope * (q.end_s - q.start_s)),
         "max_modal_amplitude": _finite(np.max(np.abs(s))) if s.size else 0.0,
