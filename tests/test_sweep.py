@@ -270,3 +270,39 @@ def test_sweep_on_a_scheduler_and_worker_in_separate_processes(folder):
             proc.terminate()
         for proc in procs:
             proc.wait(timeout=30)
+
+
+def test_sweep_table_in_the_run_case_and_a_spin_pressure_map(folder):
+    """A ``[sweep]`` table in the run-case file; two swept parameters give two dimensions and the
+    stability colour map; a higher pressure stiffens the modes (the rotating frequencies rise)."""
+    text = RUN + '\n[sweep]\nparam = ["initial.spin_rate=10 Hz, 30 Hz", ' \
+        '"pressure.value=0.3 psi, 0.6 psi"]\n'
+    (folder / "swept.toml").write_text(text, encoding="utf-8")
+    result = runner.invoke(app, ["sweep", "swept.toml", "--no-time-run", "--workers", "1",
+                                 "-o", "map", "--json"])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(folder / "map" / "sweep.nc")
+    assert dict(ds["energy_sink_growth_rate"].sizes) == {"spin_rate": 2, "value": 2}
+    assert ds["value"].attrs["units"] == "Pa"
+    top = ds["branch_frequency"].max("branch")
+    assert np.all(top.isel(value=1) > top.isel(value=0))
+    assert (folder / "map" / "stability.png").is_file()
+    assert np.all(np.isnan(ds["cone_growth_rate"].values))  # no time runs
+
+
+def test_zipped_dataset_has_one_dimension_and_the_other_lists_as_coordinates(folder):
+    from quadmodes.sweep.dataset import sweep_dataset
+    from quadmodes.sweep.engine import SweepOutcome
+
+    run = load_run_case(folder / "small-run.toml")
+    params = [parse_param("initial.spin_rate=10 Hz, 20 Hz, 30 Hz"),
+              parse_param("initial.cone_angle=1 deg, 2 deg, 3 deg")]  # fmt: skip
+    plan = plan_sweep(run, params, zipped=True)
+    fake = {"branch_label": ["nutation"], "branch_frequency": [1.0],
+            "branch_growth_undamped": [0.0], "branch_growth": [1e-3], "energy_sink_growth_rate": 2.0}  # fmt: skip
+    ds = sweep_dataset(plan, SweepOutcome([fake, None, fake]))
+    assert list(ds["energy_sink_growth_rate"].dims) == ["spin_rate"]
+    assert ds["cone_angle"].dims == ("spin_rate",) and ds["cone_angle"].attrs["units"] == "rad"
+    assert np.allclose(ds["cone_angle"].values, np.radians([1, 2, 3]))
+    assert list(ds["failed"].values) == [0, 1, 0]
+    assert np.isnan(ds["energy_sink_growth_rate"].values[1])

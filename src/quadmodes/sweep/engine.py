@@ -181,7 +181,7 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     with dask.config.set({"distributed.scheduler.allowed-failures": 1,
                           "distributed.nanny.pre-spawn-environ": env}):  # fmt: skip
         with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                          dashboard_address=None,
+                          dashboard_address=":0",
                           worker_dashboard_address=None, env=env) as cluster, \
                 Client(cluster, set_as_default=False) as client:  # fmt: skip
             yield client
