@@ -149,13 +149,13 @@ def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: 
     the MAC tracking of :func:`~quadmodes.analysis.campbell.campbell` over the two spins."""
     below, above = (_linearisation(model, sys, x, axis) for x in (lo, hi))
     if reason == "stiffness":
-        entering = not above.min_stiffness > 0
-    else:
-        entering = _state(above, reason) > _state(below, reason)
+        label = _static_mode_label(model, sys, 0.5 * (lo + hi), axis)
+        return "divergence", label, "", not above.min_stiffness > 0
+    entering = _state(above, reason) > _state(below, reason)
     unstable = above if entering else below
     scale = 1e-7 * (1.0 + float(np.max(np.abs(unstable.lam), initial=0.0)))
     grow = unstable.lam[unstable.lam.real > scale]
-    divergence = reason == "stiffness" or (grow.size and np.all(np.abs(grow.imag) <= 1e3 * scale))
+    divergence = bool(grow.size and np.all(np.abs(grow.imag) <= 1e3 * scale))
     try:
         track = campbell(model, [lo, hi], formulation=formulation, max_bisections=3,
                          max_refinements=4)  # fmt: skip
@@ -164,8 +164,6 @@ def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: 
     labels, f = track.labels, track.frequency[1 if entering else 0]
     changed = np.flatnonzero(track.unstable[0] != track.unstable[1])
     elastic = [i for i, lab in enumerate(labels) if lab != "nutation"] or list(range(len(labels)))
-    if reason == "stiffness":
-        return "divergence", _static_mode_label(model, sys, 0.5 * (lo + hi), axis), "", bool(entering)
     if divergence:
         i = int(changed[0]) if changed.size else min(elastic, key=lambda j: track.frequency[:, j].min())
         return "divergence", labels[i], "", bool(entering)

@@ -74,7 +74,9 @@ def stability_figure(ds: xr.Dataset, path: Path) -> Path:
                                  ("simulated_growth_rate", "^:", "time run (secular fit)")):
             if key in line and np.isfinite(line[key].values).any():
                 ax.plot(x, line[key].values, style, ms=4, label=name)
-        ax.set_yscale("symlog", linthresh=1e-6)
+        values = np.abs(line["energy_sink_growth_rate"].values)
+        values = values[np.isfinite(values) & (values > 0)]
+        ax.set_yscale("symlog", linthresh=float(values.min()) if values.size else 1e-6)
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_ylabel("coning growth rate (1/s; > 0 grows)")
         ax.legend(fontsize=8)
