@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -48,14 +49,21 @@ def _loop(plan) -> float:
     return time.perf_counter() - start
 
 
-def _dask(plan, warm, workers: int) -> float:
-    """Wall time (s) of the sweep on a fresh LocalCluster of ``workers`` (after a warm-up)."""
+def _points_held(dask_worker) -> int:
+    return sum(1 for key in dask_worker.data if "_point_task" in str(key))
+
+
+def _dask(plan, warm, workers: int) -> tuple[float, list[int]]:
+    """Wall time (s) of the sweep on a fresh LocalCluster of ``workers`` (after a warm-up) and
+    how many of its points each worker ran."""
     with engine.dask_client(workers) as client, tempfile.TemporaryDirectory() as tmp:
         engine.execute(warm, Path(tmp) / "warm", client)
-        client.run(lambda: None)
+        before = client.run(_points_held)
         start = time.perf_counter()
         engine.execute(plan, Path(tmp) / "timed", client)
-        return time.perf_counter() - start
+        wall = time.perf_counter() - start
+        after = client.run(_points_held)
+        return wall, [after[w] - before.get(w, 0) for w in sorted(after)]
 
 
 def main() -> None:
@@ -67,16 +75,19 @@ def main() -> None:
     args = ap.parse_args()
     plan = _plan(args.case, args.points, args.duration, args.modes)
     warm = _plan(args.case, 2, "0.01 s", args.modes)
+    load = os.getloadavg()[0]
     loop = _loop(plan)
-    one = _dask(plan, warm, 1)
-    two = _dask(plan, warm, 2)
+    one, _ = _dask(plan, warm, 1)
+    two, split = _dask(plan, warm, 2)
     n = len(plan.points)
     print(f"{args.case}: {n} points, {args.duration} time runs, {args.modes} modes about rest")
     print("| run | wall (s) | per point (s) |\n|---|---|---|")
     for name, wall in (("plain loop", loop), ("dask, 1 worker", one), ("dask, 2 workers", two)):
         print(f"| {name} | {wall:.2f} | {wall / n:.3f} |")
-    print(f"speed-up 1 -> 2 workers: {one / two:.2f}x; dask overhead per point (1 worker vs "
-          f"loop): {(one - loop) / n * 1e3:.1f} ms ({(one / loop - 1) * 100:.0f} %)")
+    print(f"speed-up 1 -> 2 workers: {one / two:.2f}x (points per worker {split}); dask overhead "
+          f"per point (1 worker vs loop): {(one - loop) / n * 1e3:.1f} ms "
+          f"({(one / loop - 1) * 100:.0f} %); load average at the start {load:.1f} on "
+          f"{os.cpu_count()} cores")
     if not math.isfinite(one / two):
         raise SystemExit("no timing")
 
