@@ -306,3 +306,26 @@ def test_zipped_dataset_has_one_dimension_and_the_other_lists_as_coordinates(fol
     assert np.allclose(ds["cone_angle"].values, np.radians([1, 2, 3]))
     assert list(ds["failed"].values) == [0, 1, 0]
     assert np.isnan(ds["energy_sink_growth_rate"].values[1])
+
+
+def test_a_worker_that_dies_costs_only_its_point(folder):
+    """The task of the 20 Hz point kills its worker process on every try: after one retry on
+    another worker that point is reported failed; the other points are computed and saved."""
+    from quadmodes.sweep import engine
+
+    def crashing(case, group, position, time_run):  # pickled by value (a local function)
+        import os as _os
+
+        from quadmodes.sweep.points import run_point
+
+        if abs(case.run.initial.spin_rate - 40 * math.pi) < 1e-9:
+            _os._exit(1)
+        return run_point(case, group[0], group[1][position], time_run)
+
+    run = load_run_case(folder / "small-run.toml")
+    plan = plan_sweep(run, [parse_param("initial.spin_rate=10 Hz, 20 Hz, 30 Hz")], time_run=False)
+    with engine.dask_client(2) as client:
+        outcome = engine.execute(plan, folder / "out", client, point_task=crashing)
+    assert list(outcome.failures) == [1] and "KilledWorker" in outcome.failures[1]
+    assert outcome.results[0] is not None and outcome.results[2] is not None
+    assert len(list((folder / "out" / "points").glob("point-*.json"))) == 2

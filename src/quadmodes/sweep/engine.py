@@ -246,9 +246,12 @@ class _Groups:
 
 
 def execute(plan: SweepPlan, directory: Path, client,
-            progress: Callable[[int, int], None] | None = None) -> SweepOutcome:  # fmt: skip
+            progress: Callable[[int, int], None] | None = None,
+            point_task: Callable | None = None) -> SweepOutcome:  # fmt: skip
     """Run the points of ``plan`` not yet saved in ``directory`` on ``client``, saving each as
-    it finishes; then refine the critical speeds. ``progress(done, total)`` after each point."""
+    it finishes; then refine the critical speeds. ``progress(done, total)`` after each point.
+    ``point_task(case, group, position, time_run)`` replaces the task of a point (default:
+    :func:`quadmodes.sweep.points.run_point` on the group's model)."""
     import time
 
     from distributed import as_completed
@@ -263,8 +266,9 @@ def execute(plan: SweepPlan, directory: Path, client,
     for p in plan.points:
         if p.index not in done:
             group, position = groups.future(p.index)
-            fut = client.submit(_point_task, p.case, group, position, plan.time_run,
-                                pure=False, retries=1)  # fmt: skip
+            task = point_task or _point_task
+            fut = client.submit(task, p.case, group, position, plan.time_run, pure=False,
+                                retries=1)  # fmt: skip
             futures[fut] = p
     total = len(plan.points)
     if progress:
