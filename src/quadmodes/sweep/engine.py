@@ -12,7 +12,8 @@ core, one thread each, BLAS threads limited to one) and on an existing cluster
 is built once and shipped to the workers by dask. A task that raises is retried once; a worker
 that dies costs only the points it was running (the scheduler gives each task one more try,
 ``allowed-failures`` = 1 on the local cluster); either failure is then reported for that point
-alone. Each finished point is written at once, atomically, to ``DIR/points/<point>.json``
+alone (at most one point per worker thread is in flight, so a dying worker was running only
+its own point). Each finished point is written at once, atomically, to ``DIR/points/<point>.json``
 (named by the point's index and a hash of its run and model case and of the code that computes
 it), so a sweep that stops and is run again skips the points already done.
 """
@@ -245,13 +246,32 @@ class _Groups:
         return self.futures[key], self.members[key].index(index)
 
 
+def _free_workers(client, busy: list[str]) -> list[str]:
+    """One address per free worker thread of the cluster, given the workers of the points in
+    flight (``busy``); least loaded first."""
+    try:
+        threads = client.nthreads()
+    except (OSError, TimeoutError):
+        return []
+    free = []
+    for address, n in sorted(threads.items()):
+        free.extend([address] * max(0, int(n) - busy.count(address)))
+    # a point whose worker died is still in flight elsewhere: it holds a thread too
+    return free[: max(0, sum(int(n) for n in threads.values()) - len(busy))]
+
+
 def execute(plan: SweepPlan, directory: Path, client,
             progress: Callable[[int, int], None] | None = None,
             point_task: Callable | None = None) -> SweepOutcome:  # fmt: skip
     """Run the points of ``plan`` not yet saved in ``directory`` on ``client``, saving each as
     it finishes; then refine the critical speeds. ``progress(done, total)`` after each point.
     ``point_task(case, group, position, time_run)`` replaces the task of a point (default:
-    :func:`quadmodes.sweep.points.run_point` on the group's model)."""
+    :func:`quadmodes.sweep.points.run_point` on the group's model).
+
+    At most one point per worker thread is in flight, sent to a free worker (a loose
+    restriction: it moves if that worker goes away); the next is submitted when one finishes. So
+    a worker that dies was running only its own point, and the scheduler's count of suspicious
+    tasks blames that point alone."""
     import time
 
     from distributed import as_completed
@@ -262,24 +282,42 @@ def execute(plan: SweepPlan, directory: Path, client,
     results: list[dict | None] = [done.get(p.index) for p in plan.points]
     outcome = SweepOutcome(results, resumed=len(done))
     groups = _Groups(client, plan)
-    futures = {}
-    for p in plan.points:
-        if p.index not in done:
+    todo = [p for p in plan.points if p.index not in done]
+    futures: dict = {}
+    pending = as_completed([], loop=client.loop)
+
+    where: dict = {}  # future -> worker it was sent to
+
+    def submit_more() -> None:
+        busy = [w for f, w in where.items() if not f.done()]
+        free = _free_workers(client, busy)
+        if not busy and not free:
+            free = [None]  # no worker yet (a new external cluster): the scheduler waits
+        for worker in free:
+            if not todo:
+                break
+            p = todo.pop(0)
             group, position = groups.future(p.index)
-            task = point_task or _point_task
-            fut = client.submit(task, p.case, group, position, plan.time_run, pure=False,
-                                retries=1)  # fmt: skip
+            fut = client.submit(point_task or _point_task, p.case, group, position,
+                                plan.time_run, pure=False, retries=1,
+                                workers=None if worker is None else [worker],
+                                allow_other_workers=True)  # fmt: skip
             futures[fut] = p
+            where[fut] = worker
+            pending.add(fut)
+
     total = len(plan.points)
     if progress:
         progress(len(done), total)
-    for fut in as_completed(list(futures), loop=client.loop):
+    submit_more()
+    for fut in pending:
         p = futures[fut]
         if fut.status == "finished":
             results[p.index] = fut.result()
             save_point(directory, p, results[p.index])
         else:
             outcome.failures[p.index] = f"{p.label}: {_message(fut)}"
+        submit_more()
         if progress:
             progress(sum(r is not None for r in results) + len(outcome.failures), total)
     outcome.critical = _critical_speeds(plan, results, groups, client)
