@@ -298,10 +298,9 @@ def execute(plan: SweepPlan, directory: Path, client,
                 break
             p = todo.pop(0)
             group, position = groups.future(p.index)
+            placement = {} if worker is None else {"workers": [worker], "allow_other_workers": True}
             fut = client.submit(point_task or _point_task, p.case, group, position,
-                                plan.time_run, pure=False, retries=1,
-                                workers=None if worker is None else [worker],
-                                allow_other_workers=True)  # fmt: skip
+                                plan.time_run, pure=False, retries=1, **placement)  # fmt: skip
             futures[fut] = p
             where[fut] = worker
             pending.add(fut)
