@@ -126,12 +126,16 @@ def point_path(directory: Path, point: PlannedPoint) -> Path:
 
 
 def save_point(directory: Path, point: PlannedPoint, result: dict) -> Path:
-    """Write one finished point atomically (:func:`quadmodes.io.atomic.write_text`)."""
+    """Write one finished point atomically (:func:`quadmodes.io.atomic.write_text`); files of
+    the same point index with another key (an earlier case or code) are removed."""
     path = point_path(directory, point)
     path.parent.mkdir(parents=True, exist_ok=True)
     record = {"format": FORMAT, "format_version": FORMAT_VERSION, "key": point.key,
               "index": point.index, "values": point.values, "result": result}  # fmt: skip
     write_text(path, json.dumps(record, indent=1) + "\n")
+    for stale in path.parent.glob(f"point-{point.index:05d}-*.json"):
+        if stale != path:  # the same point from an earlier case or code: replaced
+            stale.unlink(missing_ok=True)
     return path
 
 
