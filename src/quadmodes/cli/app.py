@@ -23,6 +23,7 @@ from quadmodes.cli.common import out
 from quadmodes.cli.compare_command import compare_command
 from quadmodes.cli.model_commands import calibrate, cases, modes, reduce_command, show_case
 from quadmodes.cli.run_commands import run_command
+from quadmodes.cli.sweep_command import sweep_command
 from quadmodes.cli.validate_command import validate
 
 app = typer.Typer(
@@ -77,6 +78,7 @@ app.command()(campbell)
 app.command("compare")(compare_command)
 app.command("rotating")(rotating_command)
 app.add_typer(cache_app, name="cache")
+app.command("sweep")(sweep_command)
 
 
 def main() -> None:  # pragma: no cover - console entry point

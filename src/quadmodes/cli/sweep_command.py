@@ -1,0 +1,145 @@
+"""``quadmodes sweep``: a run case swept over case fields on dask.distributed (docs/sweeps.md).
+
+Everything is validated before any work (every point's case, the output folder, the scheduler),
+so bad input prints one ``error:`` line, exits with status 2 and writes nothing. Finished points
+are kept in ``DIR/points/`` as they come (a rerun skips them); ``sweep.nc``, ``sweep.json`` and
+the figures are written at the end, each atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+import tomllib
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from quadmodes.case import load_run_case, run_case_from_dict
+from quadmodes.cli.common import check_output_folder, err, one_line_errors, out
+from quadmodes.io.atomic import atomic_path, write_text
+from quadmodes.sweep.params import SweepError, parse_param, unique_names
+
+
+def load_sweep_case(name_or_path: str):
+    """(run case, ``[sweep]`` parameter strings, zip flag): a run-case file may carry a
+    ``[sweep]`` table (``param = ["initial.spin_rate=1 Hz:45 Hz:45"]``, ``zip = false``)."""
+    path = Path(name_or_path).expanduser()
+    if path.suffix != ".toml" or not path.is_file():
+        return load_run_case(name_or_path), [], False
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return load_run_case(name_or_path), [], False  # the loader reports it
+    table = data.pop("sweep", None)
+    if table is None:
+        return load_run_case(name_or_path), [], False
+    params = table.get("param", [])
+    if isinstance(params, str):
+        params = [params]
+    unknown = set(table) - {"param", "zip"}
+    if unknown or not all(isinstance(p, str) for p in params):
+        raise SweepError(f"{path}: [sweep]: keys are param (a list of \"PATH=VALUES\" strings) "
+                         "and zip (true/false)")  # fmt: skip
+    run = run_case_from_dict(data, source=str(path), base_dir=path.resolve().parent)
+    return run, list(params), bool(table.get("zip", False))
+
+
+def _progress_bar(enabled: bool):
+    return Progress(TextColumn("sweep points"), BarColumn(), MofNCompleteColumn(),
+                    TimeElapsedColumn(), console=err, disable=not enabled)  # fmt: skip
+
+
+def _plan(case: str, param: list[str], zipped: bool, time_run: bool):
+    from quadmodes.sweep.engine import plan_sweep
+
+    run, from_file, zip_file = load_sweep_case(case)
+    texts = from_file + list(param or [])
+    if not texts:
+        raise SweepError('--param: give at least one, e.g. --param "initial.spin_rate=1 Hz:45 Hz:45"')
+    model_case = run.model_case()
+    params = unique_names([parse_param(t, model_case) for t in texts])
+    return plan_sweep(run, params, zipped or zip_file, time_run)
+
+
+def _write(plan, outcome, directory: Path, plots: bool = True) -> dict:
+    from quadmodes.sweep.dataset import summary, sweep_dataset
+    from quadmodes.sweep.plots import sweep_figures
+
+    command = shlex.join(["quadmodes", *sys.argv[1:]])
+    ds = sweep_dataset(plan, outcome, command)
+    with atomic_path(directory / "sweep.nc") as tmp:
+        ds.to_netcdf(tmp, engine="h5netcdf")
+    info = summary(ds, outcome)
+    info["figures"] = [p.name for p in sweep_figures(ds, directory)] if plots else []
+    write_text(directory / "sweep.json", json.dumps(info, indent=2) + "\n")
+    return info
+
+
+def _report(info: dict, directory: Path) -> None:
+    out.print(f"sweep: {info['points']} points ({info['resumed']} from earlier files, "
+              f"{info['failed']} failed) in {info['wall_s']:.1f} s -> {escape(str(directory))}/sweep.nc",
+              highlight=False)  # fmt: skip
+    for c in info["critical_speeds"]:
+        partner = f" + {c['partner']}" if c["partner"] else ""
+        out.print(f"  critical speed {c['spin_hz']:.4g} Hz: {c['kind']} of {escape(c['branch'])}"
+                  f"{escape(partner)}", highlight=False)  # fmt: skip
+    for message in info["failures"].values():
+        err.print(f"warning: point failed: {escape(message)}", highlight=False, soft_wrap=True)
+
+
+def sweep_command(
+    case: Annotated[str, typer.Argument(help="run case (built-in name or TOML file)")],
+    param: Annotated[list[str], typer.Option(
+        "--param", help='PATH=VALUES, e.g. "initial.spin_rate=1 Hz:45 Hz:45" or '
+        '"pressure.value=0.2 psi, 0.3 psi"; one value only overrides the field')] = None,
+    zipped: Annotated[bool, typer.Option("--zip", help="zip the lists instead of the "
+                                         "cartesian product")] = False,
+    workers: Annotated[int | None, typer.Option(help="local worker processes (default: one "
+                                                "per core)", min=1)] = None,
+    scheduler: Annotated[str | None, typer.Option(help="address of an existing dask "
+                                                  "scheduler, e.g. tcp://host:8786")] = None,
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="output folder")] = Path(
+        "sweep-out"),
+    no_time_run: Annotated[bool, typer.Option("--no-time-run", help="linearisation and "
+                                              "energy-sink estimate only")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
+    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write the PNG figures")] = True,
+) -> None:
+    """Sweep a run case over case fields: stability map, critical speeds, coning time constants.
+
+    Writes DIR/sweep.nc (one dimension per swept parameter), sweep.json, campbell.png,
+    stability.png and energy_sink.png; finished points stay in DIR/points/ so that the same
+    command run again skips them."""
+    from quadmodes.sweep.engine import dask_client, execute
+
+    if workers is not None and scheduler:
+        with one_line_errors():
+            raise SweepError("--workers: not used with --scheduler (the cluster has its own "
+                             "workers); give one of them")  # fmt: skip
+    with one_line_errors():
+        plan = _plan(case, param, zipped, not no_time_run)
+        check_output_folder(output_dir, "-o")
+    bar = _progress_bar(not as_json)
+    with one_line_errors(), dask_client(workers, scheduler) as client:
+        output_dir.mkdir(parents=True, exist_ok=True)
+        task = bar.add_task("points", total=len(plan.points))
+        try:
+            with bar:
+                outcome = execute(plan, output_dir, client,
+                                  lambda done, total: bar.update(task, completed=done))  # fmt: skip
+        except KeyboardInterrupt:
+            err.print(f"interrupted: the finished points are in {escape(str(output_dir))}/points; "
+                      "run the same command again to go on", highlight=False)  # fmt: skip
+            raise typer.Exit(code=130) from None
+    info = _write(plan, outcome, output_dir, plots)
+    if as_json:
+        out.print_json(json.dumps(info))
+    else:
+        _report(info, output_dir)
+    if outcome.failures:
+        raise typer.Exit(code=1)

@@ -1,0 +1,116 @@
+"""Figures of a spin sweep (PNG, headless): the Campbell diagram with the critical speeds
+marked, the stability map (coning growth rate against spin, or a colour map against spin and a
+second parameter), and the energy-sink estimate against the simulated coning rate.
+
+Each function reads only the dataset (``sweep.nc``) and returns the paths written.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from quadmodes.io.figures import new_figure, save_png
+
+SPIN = "spin_rate"
+
+
+def _first_line(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` along the spin dimension at the first value of every other dimension."""
+    other = {d: 0 for d in ds.dims if d not in (SPIN, "branch", "critical")}
+    return ds.isel(other) if other else ds
+
+
+def campbell_figure(ds: xr.Dataset, path: Path) -> Path:
+    """Rotating-frame frequencies (Hz) of every branch against spin (Hz), by label; critical
+    speeds as vertical lines."""
+    line = _first_line(ds)
+    spin_hz = line[SPIN].values / (2 * math.pi)
+    freq = line["branch_frequency"].values / (2 * math.pi)
+    labels = line["branch_label"].values
+    fig = new_figure((7.5, 4.8))
+    ax = fig.add_subplot()
+    names = sorted({str(s).split(" #")[0] for s in labels.ravel() if str(s)})
+    colours = {n: f"C{i % 10}" for i, n in enumerate(names)}
+    for name in names:
+        mask = np.vectorize(lambda s, n=name: str(s).split(" #")[0] == n)(labels)
+        xs = np.broadcast_to(spin_hz[:, None], freq.shape)[mask]
+        ax.plot(xs, freq[mask], "o", ms=3, color=colours[name], label=name)
+    for k in range(ds.sizes.get("critical", 0)):
+        f = float(ds["critical_speed_hz"].values[k])
+        what = f"{ds['critical_speed_kind'].values[k]}: {ds['critical_speed_branch'].values[k]}"
+        ax.axvline(f, color="k", ls="--", lw=0.8)
+        ax.annotate(f"{f:.2f} Hz\n{what}", (f, ax.get_ylim()[1] * 0.9), fontsize=7,
+                    rotation=90, ha="right", va="top")  # fmt: skip
+    ax.set_xlabel("spin rate (Hz)")
+    ax.set_ylabel("rotating-frame frequency (Hz)")
+    ax.set_title("Campbell diagram of the sweep (undamped, about the relative equilibrium)")
+    ax.legend(fontsize=7, ncol=2)
+    return save_png(fig, path)
+
+
+def stability_figure(ds: xr.Dataset, path: Path) -> Path:
+    """Coning growth rate (1/s) against spin: energy-sink estimate, damped nutation root and the
+    simulation; with a second swept dimension a colour map of the energy-sink rate."""
+    other = [d for d in ds["energy_sink_growth_rate"].dims if d != SPIN]
+    fig = new_figure((7.5, 4.8))
+    ax = fig.add_subplot()
+    if len(other) == 1:
+        z = ds["energy_sink_growth_rate"].transpose(other[0], SPIN).values
+        x = ds[SPIN].values / (2 * math.pi)
+        y = ds[other[0]].values
+        lim = float(np.nanmax(np.abs(z))) if np.isfinite(z).any() else 1.0
+        mesh = ax.pcolormesh(x, y, z, shading="nearest", cmap="coolwarm", vmin=-lim, vmax=lim)
+        fig.colorbar(mesh, ax=ax, label="energy-sink coning rate (1/s)")
+        ax.set_ylabel(f"{other[0]} ({ds[other[0]].attrs.get('units', '')})")
+    else:
+        line = _first_line(ds)
+        x = line[SPIN].values / (2 * math.pi)
+        for key, style, name in (("energy_sink_growth_rate", "o-", "energy-sink estimate"),
+                                 ("nutation_growth_rate", "s--", "damped nutation root"),
+                                 ("simulated_growth_rate", "^:", "time run (secular fit)")):
+            if key in line and np.isfinite(line[key].values).any():
+                ax.plot(x, line[key].values, style, ms=4, label=name)
+        values = np.abs(line["energy_sink_growth_rate"].values)
+        values = values[np.isfinite(values) & (values > 0)]
+        ax.set_yscale("symlog", linthresh=float(values.min()) if values.size else 1e-6)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylabel("coning growth rate (1/s; > 0 grows)")
+        ax.legend(fontsize=8)
+    ax.set_xlabel("spin rate (Hz)")
+    ax.set_title("Stability map")
+    return save_png(fig, path)
+
+
+def energy_sink_figure(ds: xr.Dataset, path: Path) -> Path:
+    """Energy-sink estimate against the simulated coning rate (1/s), quasi-rigid points filled."""
+    est = ds["energy_sink_growth_rate"].values.ravel()
+    simu = ds["simulated_growth_rate"].values.ravel()
+    rigid = ds["quasi_rigid"].values.ravel() > 0.5
+    fig = new_figure((5.5, 5.0))
+    ax = fig.add_subplot()
+    ax.plot(simu[rigid], est[rigid], "o", label="quasi-rigid")
+    ax.plot(simu[~rigid], est[~rigid], "o", mfc="none", label="not quasi-rigid")
+    both = np.concatenate([est[np.isfinite(est)], simu[np.isfinite(simu)]])
+    if both.size:
+        lo, hi = float(both.min()), float(both.max())
+        ax.plot([lo, hi], [lo, hi], "k-", lw=0.6, label="equal")
+    ax.set_xlabel("simulated coning rate (1/s)")
+    ax.set_ylabel("energy-sink estimate (1/s)")
+    ax.legend(fontsize=8)
+    return save_png(fig, path)
+
+
+def sweep_figures(ds: xr.Dataset, directory: Path) -> list[Path]:
+    """Every figure that the dataset supports (a swept spin rate is needed)."""
+    if SPIN not in ds.dims:
+        return []
+    directory = Path(directory)
+    paths = [campbell_figure(ds, directory / "campbell.png"),
+             stability_figure(ds, directory / "stability.png")]  # fmt: skip
+    if np.isfinite(ds["simulated_growth_rate"].values).any():
+        paths.append(energy_sink_figure(ds, directory / "energy_sink.png"))
+    return paths

@@ -1,0 +1,149 @@
+"""One sweep point: the reduced model of its structural inputs, the time run's headline scalars,
+the rotating-frame roots and the energy-sink estimate.
+
+Stages::
+
+    PointCase ──model_for_group──▶ (ReducedModel, modes per point)   (once per structural key)
+    PointCase + ReducedModel ──run_point──▶ dict of SI scalars and per-branch lists (JSON-ready)
+
+Everything here is a plain function of picklable inputs, so that a dask worker can run it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from quadmodes.analysis import secular
+from quadmodes.analysis.campbell import campbell
+from quadmodes.case import RunCase
+from quadmodes.rom import reduced as red
+from quadmodes.rom import system as rsys
+from quadmodes.runs import simulate as sim
+from quadmodes.runs.mode_choice import resolve_modes
+from quadmodes.runs.model_cache import reduced_model_for
+from quadmodes.sweep.energy_sink import energy_sink
+from quadmodes.sweep.overrides import PointCase
+
+
+def structural_key(point: PointCase) -> str:
+    """What the reduced model of a point depends on: the model case (SI TOML), the run's
+    ``[reduced]`` table and, when the model is expanded about the spinning state or its mode
+    count is chosen from the spin (``modes = "auto"``), the spin rate. Points with the same key
+    share one model (about the state at rest: built with the largest mode count of the group
+    and restricted per point)."""
+    run = point.run
+    red_table = run.reduced.model_dump_json(exclude={"formulation"})
+    spin = repr(run.reference_spin) if run.reduced.reference == "spinning" else "rest"
+    return f"{point.model_case.to_toml()}\n{red_table}\n{spin}"
+
+
+def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int]]:
+    """The reduced model shared by ``points`` (one structural key) and the mode count of each
+    point (``modes = "auto"`` resolved per point; the model has the largest)."""
+    counts = []
+    for p in points:
+        resolved, _ = resolve_modes(p.run, p.model_case)
+        counts.append(int(resolved.reduced.modes))
+    first = points[0]
+    n = max(counts)
+    if first.run.reduced.formulation == "rigid":
+        n = max(n, 1)
+    model = reduced_model_for(first.model_case, n, spin=first.run.reference_spin)
+    return model, counts
+
+
+def _fixed_modes(run: RunCase, n_modes: int) -> RunCase:
+    """``run`` with ``reduced.modes = n_modes`` (``"auto"`` resolved, margin dropped)."""
+    table = run.reduced.model_copy(update={"modes": int(n_modes), "mode_margin": None})
+    return run.model_copy(update={"reduced": table})
+
+
+def _finite(x) -> float:
+    x = float(x)
+    return x if math.isfinite(x) else math.nan
+
+
+def _time_run(setup: sim.RunSetup) -> dict:
+    """Headline scalars of the time run of ``setup`` (secular fits over the quasi-steady part,
+    :mod:`quadmodes.analysis.secular`)."""
+    result = sim.execute(setup)
+    d = result.diagnostics
+    model = setup.model
+    tau = secular.decay_time(model.frequencies_hz, model.damping_ratio)
+    window = float(d.t[-1] - d.t[0])
+    q = secular.quasi_steady_interval(window, tau, t0=float(d.t[0]))
+    cone = secular.fit_line(d.t, d.cone_angle, q.start_s, q.end_s)
+    power = secular.fit_line(d.t, d.E_d, q.start_s, q.end_s)
+    spin = secular.fit_line(d.t, d.spin_rate, q.start_s, q.end_s)
+    sel = (d.t >= q.start_s) & (d.t <= q.end_s)
+    mean_cone = float(np.mean(d.cone_angle[sel])) if sel.any() else math.nan
+    s = rsys.split_state(setup.system, result.solution.y)[2]
+    return {
+        "cone_growth_rate": _finite(cone.slope),
+        "cone_growth_rate_standard_error": _finite(cone.se),
+        "simulated_growth_rate": _finite(cone.slope / mean_cone) if mean_cone > 0 else math.nan,
+        "cone_growth_significant": bool(abs(cone.slope) >= secular.Z_SIGNIFICANT * cone.se),
+        "dissipated_power": _finite(power.slope),
+        "spin_rate_change": _finite(spin.slope * (q.end_s - q.start_s)),
+        "max_modal_amplitude": _finite(np.max(np.abs(s))) if s.size else 0.0,
+        "cone_angle_end": _finite(d.cone_angle[-1]),
+        "quasi_steady_start": float(q.start_s),
+        "complete": bool(result.complete),
+        "incomplete_reason": result.reason,
+        "run_wall_s": float(result.wall_s),
+    }
+
+
+def _roots(setup: sim.RunSetup) -> dict:
+    """Rotating-frame roots at the run's spin: undamped (frequencies, critical speeds) and with
+    the modal damping (growth rates), and the relative equilibrium (s*, ω0)."""
+    spin = float(setup.run.initial.spin_rate)
+    form = setup.run.reduced.formulation
+    undamped = campbell(setup.model, [spin], formulation=form, damped=False)
+    damped = campbell(setup.model, [spin], formulation=form, damped=True)
+    nut = [i for i, lab in enumerate(damped.labels) if lab == "nutation"]
+    return {
+        "linearised_spin": spin,
+        "branch_label": list(undamped.labels),
+        "branch_frequency": [float(x) for x in undamped.frequency[0]],
+        "branch_growth_undamped": [float(x) for x in undamped.growth[0]],
+        "branch_frequency_damped": [float(x) for x in damped.frequency[0]],
+        "branch_growth": [float(x) for x in damped.growth[0]],
+        "branch_label_damped": list(damped.labels),
+        "nutation_growth_rate": float(damped.growth[0][nut[0]]) if nut else math.nan,
+        "min_rotating_stiffness": float(undamped.min_stiffness[0]),
+        "unstable_undamped": bool(undamped.unstable[0].any()),
+        "_s_eq": undamped.s_eq[0],
+        "_omega0": undamped.spin_axis[0] * spin,
+    }
+
+
+def run_point(point: PointCase, model: red.ReducedModel, n_modes: int,
+              time_run: bool = True) -> dict:  # fmt: skip
+    """Everything a sweep stores for one point (SI; lists per rotating-frame branch); a time run
+    only if ``time_run``."""
+    start = time.perf_counter()
+    run = _fixed_modes(point.run, n_modes)
+    setup = sim.prepare(run, model, model_case=point.model_case)
+    out: dict = {"n_modes": int(setup.model.n_modes),
+                 "valid": bool(setup.validity.valid) if setup.validity else True}  # fmt: skip
+    roots = _roots(setup)
+    sink = energy_sink(setup.system, roots.pop("_s_eq"), roots.pop("_omega0"),
+                       float(run.initial.cone_angle))  # fmt: skip
+    out.update(roots)
+    out.update({
+        "energy_sink_power": sink.power,
+        "energy_sink_cone_rate": sink.cone_rate,
+        "energy_sink_growth_rate": sink.growth_rate,
+        "coning_time_constant": sink.time_constant,
+        "nutation_frequency": sink.nutation_frequency,
+        "elastic_momentum_ratio": sink.elastic_momentum_ratio,
+        "quasi_rigid": bool(sink.quasi_rigid),
+    })  # fmt: skip
+    if time_run:
+        out.update(_time_run(setup))
+    out["wall_s"] = time.perf_counter() - start
+    return out
