@@ -201,6 +201,9 @@ def test_spin_sweep_on_a_local_cluster_and_resume(folder):
     growth = ds["energy_sink_growth_rate"].values
     assert np.all(growth > 0) and np.all(np.diff(growth) > 0)  # minor-axis spinner: grows faster
     assert np.all(ds["complete"].values == 1)
+    page = (folder / "out" / "report.html").read_text()  # self-contained: no external resource
+    assert "Critical speeds" in page and "Headline numbers per point" in page
+    assert "data:image/png;base64," in page and "http://" not in page and "https://" not in page
     points = sorted((folder / "out" / "points").glob("point-*.json"))
     assert len(points) == 4
     kept = points[0].stat().st_mtime_ns

@@ -69,6 +69,7 @@ def _plan(case: str, param: list[str], zipped: bool, time_run: bool):
 def _write(plan, outcome, directory: Path, plots: bool = True) -> dict:
     from quadmodes.sweep.dataset import summary, sweep_dataset
     from quadmodes.sweep.plots import sweep_figures
+    from quadmodes.sweep.report import write_sweep_report
 
     command = shlex.join(["quadmodes", *sys.argv[1:]])
     ds = sweep_dataset(plan, outcome, command)
@@ -77,6 +78,7 @@ def _write(plan, outcome, directory: Path, plots: bool = True) -> dict:
     info = summary(ds, outcome)
     info["figures"] = [p.name for p in sweep_figures(ds, directory)] if plots else []
     write_text(directory / "sweep.json", json.dumps(info, indent=2) + "\n")
+    write_sweep_report(directory, ds, info, command)
     return info
 
 
