@@ -107,7 +107,7 @@ def test_calibrate_and_rotating_offer_json(runner):
 
 def test_rotating_json_has_a_stable_shape(runner, tmp_path):
     """At rest the full-order linearisation is the modal analysis: Q matches the full order."""
-    result = runner.invoke(app, ["rotating", "--spins", "0 Hz", "--modes", "2", "--json",
+    result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spins", "0 Hz", "--modes", "2", "--json",
                                  "-o", str(tmp_path)])  # fmt: skip
     assert result.exit_code == 0, result.output
     payload = json.loads(result.stdout)

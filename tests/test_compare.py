@@ -106,7 +106,8 @@ def test_write_comparison_outputs(short_comparison, tmp_path):
 )
 def test_compare_bad_input(runner, tmp_path, args, field):
     out = tmp_path / "cmp"
-    result = runner.invoke(app, ["compare", *args, "-o", str(out)])
+    case = [] if not args[0].startswith("-") else ["paper-41hz-coarse"]
+    result = runner.invoke(app, ["compare", *case, *args, "-o", str(out)])
     assert result.exit_code == 2, result.output
     assert field in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()
@@ -114,7 +115,7 @@ def test_compare_bad_input(runner, tmp_path, args, field):
 
 def test_compare_refuses_a_window_too_long_without_yes(runner, tmp_path):
     out = tmp_path / "cmp"
-    result = runner.invoke(app, ["compare", "--window", "500 s", "-o", str(out)])
+    result = runner.invoke(app, ["compare", "paper-41hz-coarse", "--window", "500 s", "-o", str(out)])
     assert result.exit_code == 2
     assert "estimated" in result.output and "--yes" in result.output
     assert not out.exists()
@@ -123,7 +124,7 @@ def test_compare_refuses_a_window_too_long_without_yes(runner, tmp_path):
 def test_rotating_command_reproduces_modal_frequencies_at_rest(runner, tmp_path):
     """At zero spin the full-order linearisation is the modal analysis: Q and L errors ~ 0."""
     out = tmp_path / "rot.md"
-    result = runner.invoke(app, ["rotating", "--spins", "0", "-o", str(out)])
+    result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spins", "0", "-o", str(out)])
     assert result.exit_code == 0, result.output
     rows = [r for r in out.read_text().splitlines() if r.startswith("| 0 |") and "nutation" not in r]
     assert len(rows) == 5
@@ -144,7 +145,8 @@ def test_rotating_command_reproduces_modal_frequencies_at_rest(runner, tmp_path)
 )
 def test_rotating_bad_input(runner, tmp_path, args, field):
     out = tmp_path / "rot.md"
-    result = runner.invoke(app, ["rotating", *args, "-o", str(out)])
+    case = [] if not args[0].startswith("-") else ["paper-membrane-coarse"]
+    result = runner.invoke(app, ["rotating", *case, *args, "-o", str(out)])
     assert result.exit_code == 2 and field in result.output
     assert not out.exists()
 
@@ -162,7 +164,7 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
-    args = ["compare", "--window", "0.2 s", "--formulations", "rigid,Q", "--no-plots", "-o", str(out)]
+    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid,Q", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args, env={"COLUMNS": "200"})
     assert result.exit_code == 0, result.output
     for header in ("cone growth", "diss. power", "spin change", "quasi-steady part"):
@@ -217,7 +219,7 @@ def test_compare_interrupted_exits_130_and_keeps_no_partial_output(runner, tmp_p
     monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(fullorder, "full_order_for_run", interrupted)
     out = tmp_path / "cmp"
-    args = ["compare", "--window", "0.2 s", "--formulations", "rigid", "--no-plots", "-o", str(out)]
+    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args)
     assert result.exit_code == 130, result.output
     assert "--resume" in result.output and "error:" not in result.output

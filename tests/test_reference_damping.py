@@ -152,7 +152,7 @@ def test_compare_bad_damping_cutoff(tmp_path, value):
     from quadmodes.cli.app import app
 
     out = tmp_path / "cmp"
-    result = CliRunner().invoke(app, ["compare", "--damping-cutoff", value, "-o", str(out)])
+    result = CliRunner().invoke(app, ["compare", "paper-41hz-coarse", "--damping-cutoff", value, "-o", str(out)])
     assert result.exit_code == 2, result.output
     assert "--damping-cutoff" in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()

@@ -47,6 +47,13 @@ SUMMARY_KEYS = {
     "status",
 }
 
+def only_summary(stdout: str) -> dict:
+    """The one summary of a `run --json` of one case (the payload is {case name: summary})."""
+    payload = json.loads(stdout)
+    assert isinstance(payload, dict) and len(payload) == 1, payload
+    return next(iter(payload.values()))
+
+
 
 def run_toml(
     *,
@@ -354,7 +361,7 @@ def test_run_command_writes_results_and_json(workdir):
         app, ["run", str(workdir / "small-run.toml"), "-o", str(out_dir), "--json"]
     )
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.stdout)
+    summary = only_summary(result.stdout)
     assert SUMMARY_KEYS <= set(summary) and summary["status"] == "complete"
     folder = out_dir / "small-run"
     ds = res.load_results(folder / "results.nc")
@@ -384,7 +391,7 @@ def test_run_command_overrides(workdir):
         ],
     )
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.stdout)
+    summary = only_summary(result.stdout)
     assert summary["steps"] == 100 and summary["method"] == "backward-euler"
     assert summary["dt_s"] == pytest.approx(1e-4)
 
@@ -457,6 +464,6 @@ def test_integrator_failure_keeps_partial_results(workdir, monkeypatch, failure)
     t = ds["time"].values
     assert 0.0 < t[-1] < 0.05 and np.all(np.diff(t) > 0)
     assert np.all(np.isfinite(ds["modal_coordinates"].values))
-    summary = json.loads(result.stdout)
+    summary = only_summary(result.stdout)
     assert summary["status"] == "incomplete" and summary["incomplete_reason"] == reason
     assert (out_dir / "small-run" / "summary.png").is_file() == (failure == "status")

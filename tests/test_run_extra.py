@@ -32,6 +32,13 @@ from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
 # ----------------------------------------------------------------------------- validity
 
+def only_summary(stdout: str) -> dict:
+    """The one summary of a `run --json` of one case (the payload is {case name: summary})."""
+    payload = json.loads(stdout)
+    assert isinstance(payload, dict) and len(payload) == 1, payload
+    return next(iter(payload.values()))
+
+
 
 @pytest.mark.parametrize("formulation", ["L", "Q"])
 def test_validity_of_the_small_capsule_at_150_hz(tmp_path, small_reduced_model, formulation):
@@ -72,7 +79,7 @@ def test_run_command_warns_and_json_says_so(workdir, formulation):  # noqa: F811
         app, ["run", str(workdir / "spin150.toml"), "-o", str(out_dir), "--json", "--no-plots"]
     )
     warnings = [s for s in result.stderr.splitlines() if "outside its validity" in s]
-    summary = json.loads(result.stdout)
+    summary = only_summary(result.stdout)
     ds = res.load_results(out_dir / "small-run" / "results.nc")
     if formulation == "L":
         assert len(warnings) == 1 and "rad/s" in warnings[0]
@@ -108,7 +115,7 @@ def test_kane_spinup_case_loads_and_overrides():
 def test_kane_spinup_cli_q_matches_kane(tmp_path):
     result = CliRunner().invoke(app, ["run", "kane-spinup", "-o", str(tmp_path / "out"), "--json"])
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.stdout)
+    summary = only_summary(result.stdout)
     peak, when = KANE_REFERENCE_PEAKS[6.0]
     assert summary["status"] == "ok" and summary["valid"] is True
     assert summary["peak_tip_deflection_m"] == pytest.approx(peak, rel=0.03)
@@ -130,7 +137,7 @@ def test_kane_spinup_cli_l_diverges_with_exit_1(tmp_path):
     )
     assert result.exit_code == 1, result.output
     assert any("outside its validity" in s and "3.79" in s for s in result.stderr.splitlines())
-    summary = json.loads(result.stdout)
+    summary = only_summary(result.stdout)
     assert summary["status"] == "diverged" and summary["complete"] is False
     assert summary["valid"] is False
     assert summary["validity"]["lost_at_spin_rate_rad_s"] == pytest.approx(3.80, abs=0.02)
@@ -183,7 +190,7 @@ def test_dt_convergence_table_and_json(workdir):  # noqa: F811
         ],
     )
     assert json_run.exit_code == 0
-    assert len(json.loads(json_run.stdout)["dt_convergence"]) == 3
+    assert len(only_summary(json_run.stdout)["dt_convergence"]) == 3
 
 
 def test_dt_convergence_rejects_adaptive_and_spinup(workdir):  # noqa: F811

@@ -12,6 +12,7 @@ import typer
 from rich.table import Table
 
 from quadmodes.cli.common import (
+    DEFAULT_CASE,
     LINEAR_FORMULATIONS,
     JsonFlag,
     LargeModelFlag,
@@ -76,9 +77,10 @@ CampbellOutput = output_path("folder for campbell.png/.nc/.csv")
 
 
 def campbell(
-    case: CampbellCase = "kane-beam",
-    spin_min: Annotated[str, typer.Option(help="lowest spin rate, e.g. '0 Hz'")] = "0 rad/s",
-    spin_max: Annotated[str, typer.Option(help="highest spin rate, e.g. '10 rad/s'")] = "10 rad/s",
+    case: CampbellCase = DEFAULT_CASE,
+    spin_min: Annotated[str, typer.Option(help="lowest spin rate, e.g. '0 Hz'")] = "0 Hz",
+    spin_max: Annotated[str, typer.Option(
+        help="highest spin rate, e.g. '45 Hz' (Kane's beam: '10 rad/s')")] = "45 Hz",
     n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
     formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
     output_dir: CampbellOutput = None,
@@ -175,7 +177,7 @@ RotatingOutput = output_path("folder to write the Markdown table in (rotating.md
 
 
 def rotating_command(
-    case: RotatingCase = "paper-membrane-coarse",
+    case: RotatingCase = DEFAULT_CASE,
     spins: Annotated[
         str, typer.Option(help='spin rates, comma-separated, e.g. "0 Hz, 20 Hz, 41 Hz"')
     ] = "0 Hz, 20 Hz, 41 Hz",

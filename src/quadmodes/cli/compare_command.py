@@ -260,7 +260,7 @@ ComparePlotsFlag = flag("--plots/--no-plots", "write overlay PNGs")
 
 
 def compare_command(
-    case: CompareCase = "paper-41hz-coarse",
+    case: CompareCase = "paper-41hz",
     window: Annotated[str, typer.Option(help='simulated window, e.g. "1 s"')] = "1 s",
     full_dt: Annotated[
         str | None, typer.Option("--full-dt", help="full-order step (default: the run's dt)")

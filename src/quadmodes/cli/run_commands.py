@@ -407,7 +407,8 @@ def run_command(
         typer.Argument(help="run case (built-in name or TOML file); default: both paper cases"),
     ] = None,
     output_dir: RunOutput = Path("out"),
-    as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
+    as_json: Annotated[bool, typer.Option(
+        "--json", help="print the summaries as JSON: {case name: summary}")] = False,
     method: Annotated[str | None, typer.Option(help="midpoint | backward-euler | adaptive")] = None,
     dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
     duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,
@@ -475,8 +476,8 @@ def run_command(
         except KeyboardInterrupt:
             raise stop(stopped_message(all_folders, opts.hint), opts.exit_code) from None
     if as_json:
-        payload = next(iter(summaries.values())) if case is not None else summaries
-        sys.stdout.write(json.dumps(payload, indent=2) + "\n")
+        # one shape whatever the arguments: {case name: summary}
+        sys.stdout.write(json.dumps(summaries, indent=2) + "\n")
     else:
         _print_run_summaries(summaries, spinups, output_dir)
     if failed:
