@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pint_xarray  # noqa: F401  (registers the .pint accessor)
 import pytest
 import xarray as xr
 from conftest import SMALL_CAPSULE
@@ -159,6 +160,12 @@ def test_run_with_a_custom_model_records_it_and_writes_cf_results(seeded_cache, 
         assert set(ds.coords) >= {"time", "mode", "xyz", "quat"}
         assert ds["modal_coordinates"].attrs["units"] == "kg^0.5 m"
         assert ds["angular_momentum"].attrs["units"] == "kg m^2/s"
+        # pint-xarray turns every variable into a quantity with the unit its attribute names
+        quantified = ds.pint.quantify()
+        h = quantified["angular_momentum"].pint.to("N m s")
+        assert float(abs(h).max()) == pytest.approx(float(abs(ds["angular_momentum"]).max()))
+        assert all(str(quantified[v].pint.units) != "None" for v in ds.data_vars
+                   if ds[v].dtype.kind == "f")  # fmt: skip
         replay = run_case_from_toml(ds.attrs["case_toml"])
     assert replay.model_case() == seeded_cache and replay == result.run
 
