@@ -1,6 +1,6 @@
 """Sweep throughput (issue 12): a spin sweep on a LocalCluster of 1 and of 2 workers, the
 speed-up, and the per-point overhead of the dask path against a plain in-process loop over the
-same points (:func:`quadmodes.sweep.points.run_point`).
+same points (:func:`quadmodes.sweeps.points.run_point`).
 
 The points share one reduced model (``reduced.reference = "rest"`` and a fixed mode count), so
 what is timed is the per-point work (time run, linearisations, energy-sink estimate) and the
@@ -23,9 +23,9 @@ import time
 from pathlib import Path
 
 from quadmodes.case import load_run_case
-from quadmodes.sweep import engine
-from quadmodes.sweep.params import parse_param
-from quadmodes.sweep.points import model_for_group, run_point
+from quadmodes.sweeps import engine
+from quadmodes.sweeps.params import parse_param
+from quadmodes.sweeps.points import model_for_group, run_point
 
 
 def _plan(case: str, points: int, duration: str, modes: int):

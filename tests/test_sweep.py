@@ -28,9 +28,9 @@ from quadmodes.cli.app import app
 from quadmodes.rom import artifact
 from quadmodes.rom import system as rsys
 from quadmodes.runs import model_cache
-from quadmodes.sweep import energy_sink as es
-from quadmodes.sweep.engine import plan_sweep
-from quadmodes.sweep.params import SweepError, grid, parse_param
+from quadmodes.sweeps import energy_sink as es
+from quadmodes.sweeps.engine import plan_sweep
+from quadmodes.sweeps.params import SweepError, grid, parse_param
 
 pytest.importorskip("distributed")
 
@@ -294,8 +294,8 @@ def test_sweep_table_in_the_run_case_and_a_spin_pressure_map(folder):
 
 
 def test_zipped_dataset_has_one_dimension_and_the_other_lists_as_coordinates(folder):
-    from quadmodes.sweep.dataset import sweep_dataset
-    from quadmodes.sweep.engine import SweepOutcome
+    from quadmodes.sweeps.dataset import sweep_dataset
+    from quadmodes.sweeps.engine import SweepOutcome
 
     run = load_run_case(folder / "small-run.toml")
     params = [parse_param("initial.spin_rate=10 Hz, 20 Hz, 30 Hz"),
@@ -314,12 +314,12 @@ def test_zipped_dataset_has_one_dimension_and_the_other_lists_as_coordinates(fol
 def test_a_worker_that_dies_costs_only_its_point(folder):
     """The task of the 20 Hz point kills its worker process on every try: after one retry on
     another worker that point is reported failed; the other points are computed and saved."""
-    from quadmodes.sweep import engine
+    from quadmodes.sweeps import engine
 
     def crashing(case, group, position, time_run):  # pickled by value (a local function)
         import os as _os
 
-        from quadmodes.sweep.points import run_point
+        from quadmodes.sweeps.points import run_point
 
         if abs(case.run.initial.spin_rate - 40 * math.pi) < 1e-9:
             _os._exit(1)

@@ -56,6 +56,7 @@ __all__ = [
     "si",
     "simulate",
     "summary",
+    "sweep",
     "ureg",
     "write_results",
 ]

@@ -16,6 +16,7 @@ from quadmodes.api.compute import (
     rotating,
     simulate,
     summary,
+    sweep,
     write_results,
 )
 from quadmodes.api.quantities import si
@@ -40,5 +41,6 @@ __all__ = [
     "si",
     "simulate",
     "summary",
+    "sweep",
     "write_results",
 ]

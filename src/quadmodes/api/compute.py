@@ -258,3 +258,43 @@ def mode_convergence(run, *, progress: Progress | None = None) -> dict:
     from quadmodes.runs.mode_convergence import mode_convergence as convergence
 
     return convergence(sim.prepare(_run(run), progress=progress), progress=progress)
+
+
+def sweep(
+    run, params: dict[str, str] | Sequence[str], *, zipped: bool = False,
+    output_dir: str | os.PathLike[str] = "sweep-out", workers: int | None = None,
+    scheduler: str | None = None, time_run: bool = True, plots: bool = True,
+):  # fmt: skip
+    """Sweep a run case over case fields on dask.distributed (what ``quadmodes sweep`` does).
+
+    Parameters
+    ----------
+    run : RunCase, str or path
+        The run case swept.
+    params : dict or sequence of str
+        ``{"initial.spin_rate": "10 Hz:40 Hz:4"}`` (TOML path → values: a comma list of
+        quantities or ``start:stop:count`` with units), or ``"PATH=VALUES"`` texts.
+    zipped : bool
+        Zip equal-length lists instead of taking their cartesian product.
+    output_dir : path
+        Folder of ``sweep.nc``, ``sweep.json``, the figures, ``report.html`` and the per-point
+        files (``points/``; a rerun skips the points done).
+    workers, scheduler
+        Local worker processes (default one per core) or the address of a running scheduler.
+    time_run : bool
+        Integrate every point (else linearisation and energy-sink estimate only).
+
+    Returns
+    -------
+    xarray.Dataset
+        One dimension per swept parameter (SI coordinates with units); headline scalars per
+        point (``cone_growth_rate`` rad/s, dissipated power W, spin change rad/s),
+        rotating-frame frequencies (Hz), the energy-sink estimate and ``critical_speed`` (rad/s).
+    """
+    from quadmodes.sweeps.run import plan_from_texts, run_sweep
+
+    texts = [f"{k}={v}" for k, v in params.items()] if isinstance(params, dict) else list(params)
+    plan = plan_from_texts(_run(run), texts, zipped, time_run)
+    ds, _, _ = run_sweep(plan, Path(output_dir), workers=workers, scheduler=scheduler,
+                         command=f"quadmodes.sweep({texts!r})", plots=plots)  # fmt: skip
+    return ds

@@ -407,8 +407,7 @@ def run_command(
         typer.Argument(help="run case (built-in name or TOML file); default: both paper cases"),
     ] = None,
     output_dir: RunOutput = Path("out"),
-    as_json: Annotated[bool, typer.Option(
-        "--json", help="print the summaries as JSON: {case name: summary}")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="print {case name: summary} as JSON")] = False,
     method: Annotated[str | None, typer.Option(help="midpoint | backward-euler | adaptive")] = None,
     dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
     duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,

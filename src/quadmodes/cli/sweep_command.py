@@ -21,8 +21,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from quadmodes.case import load_run_case, run_case_from_dict
 from quadmodes.cli.common import check_output_folder, err, one_line_errors, out
-from quadmodes.io.atomic import atomic_path, write_text
-from quadmodes.sweep.params import SweepError, parse_param, unique_names
+from quadmodes.sweeps.params import SweepError
 
 
 def load_sweep_case(name_or_path: str):
@@ -55,31 +54,17 @@ def _progress_bar(enabled: bool):
 
 
 def _plan(case: str, param: list[str], zipped: bool, time_run: bool):
-    from quadmodes.sweep.engine import plan_sweep
+    from quadmodes.sweeps.run import plan_from_texts
 
     run, from_file, zip_file = load_sweep_case(case)
-    texts = from_file + list(param or [])
-    if not texts:
-        raise SweepError('--param: give at least one, e.g. --param "initial.spin_rate=1 Hz:45 Hz:45"')
-    model_case = run.model_case()
-    params = unique_names([parse_param(t, model_case) for t in texts])
-    return plan_sweep(run, params, zipped or zip_file, time_run)
+    return plan_from_texts(run, from_file + list(param or []), zipped or zip_file, time_run)
 
 
 def _write(plan, outcome, directory: Path, plots: bool = True) -> dict:
-    from quadmodes.sweep.dataset import summary, sweep_dataset
-    from quadmodes.sweep.plots import sweep_figures
-    from quadmodes.sweep.report import write_sweep_report
+    from quadmodes.sweeps.run import write_sweep_files
 
     command = shlex.join(["quadmodes", *sys.argv[1:]])
-    ds = sweep_dataset(plan, outcome, command)
-    with atomic_path(directory / "sweep.nc") as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf")
-    info = summary(ds, outcome)
-    info["figures"] = [p.name for p in sweep_figures(ds, directory)] if plots else []
-    write_text(directory / "sweep.json", json.dumps(info, indent=2) + "\n")
-    write_sweep_report(directory, ds, info, command)
-    return info
+    return write_sweep_files(plan, outcome, directory, command, plots)[1]
 
 
 def _report(info: dict, directory: Path) -> None:
@@ -117,7 +102,7 @@ def sweep_command(
     Writes DIR/sweep.nc (one dimension per swept parameter), sweep.json, campbell.png,
     stability.png and energy_sink.png; finished points stay in DIR/points/ so that the same
     command run again skips them."""
-    from quadmodes.sweep.engine import dask_client, execute
+    from quadmodes.sweeps.engine import dask_client, execute
 
     if workers is not None and scheduler:
         with one_line_errors():

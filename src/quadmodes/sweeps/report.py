@@ -39,7 +39,7 @@ def _point_table(ds: xr.Dataset) -> str:
 
 def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str) -> Path:
     """Write ``directory/report.html`` for the sweep dataset ``ds`` and its summary ``info``
-    (:func:`quadmodes.sweep.dataset.summary`); returns its path."""
+    (:func:`quadmodes.sweeps.dataset.summary`); returns its path."""
     swept = [(d, f"{ds[d].size} values, {_label(ds[d])}") for d in ds.dims if d in ds.coords]
     counts = [("points", info["points"]), ("resumed from earlier files", info["resumed"]),
               ("failed", info["failed"]), ("wall time (s)", info["wall_s"]),

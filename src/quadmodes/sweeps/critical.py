@@ -70,7 +70,7 @@ def _unstable_count(p: dict) -> int:
 
 def brackets(spins: list[float], points: list[dict], indices: list[int]) -> list[Bracket]:
     """Brackets along one line of the sweep: ``spins`` (rad/s) ascending, the point results
-    (:func:`quadmodes.sweep.points.run_point` dicts, None for failed points) and their indices.
+    (:func:`quadmodes.sweeps.points.run_point` dicts, None for failed points) and their indices.
     A good point followed by a failed one (e.g. no spinning state beyond a divergence) gives a
     bracket of reason "extend": :func:`extend` decides on the good point's model."""
     out = []

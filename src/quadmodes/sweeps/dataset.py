@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
-from quadmodes.sweep.engine import SweepOutcome, SweepPlan
+from quadmodes.sweeps.engine import SweepOutcome, SweepPlan
 
 FORMAT = "quadmodes-sweep"
 FORMAT_VERSION = 1

@@ -12,7 +12,7 @@ import tomllib
 from dataclasses import dataclass
 
 from quadmodes.case import Case, CaseError, RunCase, case_from_dict, run_case_from_dict
-from quadmodes.sweep.params import FieldPath, SweepError
+from quadmodes.sweeps.params import FieldPath, SweepError
 
 
 @dataclass(frozen=True, eq=False)

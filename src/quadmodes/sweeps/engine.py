@@ -8,7 +8,7 @@ Stages::
 The same code runs on a :class:`distributed.LocalCluster` (default: one worker process per
 core, one thread each, BLAS threads limited to one) and on an existing cluster
 (``--scheduler ADDRESS``). One task builds the reduced model of each structural key
-(:func:`quadmodes.sweep.points.structural_key`); the point tasks take its future, so the model
+(:func:`quadmodes.sweeps.points.structural_key`); the point tasks take its future, so the model
 is built once and shipped to the workers by dask. A task that raises is retried once; a worker
 that dies costs only the points it was running (the scheduler gives each task one more try,
 ``allowed-failures`` = 1 on the local cluster); either failure is then reported for that point
@@ -34,10 +34,10 @@ from quadmodes import __version__
 from quadmodes.case import Case, RunCase
 from quadmodes.io.atomic import write_text
 from quadmodes.runs.model_cache import cache_dir, fingerprint_files
-from quadmodes.sweep import critical as crit
-from quadmodes.sweep.overrides import PointCase, apply_values
-from quadmodes.sweep.params import SweepError, SweepParameter, grid
-from quadmodes.sweep.points import model_for_group, run_point, structural_key
+from quadmodes.sweeps import critical as crit
+from quadmodes.sweeps.overrides import PointCase, apply_values
+from quadmodes.sweeps.params import SweepError, SweepParameter, grid
+from quadmodes.sweeps.points import model_for_group, run_point, structural_key
 
 FORMAT = "quadmodes-sweep-point"
 FORMAT_VERSION = 1
@@ -216,7 +216,7 @@ def _refine_task(group, bracket: crit.Bracket, formulation: str) -> dict | None:
 @dataclass(eq=False)
 class SweepOutcome:
     """Results per point (None: failed), failure messages by point index, the critical speeds
-    (records of :func:`quadmodes.sweep.critical.critical_speed_record`), how many points were
+    (records of :func:`quadmodes.sweeps.critical.critical_speed_record`), how many points were
     taken from earlier files, and the wall time of the execution (s)."""
 
     results: list[dict | None]
@@ -270,7 +270,7 @@ def execute(plan: SweepPlan, directory: Path, client,
     """Run the points of ``plan`` not yet saved in ``directory`` on ``client``, saving each as
     it finishes; then refine the critical speeds. ``progress(done, total)`` after each point.
     ``point_task(case, group, position, time_run)`` replaces the task of a point (default:
-    :func:`quadmodes.sweep.points.run_point` on the group's model).
+    :func:`quadmodes.sweeps.points.run_point` on the group's model).
 
     At most one point per worker thread is in flight, sent to a free worker (a loose
     restriction: it moves if that worker goes away); the next is submitted when one finishes. So

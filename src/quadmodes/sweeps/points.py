@@ -24,8 +24,8 @@ from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate as sim
 from quadmodes.runs.mode_choice import resolve_modes
 from quadmodes.runs.model_cache import reduced_model_for
-from quadmodes.sweep.energy_sink import energy_sink
-from quadmodes.sweep.overrides import PointCase
+from quadmodes.sweeps.energy_sink import energy_sink
+from quadmodes.sweeps.overrides import PointCase
 
 
 def structural_key(point: PointCase) -> str:
