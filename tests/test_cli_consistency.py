@@ -148,3 +148,14 @@ def test_calibrate_json_and_output_folder(runner, tmp_path, monkeypatch):
                             "rocking_hz", "bending_hz", "axial_hz", "output", "case_toml"}  # fmt: skip
     assert payload["output"] == str(tmp_path / "calibrated.toml")
     assert load_case(tmp_path / "calibrated.toml") == case
+
+
+def test_show_case_and_validate_offer_json(runner):
+    """show-case --json is the TOML's content; validate --json gives {suite: [rows]}."""
+    import tomllib
+
+    toml_text = runner.invoke(app, ["show-case", "paper-0.5hz"]).stdout
+    as_json = runner.invoke(app, ["show-case", "paper-0.5hz", "--json"])
+    assert as_json.exit_code == 0 and json.loads(as_json.stdout) == tomllib.loads(toml_text)
+    help_text = runner.invoke(app, ["validate", "--help"], env={"COLUMNS": "200"}).stdout
+    assert "--json" in help_text

@@ -52,15 +52,19 @@ def cases(as_json: JsonFlag = False) -> None:
     out.print(table)
 
 
-def show_case(name: ModelCase) -> None:
-    """Print a case as TOML (copy it, edit it, pass the file to any command)."""
+def show_case(name: ModelCase, as_json: JsonFlag = False) -> None:
+    """Print a case as TOML (copy it, edit it, pass the file to any command); --json: the same
+    content as a JSON object."""
+    import tomllib
+
     from quadmodes.case import builtin_case_names, builtin_case_text, builtin_run_case_names
 
     with one_line_errors():
         if name in builtin_case_names() or name in builtin_run_case_names(spinup=None):
-            sys.stdout.write(builtin_case_text(name))
+            text = builtin_case_text(name)
         else:
-            sys.stdout.write(load_model_case(name).to_toml())
+            text = load_model_case(name).to_toml()
+    sys.stdout.write(json.dumps(tomllib.loads(text), indent=2) + "\n" if as_json else text)
 
 
 # ------------------------------------------------------------------------------ modes

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -11,6 +13,7 @@ import typer
 from rich.markup import escape
 
 from quadmodes.cli.common import (
+    JsonFlag,
     ProgressCallback,
     UserError,
     check_output_file,
@@ -88,12 +91,24 @@ ConvergenceFlag = flag("--convergence/--no-convergence", "paper-model mesh conve
 QuickFlag = flag("--quick", "only the fast checks (the subset the tests run)")
 
 
+def _row_json(r) -> dict:
+    """One validation row as JSON (floats; the error relative unless ``absolute``)."""
+    def num(x):
+        return float(x) if math.isfinite(float(x)) else None
+
+    return {"check": r.check, "measured": num(r.measured), "reference": num(r.reference),
+            "unit": r.unit, "error": num(r.error), "absolute": r.absolute,
+            "tolerance": num(r.tolerance), "report_only": r.report_only,
+            "passed": r.passed, "source": r.source}  # fmt: skip
+
+
 def validate(
     write: ValidateWrite = None,
     suite: SuiteOption = None,
     convergence: ConvergenceFlag = True,
     quick: QuickFlag = False,
     output_dir: ValidateOutput = None,
+    as_json: JsonFlag = False,
 ) -> None:
     """Run the validation suite and print (or write) the measured tables with pass/fail.
 
@@ -118,7 +133,10 @@ def validate(
         conv = validation.mesh_convergence() if convergence and "fe" in chosen and not quick else []
     sections = {_TITLES[k]: results[k] for k in chosen if k != "fe"}
     text = validation_markdown(results.get("fe", []), conv, sections)
-    if write is None:
+    if as_json:  # {suite: [row, ...]} with every row's measured and reference in its unit
+        sys.stdout.write(json.dumps({k: [_row_json(r) for r in rows] for k, rows in
+                                     results.items()}, indent=2) + "\n")  # fmt: skip
+    elif write is None:
         sys.stdout.write(text)
     else:
         write_file_in(write, lambda path: write_text(path, text))
