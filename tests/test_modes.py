@@ -111,7 +111,7 @@ def test_auto_run_states_its_choice_and_has_n_modes(workdir, spectrum):  # noqa:
     )
     result = _run(workdir, "--modes", "auto", "--json", "--no-plots")
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.stdout)
+    summary = json.loads(result.stdout)["small-run"]  # run --json: {case name: summary}
     expected = int(np.sum(freqs <= 180.0))
     assert _whole(freqs, expected)
     assert summary["n_modes"] == expected and summary["modes_requested"] == "auto"
@@ -134,7 +134,7 @@ def test_modes_option_overrides_the_case(workdir, spectrum):  # noqa: F811
     freqs, _ = spectrum
     result = _run(workdir, "--modes", "4", "--duration", "0.01 s", "--json", "--no-plots")
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.stdout)
+    summary = json.loads(result.stdout)["small-run"]  # run --json: {case name: summary}
     assert summary["n_modes"] == 4 and summary["modes_requested"] == "4"
     ds = res.load_results(workdir / "out" / "small-run" / "results.nc")
     assert ds["modal_coordinates"].shape == (ds.sizes["time"], 4)
