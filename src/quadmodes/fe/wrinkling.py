@@ -101,6 +101,14 @@ def tangent(d: np.ndarray, youngs_modulus: float, poisson_ratio: float,
     return out
 
 
+def relaxed_in_step(poisson_ratio: float, strain0: np.ndarray, strain1: np.ndarray) -> np.ndarray:
+    """Indices ``(k,)`` of the elements wrinkled or slack at the start, the end or the midpoint
+    of a step (strains ``(ne, 2, 2)``); elsewhere the step is SVK's."""
+    ends = [principal_strains(e)[:2] for e in (strain0, strain1, 0.5 * (strain0 + strain1))]
+    return np.flatnonzero(np.any([np.any(states(a, b, poisson_ratio), axis=0)
+                                  for a, b in ends], axis=0))  # fmt: skip
+
+
 def discrete_gradient_stress(d: np.ndarray, youngs_modulus: float, poisson_ratio: float,
                              strain0: np.ndarray, strain1: np.ndarray) -> np.ndarray:  # fmt: skip
     """Step stress ``S̄`` ``(ne, 2, 2)`` (Pa) with ``S̄ : (E₁ − E₀) = W(E₁) − W(E₀)`` exactly.
@@ -110,11 +118,8 @@ def discrete_gradient_stress(d: np.ndarray, youngs_modulus: float, poisson_ratio
     or slack at an end or at the midpoint; elsewhere (taut at all three: W is quadratic there
     to the step's order) ``S̄`` is the Simo–Tarnow average ``S((E₀ + E₁)/2)`` bit for bit, so a
     membrane that never wrinkles steps exactly as without the relaxation."""
-    mid_strain = 0.5 * (strain0 + strain1)
-    mid = stress(d, youngs_modulus, poisson_ratio, mid_strain)
-    ends = [principal_strains(e)[:2] for e in (strain0, strain1, mid_strain)]
-    relaxed = np.flatnonzero(np.any([np.any(states(a, b, poisson_ratio), axis=0)
-                                     for a, b in ends], axis=0))  # fmt: skip
+    mid = stress(d, youngs_modulus, poisson_ratio, 0.5 * (strain0 + strain1))
+    relaxed = relaxed_in_step(poisson_ratio, strain0, strain1)
     if len(relaxed) == 0:
         return mid
     e0, e1 = strain0[relaxed], strain1[relaxed]
@@ -138,10 +143,7 @@ def discrete_gradient_tangent(d: np.ndarray, youngs_modulus: float, poisson_rati
     whose strain changes within a step are comparable with the strain itself, and without it
     the iteration stalls."""
     out = np.broadcast_to(0.5 * d, (len(strain0), 3, 3)).copy()
-    mid = 0.5 * (strain0 + strain1)
-    ends = [principal_strains(e)[:2] for e in (strain0, strain1, mid)]
-    relaxed = np.flatnonzero(np.any([np.any(states(a, b, poisson_ratio), axis=0)
-                                     for a, b in ends], axis=0))  # fmt: skip
+    relaxed = relaxed_in_step(poisson_ratio, strain0, strain1)
     if len(relaxed) == 0:
         return out
     e0, e1 = strain0[relaxed], strain1[relaxed]
