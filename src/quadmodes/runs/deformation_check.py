@@ -55,6 +55,8 @@ def with_deformation_check(setup, progress=None):
     when the run has no initial deformation or no validity)."""
     if setup.validity is None or setup.system.n_modes == 0:
         return setup
+    if not np.any(rsys.split_state(setup.system, setup.initial.y0)[2]):
+        return setup  # no initial deformation: nothing to check (and no progress line)
     if progress:
         progress("initial deformation vs the FE model", 0.0)
     energies = initial_deformation_energies(setup)
