@@ -27,6 +27,7 @@ from pydantic import BaseModel
 
 from quadmodes.case import Case, QuantityError, RunCase, parse_quantity, si_unit
 from quadmodes.case.fields import field_meta
+from quadmodes.case.meta import nested_model
 
 
 class SweepError(ValueError):
@@ -74,22 +75,11 @@ class SweepParameter:
         return len(self.values) > 1
 
 
-def _unwrap(annotation) -> type[BaseModel] | None:
-    """The pydantic model inside an annotation such as ``Geometry | None`` or a tuple."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = _unwrap(arg)
-        if found is not None:
-            return found
-    return None
-
-
 def _leaf_paths(model: type[BaseModel], prefix: str, depth: int = 0) -> list[str]:
     """Every leaf field path below ``model`` (arrays of tables written with ``[0]``)."""
     paths = []
     for name, info in model.model_fields.items():
-        sub = _unwrap(info.annotation)
+        sub = nested_model(info.annotation)
         is_array = typing.get_origin(info.annotation) is tuple
         head = f"{prefix}{name}{'[0]' if is_array else ''}"
         if sub is not None and depth < 3:
@@ -158,11 +148,11 @@ def resolve_path(text: str, model_case: Case | None = None, option: str = "--par
         if model is None or key not in model.model_fields:
             raise _unknown(text, option)
         if i == len(keys) - 1:
-            if _unwrap(model.model_fields[key].annotation) is not None:
+            if nested_model(model.model_fields[key].annotation) is not None:
                 raise SweepError(f'{option}: "{text}" is a table, not a field; name one of its '
                                  f"fields, e.g. {known_paths_below(text)}")  # fmt: skip
             return FieldPath(text.strip(), target, tuple(keys), field_meta(model, key).dimension)
-        model = _unwrap(model.model_fields[key].annotation)
+        model = nested_model(model.model_fields[key].annotation)
         if keys[0] == "end_body" and i == 0 and (len(keys) < 2 or not isinstance(keys[1], int)):
             raise SweepError(f'{option}: "{text}": name the end body, e.g. "end_body[0].mass" '
                              'or "end_body.rear.mass"')  # fmt: skip
