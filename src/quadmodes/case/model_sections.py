@@ -224,7 +224,9 @@ class EndBody(Section):
 
 
 class Beam(Section):
-    """Euler-Bernoulli beam along x: length m, area m^2, second moment m^4, E Pa, kg/m^3."""
+    """Straight beam along x: length m, area m^2, second moment m^4 (both bending planes), E Pa,
+    kg/m^3; shear modulus (default E/2.6) and torsion constant (default 2I, a circular section)
+    of the 3-D beam."""
 
     length: quantity("length", "10 m", positive, "m")
     elements: integer(20, 1)
@@ -234,6 +236,11 @@ class Beam(Section):
     density: quantity("density", "3000 kg/m^3", positive, "kg/m^3")
     support: choice("clamped", "free") = "clamped"
     damping_ratio: quantity("dimensionless", "0.02", ratio) = 0.0
+    # "beam3d": bending in both planes, extension, torsion and section rotary inertia (spins
+    # free); "cable": the ANCF cable without torsion (Kane's Euler-Bernoulli benchmark)
+    element: choice("beam3d", "cable") = "beam3d"
+    shear_modulus: quantity("pressure", "2.7e10 Pa", positive, "Pa", optional=True) = None
+    torsion_constant: quantity("second_moment", "4e-7 m^4", positive, "m^4", optional=True) = None
 
 
 class Modes(Section):

@@ -13,6 +13,7 @@ import scipy.sparse as sp
 
 from quadmodes.fe.assembly import assemble_scalar_matrix
 from quadmodes.fe.bar import bar_set
+from quadmodes.fe.beam import BeamSection, beam_sets, chain_connectivity, straight_beam_nodes
 from quadmodes.fe.membrane import membrane_set
 from quadmodes.fe.model import Structure
 from quadmodes.fe.pressure import PressureSet
@@ -149,10 +150,15 @@ def build_beam_structure(
     EI: float,
     rho_A: float,
     clamped: bool = True,
+    section: BeamSection | None = None,
 ) -> Structure:
-    """Straight ANCF cable beam along +x from the origin (SI). A clamp at x = 0 fixes the root
-    position and the root tangent direction; the root slope's axial component stays free, because a
+    """Straight beam along +x from the origin (SI): the ANCF cable (no torsion) when ``section``
+    is None, else the 3-D beam of :mod:`quadmodes.fe.beam` with that section (EA, EI, ρA then
+    come from it). A clamp at x = 0 fixes the root position and the root tangent direction (and
+    the 3-D beam's section directors); the root slope's axial component stays free, because a
     clamp fixes the direction of the centreline, not its stretch."""
+    if section is not None:
+        return _build_3d_beam(length, n_elements, section, clamped)
     from quadmodes.fe.cable import straight_cable
 
     reference, translational, cable = straight_cable(
@@ -172,4 +178,26 @@ def build_beam_structure(
         mass_scalar=ms,
         fixed=fixed,
         groups={"beam": positions},
+    )
+
+
+def _build_3d_beam(length: float, n_elements: int, section: BeamSection, clamped: bool):
+    """The 3-D beam case of :func:`build_beam_structure` (d₂ = y, d₃ = z)."""
+    reference, translational = straight_beam_nodes(
+        np.zeros(3), np.array([length, 0.0, 0.0]), n_elements, np.array([0.0, 1.0, 0.0])
+    )
+    conn = chain_connectivity(0, n_elements)
+    sets = beam_sets(conn, length / n_elements, section)
+    n = len(reference)
+    fixed = np.zeros((n, 3), bool)
+    if clamped:
+        fixed[[0, 2, 3], :] = True
+        fixed[1, 1:] = True
+    return Structure(
+        reference=reference,
+        translational=translational,
+        elements=sets,
+        mass_scalar=assemble_scalar_matrix(conn, sets[0].mass(), n),
+        fixed=fixed,
+        groups={"beam": np.flatnonzero(translational)},
     )

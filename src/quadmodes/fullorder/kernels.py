@@ -32,6 +32,7 @@ from quadmodes.fe.bar import BarSet
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import Structure
 from quadmodes.fe.pressure import PressureSet
+from quadmodes.fe.quadratic_strain import QuadraticStrainSet
 
 
 def _rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -300,6 +301,25 @@ class _Midpoint:
         return 0.5 * self.set.stiffness(0.5 * (x0 + x1))
 
 
+class _QuadraticStrain:
+    """A set with quadratic strains (beams, rigid hubs): its own energy–momentum step force
+    (stress of the averaged strain, :meth:`QuadraticStrainSet.step_force`) and Jacobian."""
+
+    tie = False
+
+    def __init__(self, e: QuadraticStrainSet, n: int):
+        self.set, self.conn, self.n = e, e.conn, n
+
+    def start(self, x0: np.ndarray):
+        return x0
+
+    def force(self, start, x1: np.ndarray) -> np.ndarray:
+        return assemble_vector(self.conn, self.set.step_force(start, x1), self.n)
+
+    def block(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+        return self.set.step_block(x0, x1)
+
+
 def _kernel(e, n: int, energy_momentum: bool, jit):
     if isinstance(e, PressureSet):
         return _Pressure(e, n, jit)
@@ -308,6 +328,8 @@ def _kernel(e, n: int, energy_momentum: bool, jit):
         return _RelaxedMembrane(e, n) if relaxed else _Membrane(e, n, jit)
     if energy_momentum and isinstance(e, BarSet):
         return _Bar(e, n)
+    if energy_momentum and isinstance(e, QuadraticStrainSet):
+        return _QuadraticStrain(e, n)
     return _Midpoint(e, n)
 
 

@@ -20,6 +20,7 @@ from quadmodes.fe.assembly import assemble_matrix
 from quadmodes.fe.bar import BarSet
 from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
+from quadmodes.fe.quadratic_strain import QuadraticStrainSet
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
 from quadmodes.fullorder.kernels import StepOperators
 from quadmodes.fullorder.setup import FullOrderProblem
@@ -111,6 +112,8 @@ def step_jacobian(structure: Structure, x0: np.ndarray, x1: np.ndarray, energy_m
             ke = _membrane_block(e, x0, x1, xh)
         elif isinstance(e, BarSet):
             ke = _bar_block(e, x0, x1, xh)
+        elif isinstance(e, QuadraticStrainSet):
+            ke = e.step_block(x0, x1)
         else:
             ke = 0.5 * e.stiffness(xh)
         mats.append(assemble_matrix(e.conn, ke, structure.n))

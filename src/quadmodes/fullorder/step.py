@@ -21,6 +21,7 @@ from quadmodes.fe.assembly import assemble_vector
 from quadmodes.fe.bar import BarSet
 from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, internal_force
+from quadmodes.fe.quadratic_strain import QuadraticStrainSet
 from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.fullorder.setup import FullOrderProblem
 from quadmodes.rotations import skew
@@ -38,7 +39,8 @@ def step_force(structure: Structure, x0: np.ndarray, x1: np.ndarray, strain0=Non
     strain-space discrete gradient (``MembraneSet.step_stress``, same exact work). Since ε is quadratic in x,
     ``ε₁ − ε₀ = Dε(x½)(x₁ − x₀)`` and the energy is quadratic in ε, the step's work equals
     the energy change exactly; ``Dε(x½)ᵀ S̄`` is equilibrated at x½, so H is conserved too.
-    Other sets (pressure, cable) use ``f(x½)``: the constant-pressure potential is cubic, and the
+    Quadratic-strain sets (beams, hubs) use their own stress average
+    (:meth:`QuadraticStrainSet.step_force`). Other sets (pressure, cable) use ``f(x½)``: the constant-pressure potential is cubic, and the
     midpoint's energy error is the enclosed volume of the increment field (zero for a rigid
     rotation). ``strain0``: per-set strains at x0 from :func:`step_strains` (else computed)."""
     xh = 0.5 * (x0 + x1)
@@ -54,6 +56,8 @@ def step_force(structure: Structure, x0: np.ndarray, x1: np.ndarray, strain0=Non
             ebar = 0.5 * (e0 + e.strain(x1))
             fb = (e.EA * ebar / e.length0)[:, None] * e._d(xh)
             fe = np.stack([-fb, fb], 1)
+        elif isinstance(e, QuadraticStrainSet):
+            fe = e.step_force(x0, x1)
         else:
             fe = e.force(xh)
         out += assemble_vector(e.conn, fe, structure.n)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from quadmodes.case import Case
+from quadmodes.fe.beam import BeamSection, solid_section
 from quadmodes.fe.build import (
     EndBodySpec,
     MembraneSpec,
@@ -107,6 +108,14 @@ def end_body_specs(case: Case) -> list[EndBodySpec]:
     ]
 
 
+def beam_section(beam) -> BeamSection:
+    """The 3-D beam section of a case's ``[beam]`` table (SI)."""
+    return solid_section(
+        beam.area, beam.second_moment, beam.youngs_modulus, beam.density,
+        beam.shear_modulus, beam.torsion_constant,
+    )  # fmt: skip
+
+
 def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> Structure:
     """The finite-element structure of a case (stress-free)."""
     if case.kind == "beam":
@@ -118,6 +127,7 @@ def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> St
             b.youngs_modulus * b.second_moment,
             b.density * b.area,
             clamped=b.support == "clamped",
+            section=beam_section(b) if b.element == "beam3d" else None,
         )
     surface = surface if surface is not None else surface_for_case(case)
     m = case.material
