@@ -2,7 +2,8 @@
 
 A membrane case (``kind = "membrane"``) has ``[geometry]``, ``[mesh]``, ``[material]``,
 ``[pressure]`` and any ``[[end_body]]`` tables; a beam case (``kind = "beam"``) has ``[beam]``;
-both may have ``[modes]``. :func:`case_to_toml` writes a case in SI units; the text loads back
+a spacecraft case (``kind = "spacecraft"``) has ``[hub]`` and ``[[boom]]`` tables; all may have
+``[modes]``. :func:`case_to_toml` writes a case in SI units; the text loads back
 to an equal case.
 """
 
@@ -13,7 +14,17 @@ from typing import Self
 from pydantic import Field, field_validator, model_validator
 
 from quadmodes.case.fields import Section, choice, field_error, inch, text, toml_value, valid_name
-from quadmodes.case.model_sections import Beam, EndBody, Geometry, Material, Mesh, Modes, Pressure
+from quadmodes.case.model_sections import (
+    Beam,
+    Boom,
+    EndBody,
+    Geometry,
+    Hub,
+    Material,
+    Mesh,
+    Modes,
+    Pressure,
+)
 from quadmodes.case.toml_writing import section_lines, toml_document
 
 _MEMBRANE_SECTIONS = ("geometry", "mesh", "material", "pressure")
@@ -25,13 +36,15 @@ class Case(Section):
 
     name: text("my-case")
     description: text("what this case is for") = ""
-    kind: choice("membrane", "beam")
+    kind: choice("membrane", "beam", "spacecraft")
     geometry: Geometry | None = None
     mesh: Mesh | None = None
     material: Material | None = None
     pressure: Pressure | None = None
     end_body: tuple[EndBody, ...] = ()
     beam: Beam | None = None
+    hub: Hub | None = None
+    boom: tuple[Boom, ...] = ()
     modes: Modes = Field(default_factory=Modes)
 
     @field_validator("name")
@@ -45,9 +58,44 @@ class Case(Section):
             self._check_membrane_tables()
             self._check_end_bodies()
             self._check_mesh_resolution()
-        else:
+        elif self.kind == "beam":
             self._check_beam_tables()
+        else:
+            self._check_spacecraft_tables()
+        if self.kind != "spacecraft":
+            for section in ("hub", "boom"):
+                if getattr(self, section):
+                    raise field_error(
+                        "case_rule",
+                        f'only used when kind = "spacecraft"; remove it or set that kind',
+                        section,
+                    )
         return self
+
+    def _check_spacecraft_tables(self) -> None:
+        if self.hub is None or not self.boom:
+            missing = "hub" if self.hub is None else "boom"
+            raise field_error(
+                "case_rule",
+                f'missing; kind = "spacecraft" needs a [hub] table and [[boom]] tables (see '
+                '"quadmodes show-case hub-booms")',
+                missing,
+            )
+        for section in (*_MEMBRANE_SECTIONS, "end_body", "beam"):
+            if getattr(self, section):
+                raise field_error(
+                    "case_rule",
+                    'not used when kind = "spacecraft"; remove it or change the kind',
+                    section,
+                )
+        names = [b.name for b in self.boom]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                raise field_error(
+                    "case_rule",
+                    f"{toml_value(name)} is used twice; give each boom its own name",
+                    f"boom[{i}].name",
+                )
 
     def _check_membrane_tables(self) -> None:
         see = 'see "quadmodes show-case paper-membrane"'
@@ -142,10 +190,11 @@ def case_tables(case: Case, prefix: str = "") -> list[tuple[str, list[str]]]:
         tables.append((f"[{prefix}]", [f"{k} = {toml_value(v)}" for k, v in top.items()]))
     tables += [
         (f"[{head}{name}]", section_lines(getattr(case, name)))
-        for name in ("geometry", "mesh", "material", "pressure", "beam", "modes")
+        for name in ("geometry", "mesh", "material", "pressure", "beam", "hub", "modes")
         if getattr(case, name) is not None
     ]
     tables += [(f"[[{head}end_body]]", section_lines(body)) for body in case.end_body]
+    tables += [(f"[[{head}boom]]", section_lines(boom)) for boom in case.boom]
     return tables
 
 

@@ -243,6 +243,52 @@ class Beam(Section):
     torsion_constant: quantity("second_moment", "4e-7 m^4", positive, "m^4", optional=True) = None
 
 
+class Hub(Section):
+    """Rigid hub of a spacecraft case: mass kg, principal moments of inertia about its centre
+    along x, y, z (kg m^2), the modal damping ratio of the whole structure and the stiffness of
+    the hub's rigid triad relative to the stiffest boom root (dimensionless)."""
+
+    mass: quantity("mass", "20 kg", positive, "kg")
+    inertia_x: quantity("inertia", "1.0 kg*m^2", positive, "kg*m^2")
+    inertia_y: quantity("inertia", "1.2 kg*m^2", positive, "kg*m^2")
+    inertia_z: quantity("inertia", "0.8 kg*m^2", positive, "kg*m^2")
+    damping_ratio: quantity("dimensionless", "0.02", ratio) = 0.0
+    rigidity: quantity("dimensionless", "1e4", positive) = 1e4
+
+    @model_validator(mode="after")
+    def check_triangle(self) -> Self:
+        i = (self.inertia_x, self.inertia_y, self.inertia_z)
+        for name, value in zip(("inertia_x", "inertia_y", "inertia_z"), i, strict=True):
+            if value > sum(i) - value + 1e-12 * sum(i):
+                raise field_error(
+                    "case_rule",
+                    "must not exceed the sum of the other two moments (no physical body has "
+                    "that); lower it or raise the others",
+                    name,
+                )
+        return self
+
+
+class Boom(Section):
+    """A straight 3-D beam clamped to the hub, pointing along (azimuth in the hub's x-y plane
+    from x, elevation above that plane), its root at root_radius along that direction from the
+    hub axis and root_height along z; section as in [beam]."""
+
+    name: text("boom-1")
+    azimuth: quantity("angle", "0 deg", None, "deg") = 0.0
+    elevation: quantity("angle", "0 deg", None, "deg") = 0.0
+    root_radius: quantity("length", "0.3 m", nonnegative, "m") = 0.0
+    root_height: quantity("length", "0 m", None, "m") = 0.0
+    length: quantity("length", "2 m", positive, "m")
+    elements: integer(10, 1)
+    area: quantity("area", "7.85e-5 m^2", positive, "m^2")
+    second_moment: quantity("second_moment", "4.9e-10 m^4", positive, "m^4")
+    youngs_modulus: quantity("pressure", "7e10 Pa", positive, "Pa")
+    density: quantity("density", "2700 kg/m^3", positive, "kg/m^3")
+    shear_modulus: quantity("pressure", "2.7e10 Pa", positive, "Pa", optional=True) = None
+    torsion_constant: quantity("second_moment", "1e-9 m^4", positive, "m^4", optional=True) = None
+
+
 class Modes(Section):
     """Number of elastic modes to compute."""
 

@@ -128,16 +128,23 @@ def check_pressure(case: Case) -> None:
         )
 
 
+def vector_dofs_per_node(case: Case) -> int:
+    """Vector DOFs per node: 1 (membranes), 2 (cable beam: r, r'), 4 (3-D beam: r, r', d₂, d₃)."""
+    if case.kind == "beam":
+        return 2 if case.beam.element == "cable" else 4
+    return 1
+
+
 def check_can_spin(case: Case, what: str = "spin") -> None:
     """Raise :class:`CaseError` (``beam.support``) for a free beam asked to ``what``: the beam
     model has no torsion and no polar inertia, so its reduced mass matrix is singular about
-    its own axis. (Free beams are not supported yet.)"""
-    if case.kind == "beam" and case.beam.support == "free":
+    its own axis. The 3-D beam (``element = "beam3d"``) spins free."""
+    if case.kind == "beam" and case.beam.support == "free" and case.beam.element == "cable":
         raise CaseError(
-            f'beam.support = "free": a free beam cannot {what} (the beam model has no torsion '
-            "or polar inertia, so its reduced mass matrix is singular); use a clamped beam "
-            '(support = "clamped", driven on a hub as in kane-spinup) or a membrane case',
-            field="beam.support",
+            f'beam.element = "cable": a free cable beam cannot {what} (it has no torsion '
+            "or polar inertia, so its reduced mass matrix is singular); use the 3-D beam "
+            '(element = "beam3d") or a clamped beam',
+            field="beam.element",
         )
 
 
@@ -149,7 +156,7 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
     n_modes = int(n_modes)
     if size is None or n_modes < 1:
         return
-    dofs = 3 * size.nodes * (2 if case.kind == "beam" else 1) - 6
+    dofs = 3 * size.nodes * vector_dofs_per_node(case) - 6
     if n_modes > dofs:
         raise CaseError(
             f"reduced.modes = {n_modes}: the model has about {size.nodes} nodes, at most "
