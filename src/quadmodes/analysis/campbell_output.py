@@ -168,9 +168,7 @@ def model_for_case(case, progress=None) -> ReducedModel:
         from quadmodes.structure.labels import label_modes
 
         labels = label_modes(mm.structure, mm.x, shapes)
-        zeta = case.beam.damping_ratio
-    else:
-        zeta = case.material.damping_ratio
+    zeta = case.damping_ratio
     return reduce(
         mm.structure,
         mm.x,

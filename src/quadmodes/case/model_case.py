@@ -67,7 +67,7 @@ class Case(Section):
                 if getattr(self, section):
                     raise field_error(
                         "case_rule",
-                        f'only used when kind = "spacecraft"; remove it or set that kind',
+                        'only used when kind = "spacecraft"; remove it or set that kind',
                         section,
                     )
         return self
@@ -77,7 +77,7 @@ class Case(Section):
             missing = "hub" if self.hub is None else "boom"
             raise field_error(
                 "case_rule",
-                f'missing; kind = "spacecraft" needs a [hub] table and [[boom]] tables (see '
+                'missing; kind = "spacecraft" needs a [hub] table and [[boom]] tables (see '
                 '"quadmodes show-case hub-booms")',
                 missing,
             )
@@ -173,6 +173,12 @@ class Case(Section):
                 f"{inch(radius / 10)}",
                 "mesh.edge_length",
             )
+
+    @property
+    def damping_ratio(self) -> float:
+        """Modal damping ratio of the structure (material, beam or hub table)."""
+        section = {"membrane": self.material, "beam": self.beam, "spacecraft": self.hub}[self.kind]
+        return float(section.damping_ratio) if section is not None else 0.0
 
     def to_toml(self) -> str:
         """This case as TOML text in SI units (see :func:`case_to_toml`)."""

@@ -113,8 +113,7 @@ def code_fingerprint() -> str:
 
 def damping_ratio_of(case: Case) -> float:
     """Modal damping ratio of a case (``material.damping_ratio`` or ``beam.damping_ratio``)."""
-    section = case.material if case.kind == "membrane" else case.beam
-    return float(section.damping_ratio) if section is not None else 0.0
+    return case.damping_ratio
 
 
 def model_inputs(case: Case) -> str:

@@ -42,6 +42,8 @@ def estimate_size(case: Case) -> SizeEstimate | None:
     that cannot be built: the build reports that itself)."""
     if case.kind == "beam":
         nodes, field = int(case.beam.elements) + 1, "beam.elements"
+    elif case.kind == "spacecraft":
+        nodes, field = 1 + sum(int(b.elements) for b in case.boom), "boom.elements"
     elif getattr(case.geometry, "shape", "file") == "file":
         return None
     else:
@@ -70,8 +72,8 @@ def _duration(seconds: float) -> str:
 
 def _fix(case: Case, size: SizeEstimate) -> str:
     """What to change so that ``case`` fits under :data:`MAX_NODES`."""
-    if size.field == "beam.elements":
-        return f"use at most {MAX_NODES - 1} beam.elements"
+    if size.field in ("beam.elements", "boom.elements"):
+        return f"use at most {MAX_NODES - 1} {size.field} in all"
     edge = case.mesh.edge_length * (size.nodes / MAX_NODES) ** 0.5
     return f"use mesh.edge_length of at least {edge:.3g} m ({edge / 0.0254:.3g} in)"
 
@@ -87,6 +89,8 @@ def check_model_size(case: Case, *, allow_large: bool = False) -> SizeEstimate |
     if size.field == "mesh.edge_length":
         edge = case.mesh.edge_length
         shown = f"{edge:.4g} m ({edge / 0.0254:.4g} in)"
+    elif size.field == "boom.elements":
+        shown = str(sum(int(b.elements) for b in case.boom))
     else:
         shown = str(case.beam.elements)
     raise CaseError(
@@ -132,7 +136,7 @@ def vector_dofs_per_node(case: Case) -> int:
     """Vector DOFs per node: 1 (membranes), 2 (cable beam: r, r'), 4 (3-D beam: r, r', d₂, d₃)."""
     if case.kind == "beam":
         return 2 if case.beam.element == "cable" else 4
-    return 1
+    return 4 if case.kind == "spacecraft" else 1
 
 
 def check_can_spin(case: Case, what: str = "spin") -> None:

@@ -23,6 +23,7 @@ from quadmodes.fe.build import (
     build_beam_structure,
     build_membrane_structure,
 )
+from quadmodes.fe.hub import BoomSpec, HubSpec, build_hub_structure
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
@@ -116,8 +117,28 @@ def beam_section(beam) -> BeamSection:
     )  # fmt: skip
 
 
+def spacecraft_structure(case: Case) -> Structure:
+    """The hub-and-booms structure of a spacecraft case (booms radial at their azimuth and
+    elevation, section director d₂ in the boom's vertical plane)."""
+    h = case.hub
+    booms = []
+    for b in case.boom:
+        radial = np.array([np.cos(b.azimuth), np.sin(b.azimuth), 0.0])
+        direction = np.cos(b.elevation) * radial + np.array([0.0, 0.0, np.sin(b.elevation)])
+        normal = np.cross(direction, np.array([-radial[1], radial[0], 0.0]))
+        section = solid_section(b.area, b.second_moment, b.youngs_modulus, b.density,
+                                b.shear_modulus, b.torsion_constant)  # fmt: skip
+        root = b.root_radius * radial + np.array([0.0, 0.0, b.root_height])
+        booms.append(BoomSpec(b.name, tuple(root), tuple(direction), b.length, b.elements,
+                              section, tuple(normal)))  # fmt: skip
+    hub = HubSpec(h.mass, (h.inertia_x, h.inertia_y, h.inertia_z))
+    return build_hub_structure(hub, booms, rigidity=h.rigidity)
+
+
 def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> Structure:
     """The finite-element structure of a case (stress-free)."""
+    if case.kind == "spacecraft":
+        return spacecraft_structure(case)
     if case.kind == "beam":
         b = case.beam
         return build_beam_structure(
@@ -159,8 +180,9 @@ class ModalModel:
 def reference_state(
     case: Case, structure: Structure, progress: Progress | None = None
 ) -> tuple[np.ndarray, PrestressedState | None]:
-    """Prestressed equilibrium of a membrane case, or the stress-free state of a beam."""
-    if case.kind == "beam":
+    """Prestressed equilibrium of a membrane case, or the stress-free state of a beam or a
+    spacecraft."""
+    if case.kind != "membrane":
         return structure.reference, None
     # Membrane strain scale p R / (E t): below ~1e-8 the prestress is lost in round-off and the
     # membrane has no meaningful stiffness out of its plane.
