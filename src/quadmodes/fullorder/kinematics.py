@@ -289,7 +289,8 @@ def centrifugal_stretch(
     """Quasi-static centrifugal displacement ``u_c`` (n,3) m of the free body in its reference
     frame under steady rotation ω (3,) rad/s (body frame): ``f(X + u_c) = −M ω × (ω × r)`` with
     inertia relief and the CoM / mean-axes conditions (bordered Newton, as the prestress stage),
-    minus its content in the retained modes of ``model`` (``u_c ← u_c − Φ Φᵀ M u_c``).
+    minus its content in the retained modes of ``model``: the quadratic-manifold point
+    ``Φs + Σ s_m s_n g^{mn}`` with ``Φᵀ M (u_c − Φs − Σ s s g) = 0``.
 
     Why: a state taken from the reduced model spins without the centrifugal stretch of the
     membrane (at 41 Hz it is of the order of the inflation strain). The full order then starts
@@ -322,8 +323,20 @@ def centrifugal_stretch(
     u = x - x_ref
     if model is not None and model.n_modes:
         phi = np.asarray(model.Phi, float)
-        s = np.einsum("kia,ia->k", phi, ms @ u)
-        u = u - np.einsum("k,kia->ia", s, phi)
+        # The retained content is the manifold point Φs + Σ s s g, not Φs: with the linear part
+        # alone, the second-order part of a beam section's rotation (|d|² = 1 − θ², …) would
+        # stay behind in its stiff section strains. s solves Φᵀ M (u − Φs − Σ s s g) = 0, so
+        # the remainder has no linear content in the retained modes either.
+        g = np.asarray(getattr(model, "G", np.zeros((0, 0, *u.shape))), float)
+        quad = np.zeros_like(u)
+        for _ in range(20 if g.size else 1):
+            s = np.einsum("kia,ia->k", phi, ms @ (u - quad))
+            new = np.einsum("m,n,mnia->ia", s, s, g) if g.size else quad
+            if np.max(np.abs(new - quad), initial=0.0) <= rtol * scale:
+                quad = new
+                break
+            quad = new
+        u = u - np.einsum("k,kia->ia", s, phi) - quad
     return u
 
 
