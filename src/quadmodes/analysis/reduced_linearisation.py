@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes.analysis.spin_axis import equilibrium_direction
+from quadmodes.analysis.spin_axis import equilibrium_direction, in_degenerate_eigenspace
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
@@ -84,6 +84,7 @@ def relative_equilibrium(
     the largest |ż| (scaled) of the body-frame equations at (ω, s, ṡ = 0)."""
     n = sys.n_modes
     e = unit_axis(axis)
+    keep = in_degenerate_eigenspace(sys.J0, e)
     s = np.zeros(n)
     w = spin * e
     for _ in range(iterations):
@@ -93,7 +94,7 @@ def relative_equilibrium(
             f = 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w) - sys.F1
             s = _static_solve(sys, k, f, s) if sys.quartic else np.linalg.solve(k, f)
         jt = dy.inertia_tensor(sys, s, "rot")
-        w = spin * equilibrium_direction(jt, e)
+        w = spin * equilibrium_direction(jt, e, keep)
         ds = np.linalg.norm(s - s_old) / max(np.linalg.norm(s), 1e-300) if n else 0.0
         if np.linalg.norm(w - w_old) <= tol * max(abs(spin), 1e-300) and ds <= tol:
             break

@@ -15,6 +15,12 @@ it lies within :data:`AXIS_TOL` rad of one group's eigenspace; the spin axis is 
   in it), so round-off in the eigenvectors never decides which axis the body spins about;
 * for a single moment: its eigenvector, with the sign of e (the exact principal axis).
 
+The relative equilibrium of the deformed body (:func:`equilibrium_direction`, the inertia J̃(s)
+of the centrifugal deformation s) keeps the axis of a degenerate group exactly while it stays
+principal of J̃(s) to :data:`MOMENT_RTOL` (it does exactly for a body of revolution or a rod, by
+reflection symmetry about the plane across the axis); otherwise, and for a single moment, it
+takes the eigenvector of J̃(s) nearest the axis.
+
 Otherwise the request is refused with one error naming the option and the principal axes with
 their moments. A named principal axis ("minor" …) whose moment is one of a degenerate group is
 the body axis x, y or z (the first, in that order, of those nearest the eigenspace) projected
@@ -49,6 +55,7 @@ def parse_axis(value, option: str = "axis"):
     Raises ValueError naming ``option`` otherwise."""
     if value is None:
         return None
+    original = value
     if isinstance(value, bool):
         raise ValueError(f"{option}: {value!r} is not an axis; give {AXIS_CHOICES}")
     if isinstance(value, int | np.integer):
@@ -63,14 +70,14 @@ def parse_axis(value, option: str = "axis"):
         try:
             value = [float(p) for p in parts]
         except ValueError:
-            raise ValueError(f"{option}: {value!r} is not an axis; give {AXIS_CHOICES}") from None
+            raise ValueError(f"{option}: {original!r} is not an axis; give {AXIS_CHOICES}") from None
     try:
         vec = np.asarray(value, float).ravel()
     except (TypeError, ValueError):
-        raise ValueError(f"{option}: {value!r} is not an axis; give {AXIS_CHOICES}") from None
+        raise ValueError(f"{option}: {original!r} is not an axis; give {AXIS_CHOICES}") from None
     if vec.size != 3 or not np.all(np.isfinite(vec)) or np.linalg.norm(vec) == 0.0:
         raise ValueError(
-            f"{option}: {value!r} is not an axis (three finite numbers, not all zero); "
+            f"{option}: {original!r} is not an axis (three finite numbers, not all zero); "
             f"give {AXIS_CHOICES}"
         )
     return vec / np.linalg.norm(vec)
@@ -107,11 +114,30 @@ def _in_group(vec: np.ndarray, group: Sequence[int], e: np.ndarray) -> np.ndarra
     return p / np.linalg.norm(p)
 
 
-def equilibrium_direction(inertia: np.ndarray, e: np.ndarray) -> np.ndarray:
-    """The principal axis (3,) of ``inertia`` (3, 3) for request ``e`` (3,) by the module's rule,
-    without the closeness check: the group whose eigenspace holds the largest share of e."""
+def in_degenerate_eigenspace(inertia: np.ndarray, e) -> bool:
+    """True if ``e`` (3,) lies within :data:`AXIS_TOL` of the eigenspace of two or three equal
+    moments of ``inertia`` (3, 3)."""
     e = unit_axis(e)
     _, vec, groups = moment_groups(inertia)
+    for g in groups:
+        if len(g) > 1 and np.arccos(min(float(np.linalg.norm(vec[:, g].T @ e)), 1.0)) <= AXIS_TOL:
+            return True
+    return False
+
+
+def equilibrium_direction(inertia: np.ndarray, e, keep: bool = False) -> np.ndarray:
+    """The principal axis (3,) of ``inertia`` (3, 3) (the deformed J̃(s)) for request ``e`` (3,)
+    without the closeness check: with ``keep`` (e lies in an eigenspace of equal moments of the
+    undeformed body) e itself while it is principal of ``inertia`` to :data:`MOMENT_RTOL`
+    (``|e × J e| ≤ MOMENT_RTOL · max moment``: a body of revolution or a rod deformed by the
+    spin about e keeps e principal by symmetry); otherwise the group (module docstring) whose
+    eigenspace holds the largest share of e."""
+    e = unit_axis(e)
+    lam, vec, groups = moment_groups(inertia)
+    if keep:
+        torque = np.linalg.norm(np.cross(e, 0.5 * (inertia + inertia.T) @ e))
+        if torque <= MOMENT_RTOL * max(float(np.abs(lam).max()), 1e-300):
+            return e
     shares = [float(np.linalg.norm(vec[:, g].T @ e)) for g in groups]
     return _in_group(vec, groups[int(np.argmax(shares))], e)
 
