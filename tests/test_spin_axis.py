@@ -167,3 +167,43 @@ def test_labels_stay_with_their_branches_through_a_veering(veering_blade):
         for b, label in enumerate(r.labels):
             ds = r.vectors[i, b, :n]
             assert blade.labels[int(np.argmax(np.abs(ds)))] == label, (spins[i], label)
+
+
+# ----------------------------------------------------------------------------- runs
+
+
+def test_initial_spin_axis_of_a_run(small_reduced_model):
+    """``initial.spin_axis``: a transverse axis of the capsule (equal moments) is kept exactly,
+    with the cone angle measured from it; the default stays the minor axis; a bad value is one
+    field error."""
+    from types import SimpleNamespace
+
+    from pydantic import ValidationError
+
+    from quadmodes.case.run_sections import RunInitial
+    from quadmodes.runs.initial import initial_state
+
+    model = small_reduced_model
+    sys = rsys.reduced_system(model, "Q")
+    spin, cone = 2 * np.pi * 20.0, np.radians(6.0)
+    for text, stored in (("X", "x"), ([0.6, 0.8, 0], "0.6,0.8,0.0")):
+        init = RunInitial.model_validate({"spin_rate": "20 Hz", "cone_angle": "6 deg",
+                                          "spin_axis": text})  # fmt: skip
+        assert init.spin_axis == stored
+        state = initial_state(sys, model, SimpleNamespace(initial=init))
+        e = state.spin_axis
+        request = np.array([1.0, 0, 0]) if stored == "x" else np.array([0.6, 0.8, 0])
+        assert np.linalg.norm(e - request) < 1e-4 and abs(e[2]) < 1e-4
+        omega = state.y0[4:7]
+        assert omega @ e == pytest.approx(spin, rel=1e-12)
+        h = state.inertia @ omega
+        angle = np.arctan2(np.linalg.norm(np.cross(h, e)), h @ e)
+        assert angle == pytest.approx(cone, rel=1e-6)  # e principal to the mesh asymmetry
+    default = initial_state(sys, model, SimpleNamespace(
+        initial=RunInitial.model_validate({"spin_rate": "20 Hz"})))  # fmt: skip
+    assert abs(default.spin_axis[2]) == pytest.approx(1.0, abs=1e-6)  # the minor axis
+    with pytest.raises(ValidationError, match="(?s)spin_axis.*'sideways' is not an axis"):
+        RunInitial.model_validate({"spin_rate": "20 Hz", "spin_axis": "sideways"})
+    bad = RunInitial.model_validate({"spin_rate": "20 Hz", "spin_axis": "1,0,1"})
+    with pytest.raises(ValueError, match="^initial.spin_axis: .*not a principal axis"):
+        initial_state(sys, model, SimpleNamespace(initial=bad))
