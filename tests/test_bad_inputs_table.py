@@ -98,6 +98,8 @@ def make_inputs(d: Path) -> None:
     for name, text in cases.items():
         _write(d, name, text)
     _write(d, "free-beam-run.toml", run_case(d / "free-beam.toml"))
+    _write(d, "bad-axis-run.toml", run_case(d / "sphere.toml").replace(
+        'cone_angle = "6 deg"', 'cone_angle = "6 deg"\nspin_axis = "sideways"'))  # fmt: skip
     sphere = sphere_surface(0.127, 0.0508)
     write_surface(d / "inward.vtu", TriangleSurface(sphere.points, sphere.triangles[:, ::-1].copy()))
     write_surface(d / "open.vtu", TriangleSurface(sphere.points, sphere.triangles[1:]))
@@ -192,6 +194,10 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("campbell-no-points", "campbell --points 0", ("--points",)),
     ("campbell-spin-range-reversed", "campbell --spin-min '10 rad/s' --spin-max '1 rad/s'", ("--spin-max",)),
     ("rotating-spins", "rotating --spins a,b", ("--spins",)),
+    ("campbell-axis-word", "campbell --axis diagonal", ("--axis", "diagonal", "minor")),
+    ("campbell-axis-two-numbers", "campbell --axis 1,2", ("--axis", "three numbers")),
+    ("rotating-axis-zero", "rotating --axis 0,0,0", ("--axis", "not all zero")),
+    ("run-spin-axis", "run {d}/bad-axis-run.toml -o {d}/out", ("initial.spin_axis", "sideways")),
     ("compare-window-zero", "compare --window '0 s' -o {d}/out", ("--window", "positive")),
     ("compare-formulations", "compare --formulations bogus -o {d}/out", ("--formulations",)),
     ("compare-full-dt", "compare --full-dt '2 s' -o {d}/out", ("--full-dt",)),

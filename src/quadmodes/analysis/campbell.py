@@ -6,13 +6,14 @@ a spinning hub, or the free body about its relative equilibrium:
 (clamped) or N + 1 (free: plus nutation) roots with Im λ ≥ 0; a root with a real pair
 (divergence, e.g. formulation "L" above the first in-plane frequency) is kept as its growing
 member (frequency 0, growth Re λ > 0). Branches are followed from one spin rate to the next by
-the modal assurance criterion of the state eigenvectors in the energy inner product (kinetic 𝕄
-on velocities plus |Λ − ωᵀJ2ω| on displacements), with an optimal assignment
-(:func:`scipy.optimize.linear_sum_assignment`) — never by sorting frequencies, so crossing branches
-keep their identity. Degenerate roots (equal frequencies, e.g. y/z pairs at Ω = 0) have no unique
-eigenvectors: there the eigenvectors of the one-sided limit (spin rate nudged towards the next
-point) are used. Output (figure, dataset, CSV) and the CLI entry:
-:mod:`quadmodes.analysis.campbell_output`.
+the modal assurance criterion of the state eigenvectors in the energy inner product, degenerate
+roots by the span of their cluster, and a poor match is refused: the branch ends and a new one
+starts (:mod:`quadmodes.analysis.campbell_tracking`), so labels stay with their branch. Roots
+that are degenerate at one spin rate (e.g. y/z pairs at Ω = 0) have no unique eigenvectors:
+there the eigenvectors of the one-sided limit (spin rate nudged towards the next point) are used.
+The spin axis of a free body follows :mod:`quadmodes.analysis.spin_axis` (exactly the requested
+axis when it lies in an eigenspace of equal moments). Output (figure, dataset, CSV) and the CLI
+entry: :mod:`quadmodes.analysis.campbell_output`.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from quadmodes.analysis import campbell_tracking as tr
 from quadmodes.analysis.reduced_linearisation import linearise
 from quadmodes.analysis.spin_axis import resolve_axis
 from quadmodes.rom import system as rsys
@@ -37,9 +39,14 @@ class CampbellResult:
 
     spin (ns,) rad/s: spin rates Ω. axis (3,): unit spin axis in the body frame (requested).
     formulation: "Q", "P", "L". free: free body (True) or clamped to a hub (False).
-    labels (nb,): branch names (model mode label dominant at the first spin rate, or "nutation").
+    labels (nb,): branch names (model mode label dominant where the branch starts, or
+    "nutation"). A branch whose match to the next spin rate is refused ends there and the root
+    that would have continued it starts a new branch, so nb may exceed the roots per spin rate;
+    every quantity of a branch is NaN at the spin rates where it does not exist.
+    start (nb,): index of the first spin rate of each branch.
     frequency (ns, nb) rad/s: |Im λ| along each branch. growth (ns, nb) 1/s: Re λ (> 0 unstable).
-    mac (ns, nb): MAC of each branch with itself at the previous spin rate (1 at the first).
+    mac (ns, nb): smallest (span) MAC of each branch with itself at the previous spin rate along
+    the halved steps (1 at its first spin rate).
     min_stiffness (ns,) 1/s²: smallest eigenvalue of the rotating stiffness Λ − ωᵀJ2ω (s = s*).
     s_eq (ns, N) √kg·m: relative-equilibrium modal coordinates (zero for a clamped body).
     spin_axis (ns, 3): the axis of the relative equilibrium (= axis for a clamped body).
@@ -60,6 +67,7 @@ class CampbellResult:
     spin_axis: np.ndarray
     vectors: np.ndarray = field(repr=False)
     mode_labels: tuple[str, ...] = ()
+    start: np.ndarray | None = None
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -67,9 +75,10 @@ class CampbellResult:
 
     @property
     def unstable(self) -> np.ndarray:
-        """(ns, nb) bool: roots with positive real part (beyond round-off)."""
-        scale = 1e-7 * (1.0 + np.abs(self.frequency).max(initial=0.0))
-        return self.growth > scale
+        """(ns, nb) bool: roots with positive real part (beyond round-off; False where a branch
+        does not exist)."""
+        scale = 1e-7 * (1.0 + np.nanmax(np.abs(self.frequency), initial=0.0))
+        return np.nan_to_num(self.growth, nan=-np.inf) > scale
 
     def branch(self, label: str) -> int:
         """Index of the first branch with ``label`` (exact, else first label containing it)."""
@@ -102,19 +111,6 @@ def _select(lam: np.ndarray, count: int, scale: float) -> np.ndarray:
     return idx
 
 
-def _normalise(vec: np.ndarray, wgt: np.ndarray) -> np.ndarray:
-    norms = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", vec.conj(), wgt, vec).real, 1e-300))
-    return vec / norms
-
-
-def _mac(a: np.ndarray, b: np.ndarray, wgt: np.ndarray) -> np.ndarray:
-    """MAC matrix (ka, kb) of columns of a and b in the inner product ``xᴴ W y``."""
-    cross = a.conj().T @ wgt @ b
-    na = np.einsum("ik,ij,jk->k", a.conj(), wgt, a).real
-    nb = np.einsum("ik,ij,jk->k", b.conj(), wgt, b).real
-    return np.abs(cross) ** 2 / np.maximum(np.outer(na, nb), 1e-300)
-
-
 def _degenerate(lam_all: np.ndarray, idx: np.ndarray, scale: float) -> bool:
     """True if a selected root coincides with any other root (multiple root: e.g. the triple
     zero of a free body at rest, or a y/z pair of a beam): its eigenvector is not unique."""
@@ -141,36 +137,6 @@ class _Point:
         )
 
 
-#: A branch match is accepted when its MAC is at least MAC_ACCEPT and every competitor of the
-#: same branch is at least MAC_MARGIN below it; otherwise the spin step is halved.
-MAC_ACCEPT = 0.9
-MAC_MARGIN = 0.5
-
-
-def _match(p0: _Point, p1: _Point, scale: float):
-    """Assignment of p1's roots to p0's branches: order (p1 index per branch), the MAC of each
-    assigned pair, and whether the match is unambiguous."""
-    wgt = 0.5 * (p0.wgt + p1.wgt)
-    mac = _mac(p0.vec, p1.vec, wgt)
-    dist = np.abs(p0.lam[:, None] - p1.lam[None, :]) / scale
-    rows, cols = linear_sum_assignment(-(mac - 1e-3 * dist))
-    order = np.empty(len(rows), int)
-    order[rows] = cols
-    best = mac[np.arange(len(rows)), order]
-    rivals = mac.copy()
-    rivals[np.arange(len(rows)), order] = -np.inf
-    runner = rivals.max(axis=1, initial=-np.inf)
-    rivals_c = mac.copy()
-    rivals_c[np.arange(len(rows)), order] = -np.inf
-    runner_c = rivals_c.max(axis=0, initial=-np.inf)[order]
-    ok = bool(
-        np.all(best >= MAC_ACCEPT)
-        and np.all(runner <= best - MAC_MARGIN)
-        and np.all(runner_c <= best - MAC_MARGIN)
-    )
-    return order, best, ok
-
-
 # ---------------------------------------------------------------------------------------------
 # Campbell sweep
 # ---------------------------------------------------------------------------------------------
@@ -180,7 +146,8 @@ def _match(p0: _Point, p1: _Point, scale: float):
 class _Sweep:
     """What stays fixed over one sweep: the reduced system, its model, the requested unit axis
     (3,), ``damped``, the number of roots per point, the frequency scale (1/s) and the nudge
-    (rad/s) of the one-sided limit at degenerate roots."""
+    (rad/s) of the one-sided limit at degenerate roots; disp (m,) bool: the displacement (δs)
+    entries of the state."""
 
     sys: rsys.ReducedSystem
     model: ReducedModel
@@ -189,6 +156,7 @@ class _Sweep:
     count: int
     scale: float
     nudge: float
+    disp: np.ndarray
 
 
 def _sweep_setup(
@@ -202,7 +170,10 @@ def _sweep_setup(
     scale = max(scale, 1.0)
     step = float(np.abs(np.diff(spin)).min()) if spin.size > 1 else 0.0
     nudge = 1e-4 * step if step > 0.0 else 1e-6 * scale
-    return _Sweep(sys, model, axis, damped, count, scale, nudge)
+    n, off = sys.n_modes, 3 if sys.free else 0
+    disp = np.zeros(off + 2 * n, bool)
+    disp[off : off + n] = True
+    return _Sweep(sys, model, axis, damped, count, scale, nudge, disp)
 
 
 def _selected_roots(sw: _Sweep, om: float):
@@ -222,8 +193,19 @@ def _point(sw: _Sweep, om: float, direction: float) -> _Point:
         vec = vec.astype(complex)
         vec[:, rows] = vec2[:, cols]
     return _Point(
-        om, lam, _normalise(vec, lin.weight), lin.weight, lin.min_stiffness, lin.s, lin.axis
+        om, lam, tr.normalise(vec, lin.weight), lin.weight, lin.min_stiffness, lin.s, lin.axis
     )
+
+
+def _match(sw: _Sweep, p0: _Point, p1: _Point) -> tuple[_Point, np.ndarray, bool]:
+    """p1 (exactly degenerate bases rotated onto p0) reordered to follow p0's branches, the
+    (span) MAC per branch and whether the match is clear
+    (:func:`quadmodes.analysis.campbell_tracking.match`)."""
+    wgt = 0.5 * (p0.wgt + p1.wgt)
+    vec = tr.align_degenerate(p0.vec, p1.vec, p1.lam, p1.wgt, sw.scale)
+    p1 = _Point(p1.spin, p1.lam, vec, p1.wgt, p1.kmin, p1.s, p1.axis)
+    order, mac, ok = tr.match(p0.vec, p0.lam, p1.vec, p1.lam, wgt, sw.scale, sw.disp)
+    return p1.reordered(order), mac, ok
 
 
 def _bridge(
@@ -231,10 +213,10 @@ def _bridge(
 ) -> tuple[_Point, np.ndarray]:
     """p1 reordered to follow p0's branches; halve the step while the match is ambiguous (at most
     ``depth`` levels, ``budget[0]`` extra points, decremented). Returns the reordered point and
-    the smallest MAC along the chain per branch."""
-    order, mac, ok = _match(p0, p1, sw.scale)
+    the smallest (span) MAC along the chain per branch."""
+    p1m, mac, ok = _match(sw, p0, p1)
     if ok or depth == 0 or budget[0] <= 0:
-        return p1.reordered(order), mac
+        return p1m, mac
     budget[0] -= 1
     d = np.sign(p1.spin - p0.spin)
     mid = _point(sw, 0.5 * (p0.spin + p1.spin), d)
@@ -253,25 +235,68 @@ def _direction(spin: np.ndarray, i: int) -> float:
     return direction or 1.0
 
 
+@dataclass
+class _Branches:
+    """Tracking bookkeeping: ``column[c]`` the branch of column c of the current point,
+    ``start[b]`` the spin index where branch b starts, ``labels[b]`` its label."""
+
+    column: np.ndarray
+    start: list[int]
+    labels: list[str]
+
+    def refuse(self, columns: np.ndarray, i: int, names: list[str]) -> None:
+        """End the branches of ``columns`` before spin index ``i``; their roots start new
+        branches named ``names``."""
+        for c, name in zip(columns, names, strict=True):
+            self.column[c] = len(self.start)
+            self.start.append(i)
+            self.labels.append(_unique(name, self.labels))
+
+
+def _unique(label: str, taken: list[str]) -> str:
+    """``label``, or ``label #k`` with the smallest k ≥ 2 not in ``taken``."""
+    if label not in taken:
+        return label
+    k = 2
+    while f"{label} #{k}" in taken:
+        k += 1
+    return f"{label} #{k}"
+
+
 def _result(
-    sw: _Sweep, spin: np.ndarray, formulation: str, pts: list[_Point], macs: np.ndarray
+    sw: _Sweep,
+    spin: np.ndarray,
+    formulation: str,
+    pts: list[_Point],
+    macs: np.ndarray,
+    branches: list[np.ndarray],
+    book: _Branches,
 ) -> CampbellResult:
-    """Stack the tracked points into a :class:`CampbellResult`."""
-    vectors = np.array([p.vec.T for p in pts])
+    """Stack the tracked points (``branches[i]``: branch of each column at spin i) into a
+    :class:`CampbellResult` (NaN where a branch does not exist)."""
+    ns, nb, m = spin.size, len(book.labels), pts[0].vec.shape[0]
+    freq, growth, mac = (np.full((ns, nb), np.nan) for _ in range(3))
+    vectors = np.full((ns, nb, m), np.nan + 0j)
+    for i, (p, cols) in enumerate(zip(pts, branches, strict=True)):
+        freq[i, cols] = np.abs(p.lam.imag)
+        growth[i, cols] = p.lam.real
+        mac[i, cols] = macs[i]
+        vectors[i, cols] = p.vec.T
     return CampbellResult(
         spin=spin,
         axis=sw.axis,
         formulation=formulation,
         free=bool(sw.sys.free),
-        labels=_branch_labels(sw.model, vectors[0], sw.sys.free),
-        frequency=np.array([np.abs(p.lam.imag) for p in pts]),
-        growth=np.array([p.lam.real for p in pts]),
-        mac=macs,
+        labels=tuple(book.labels),
+        frequency=freq,
+        growth=growth,
+        mac=mac,
         min_stiffness=np.array([p.kmin for p in pts]),
         s_eq=np.array([p.s for p in pts]).reshape(spin.size, sw.sys.n_modes),
         spin_axis=np.array([p.axis for p in pts]),
         vectors=vectors,
         mode_labels=tuple(sw.model.labels),
+        start=np.array(book.start),
     )
 
 
@@ -283,39 +308,53 @@ def campbell(
     damped: bool = False,
     max_bisections: int = 30,
     max_refinements: int = 200,
+    axis_option: str = "axis",
 ) -> CampbellResult:
     """Campbell diagram of ``model`` over ``spin_rates_rad_s`` (rad/s, swept in the given order).
 
-    ``axis``: body-frame spin axis (3-vector), or an int principal-axis index of J0 (0 minor …
-    2 major) for a free body; default :func:`~quadmodes.analysis.spin_axis.default_axis`.
+    ``axis``: body-frame spin axis: a name ("x", "y", "z", "minor", "intermediate", "major"), an
+    int principal index of J0 (0 minor … 2 major) or three numbers, by the rule of
+    :mod:`quadmodes.analysis.spin_axis` (``axis_option`` names it in errors); default
+    :func:`~quadmodes.analysis.spin_axis.default_axis`.
     ``formulation``: "Q" (quadratic modes, spin stiffening), "P" or "L" (linear modes, no
     stiffening). ``damped``: include the modal damping C in the roots (growth then holds −ζω).
-    Modes are tracked by MAC (module docstring); where the match between two spin rates is
-    ambiguous the interval is halved, at most ``max_bisections`` times (and at most
-    ``max_refinements`` extra points per interval), and the branches are followed through the
-    intermediate points. ``result.mac`` keeps the smallest MAC along that chain: a low value flags
-    a match that stayed ambiguous (e.g. an exactly degenerate pair at every spin rate, where any
-    basis of the pair is valid)."""
+    Modes are tracked by MAC (:mod:`quadmodes.analysis.campbell_tracking`); where the match
+    between two spin rates is ambiguous the interval is halved, at most ``max_bisections`` times
+    (and at most ``max_refinements`` extra points per interval), and the branches are followed
+    through the intermediate points. ``result.mac`` keeps the smallest MAC along that chain; a
+    branch whose MAC stays below ``MAC_REFUSE`` ends and a new branch starts."""
     spin = np.asarray(spin_rates_rad_s, float).ravel()
     if spin.size == 0:
         raise ValueError("spin_rates_rad_s: give at least one spin rate")
-    sw = _sweep_setup(model, spin, resolve_axis(model, axis), formulation, damped)
+    sw = _sweep_setup(model, spin, resolve_axis(model, axis, axis_option), formulation, damped)
     pts: list[_Point] = []
     macs = np.ones((spin.size, sw.count))
+    branches: list[np.ndarray] = []
+    book = _Branches(np.arange(sw.count), [0] * sw.count, [])
     for i, om in enumerate(spin):
         p = _point(sw, om, _direction(spin, i))
         if not pts:
             p = p.reordered(np.lexsort((p.lam.real, np.abs(p.lam.imag))))
+            book.labels = list(_branch_labels(model, p.vec.T, sw.sys.free))
         else:
             # a fresh budget per interval: persistent degeneracy must not bisect forever
             p, macs[i] = _bridge(sw, pts[-1], p, max_bisections, [max_refinements])
+            poor = np.flatnonzero(macs[i] < tr.MAC_REFUSE)
+            if poor.size:
+                names = _branch_labels(model, p.vec[:, poor].T, sw.sys.free, dedupe=False)
+                book.refuse(poor, i, list(names))
+                macs[i, poor] = 1.0
         pts.append(p)
-    return _result(sw, spin, formulation, pts, macs)
+        branches.append(book.column.copy())
+    return _result(sw, spin, formulation, pts, macs, branches, book)
 
 
-def _branch_labels(model: ReducedModel, vectors: np.ndarray, free: bool) -> tuple[str, ...]:
-    """Name each branch by its dominant share at the first spin rate: the rotational
-    perturbation ("nutation") or the model mode with the largest |δs_k|² + |δṡ_k|²/ω_k²."""
+def _branch_labels(
+    model: ReducedModel, vectors: np.ndarray, free: bool, dedupe: bool = True
+) -> tuple[str, ...]:
+    """Name each branch by its dominant share where it starts (``vectors`` (k, m)): the
+    rotational perturbation ("nutation") or the model mode with the largest
+    |δs_k|² + |δṡ_k|²/ω_k²; ``dedupe``: repeated names get " #2", " #3" …"""
     n = model.n_modes
     om2 = np.maximum(np.diag(model.Lam), 1e-300) if n else np.zeros(0)
     labels = []
@@ -331,9 +370,9 @@ def _branch_labels(model: ReducedModel, vectors: np.ndarray, free: bool) -> tupl
                 labels.append("nutation")
                 continue
         labels.append(str(model.labels[int(np.argmax(shares))]) if n else "nutation")
-    seen: dict[str, int] = {}
-    out = []
+    if not dedupe:
+        return tuple(labels)
+    out: list[str] = []
     for lab in labels:
-        seen[lab] = seen.get(lab, 0) + 1
-        out.append(lab if seen[lab] == 1 else f"{lab} #{seen[lab]}")
+        out.append(_unique(lab, out))
     return tuple(out)

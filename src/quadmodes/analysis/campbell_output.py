@@ -86,6 +86,8 @@ def to_dataset(result: CampbellResult):
             "spin": c("spin", result.spin, "rad/s", "spin rate"),
             "branch": c("branch", np.arange(len(result.labels)), "1", "branch number"),
             "branch_label": c("branch", np.array(result.labels, dtype=object), "1", "branch label"),
+            "branch_start": c("branch", _starts(result), "1",
+                              "index of the first spin rate of the branch"),
             "mode": c("mode", np.arange(result.s_eq.shape[1]), "1", "mode index"),
             "xyz": c("xyz", np.array(["x", "y", "z"], dtype=object), "1", "Cartesian axis"),
         },
@@ -97,10 +99,18 @@ def to_dataset(result: CampbellResult):
             "spin_axis_y": float(result.axis[1]),
             "spin_axis_z": float(result.axis[2]),
             "mode_labels": "; ".join(result.mode_labels),
-            "tracking": "MAC of state eigenvectors (energy inner product), optimal assignment",
+            "tracking": "MAC of state eigenvectors (energy inner product), optimal assignment; "
+                        "degenerate roots by span; a branch with MAC < 0.8 ends (NaN after)",
         },
     )  # fmt: skip
     return ds
+
+
+def _starts(result: CampbellResult) -> np.ndarray:
+    """Index of the first spin rate of each branch."""
+    if result.start is not None:
+        return np.asarray(result.start, int)
+    return np.zeros(len(result.labels), int)
 
 
 #: Columns of ``campbell.csv``.
@@ -116,12 +126,15 @@ CSV_COLUMNS = (
 
 
 def write_csv(result: CampbellResult, path) -> Path:
-    """Write the Campbell table to ``path`` (CSV, one row per spin rate and branch; atomic)."""
+    """Write the Campbell table to ``path`` (CSV, one row per spin rate and branch where the
+    branch exists; atomic)."""
     with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(list(CSV_COLUMNS))
         for i, om in enumerate(result.spin):
             for b, lab in enumerate(result.labels):
+                if not np.isfinite(result.frequency[i, b]):
+                    continue  # the branch has ended or not started yet
                 w.writerow(
                     [
                         f"{om:.10g}",
@@ -191,11 +204,14 @@ def campbell_main(
     output_dir=None,
     damped: bool = False,
     progress=None,
+    axis_option: str = "axis",
 ) -> tuple[CampbellResult, dict[str, Path]]:
     """Convenience entry for the CLI: build (or take) the reduced model, sweep ``n`` spin rates
     from ``spin_min`` to ``spin_max`` (rad/s), and write the outputs to ``output_dir`` (if given).
 
-    ``case_or_model``: a :class:`ReducedModel`, a case name / TOML path or a Case."""
+    ``case_or_model``: a :class:`ReducedModel`, a case name / TOML path or a Case. ``axis``: the
+    spin-axis request of :func:`~quadmodes.analysis.campbell.campbell` (``axis_option`` names it
+    in errors)."""
     if n < 1:
         raise ValueError("n: give at least one spin rate")
     if spin_max < spin_min:
@@ -205,6 +221,7 @@ def campbell_main(
         if isinstance(case_or_model, ReducedModel)
         else model_for_case(case_or_model, progress)
     )
-    result = campbell(model, np.linspace(spin_min, spin_max, n), axis, formulation, damped)
+    result = campbell(model, np.linspace(spin_min, spin_max, n), axis, formulation, damped,
+                      axis_option=axis_option)  # fmt: skip
     paths = write_campbell(result, output_dir) if output_dir is not None else {}
     return result, paths

@@ -12,7 +12,8 @@ diagram, :mod:`quadmodes.analysis.campbell`).
 * **Free body spinning about a principal axis** (``model.free is True``): the relative
   equilibrium is ``ṡ = 0``, ``s = s*`` and ``ω = Ω e*``, where ``s*`` is the quasi-static
   centrifugal deformation, ``(Λ − ωᵀJ2ω) s* = ½ ωᵀJ1ω``, and ``e*`` the principal axis of the
-  deformed inertia J̃(s*) next to the requested axis (``ω × J̃(s*)ω = 0``), found by a fixed-point
+  deformed inertia J̃(s*) for the requested axis (``ω × J̃(s*)ω = 0``; for equal moments the
+  requested axis itself, :mod:`quadmodes.analysis.spin_axis`), found by a fixed-point
   iteration (:func:`relative_equilibrium`). The full body-frame Q equations of
   :mod:`quadmodes.rom.dynamics` (state ``z = (ω, s, ṡ)``, 3 + 2N values; the attitude q does not
   enter them) are linearised about it by central differences of
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from quadmodes.analysis.spin_axis import equilibrium_direction, in_degenerate_eigenspace
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
@@ -74,11 +76,15 @@ def relative_equilibrium(
     """Relative equilibrium of the free body spinning at ``spin`` (rad/s) near ``axis``.
 
     Fixed point of ``(Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω`` (for "Q4" ``∂V/∂s − (ωᵀJ2ω) s = ½ ωᵀJ1ω``
-    with the quartic manifold potential, solved by Newton) and ``ω = spin · e*``, e* the eigenvector of
-    J̃(s) nearest ``axis`` (sign kept). Returns ``(ω (3,), s (N,), residual)`` where residual is
+    with the quartic manifold potential, solved by Newton) and ``ω = spin · e*``, e* the principal
+    axis of J̃(s) for ``axis`` by the rule of :mod:`quadmodes.analysis.spin_axis` (sign kept): the
+    eigenvector nearest it, or, when it lies in the eigenspace of equal moments, ``axis`` itself
+    projected onto it, so round-off never turns a body of revolution or a rod off the axis asked
+    for. Returns ``(ω (3,), s (N,), residual)`` where residual is
     the largest |ż| (scaled) of the body-frame equations at (ω, s, ṡ = 0)."""
     n = sys.n_modes
     e = unit_axis(axis)
+    keep = in_degenerate_eigenspace(sys.J0, e)
     s = np.zeros(n)
     w = spin * e
     for _ in range(iterations):
@@ -88,10 +94,7 @@ def relative_equilibrium(
             f = 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w) - sys.F1
             s = _static_solve(sys, k, f, s) if sys.quartic else np.linalg.solve(k, f)
         jt = dy.inertia_tensor(sys, s, "rot")
-        lam, vec = np.linalg.eigh(0.5 * (jt + jt.T))
-        j = int(np.argmax(np.abs(vec.T @ e)))
-        e_new = vec[:, j] * np.sign(vec[:, j] @ e)
-        w = spin * e_new
+        w = spin * equilibrium_direction(jt, e, keep)
         ds = np.linalg.norm(s - s_old) / max(np.linalg.norm(s), 1e-300) if n else 0.0
         if np.linalg.norm(w - w_old) <= tol * max(abs(spin), 1e-300) and ds <= tol:
             break

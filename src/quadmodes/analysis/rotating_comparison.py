@@ -25,9 +25,8 @@ from quadmodes.analysis.rotating_matching import (
     match_branches,
 )
 from quadmodes.analysis.rotating_modes import RotatingRoots, rotating_roots
-from quadmodes.analysis.spin_axis import principal_axis
+from quadmodes.analysis.spin_axis import resolve_axis
 from quadmodes.fe.model import centre_of_mass
-from quadmodes.rotations import unit_axis
 from quadmodes.structure.spinning import SpinningEquilibrium, relative_equilibrium
 
 Progress = Callable[[str, float], None]
@@ -183,8 +182,11 @@ def _assign(
     """``(full-order index per reduced root (nb,), or −1; MAC (nb,))``; zero reduced roots
     (nutation at rest) stay unmatched."""
     lam = rr.lam
-    vec = comparison_vectors(lam, rr.delta_omega, rr.ds, model.J0, np.diag(model.Lam))
-    rom_ok = np.abs(lam) > 1e-9 * max(1.0, spin)
+    present = np.isfinite(lam)
+    lam = np.where(present, lam, 0.0)
+    dw, ds = np.nan_to_num(rr.delta_omega), np.nan_to_num(rr.ds)
+    vec = comparison_vectors(lam, dw, ds, model.J0, np.diag(model.Lam))
+    rom_ok = present & (np.abs(lam) > 1e-9 * max(1.0, spin))
     idx, mac = match_branches(vec[rom_ok], lam[rom_ok], full.vectors, full.roots.lam, eligible)
     full_idx, full_mac = np.full(lam.size, -1), np.zeros(lam.size)
     full_idx[rom_ok], full_mac[rom_ok] = idx, mac
@@ -210,6 +212,8 @@ def _formulation_entry(
     ``label`` against the full-order root ``j`` (−1: none)."""
     lam = rr.lam
     fb = rr.labels.index(label) if label in rr.labels else -1
+    if fb >= 0 and not np.isfinite(lam[fb]):
+        fb = -1
     rom_hz = float(abs(lam[fb].imag) / (2 * np.pi)) if fb >= 0 else np.nan
     growth = float(lam[fb].real) if fb >= 0 else np.nan
     if j >= 0 and fb >= 0:
@@ -303,9 +307,11 @@ def _rows_at_spin(
     eligible = np.array([k == "elastic" for k in full.roots.kind])
     assigned = {f: _assign(reduced[f], full, eligible, model, spin) for f in formulations}
     ref_idx = assigned[formulations[0]][0]
+    present = np.isfinite(reduced[formulations[0]].lam)
     rows = [
         _branch_row(spin_hz, label, ref_idx[b], full, reduced, model)
         for b, label in enumerate(labels)
+        if present[b]  # a branch that ended (refused match) or has not started has no row
     ]
     claimed = {int(j) for f in formulations for j in assigned[f][0] if j >= 0}
     return rows, _unclaimed_rows(spin_hz, full, claimed, targets, formulations)
@@ -361,19 +367,22 @@ def rotating_frequency_comparison(
     model=None,
     per_target: int = 6,
     progress: Progress | None = None,
+    axis_option: str = "axis",
 ) -> ComparisonTable:
     """Rotating-frame frequencies of the full-order FE model about its spinning relative
     equilibrium against :func:`quadmodes.analysis.campbell.campbell` of the reduced model, per spin rate
     (Hz, swept in the given order) and branch.
 
-    ``case``: name, TOML path or Case of a free membrane body. ``axis``: spin axis (3-vector) or
-    principal-axis index of the reduced model's J0 (0 minor, 2 major), as in campbell. ``model``:
+    ``case``: name, TOML path or Case of a free membrane body. ``axis``: spin axis as in
+    campbell (a name "x" … "major", a principal index of the reduced model's J0, 0 minor … 2
+    major, or three numbers; :mod:`quadmodes.analysis.spin_axis`, ``axis_option`` names it in
+    errors); the full order spins about the same body axis. ``model``:
     a ReducedModel of this case (default ``model_cache.reduced_model_for(case, n_modes)``, cached).
     Full-order roots are searched near every reduced root (``per_target`` per shift) and assigned
     to branches by the MAC of energy-weighted (δω, s, ṡ) vectors (:func:`match_branches`)."""
     timings: dict[str, float] = {}
     case, structure, x0, rom = _case_and_model(case, n_modes, model, timings)
-    e = principal_axis(rom, int(axis)) if isinstance(axis, int | np.integer) else unit_axis(axis)
+    e = resolve_axis(rom, axis, axis_option)
     spins_hz = [float(s) for s in spins_hz]
     formulations = tuple(formulations)
     with _timed(timings, "campbell"):

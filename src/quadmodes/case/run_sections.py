@@ -109,15 +109,43 @@ class RunReduced(Section):
         return DEFAULT_SPINNING_MODE_MARGIN if self.reference == "spinning" else DEFAULT_MODE_MARGIN
 
 
+#: Names ``initial.spin_axis`` accepts (body axes, principal axes of the deformed inertia).
+SPIN_AXIS_NAMES = ("x", "y", "z", "minor", "intermediate", "major")
+
+
+def _spin_axis(value: Any) -> str | None:
+    """``initial.spin_axis``: a name of :data:`SPIN_AXIS_NAMES` or three numbers (a TOML array
+    or ``"0,0,1"``), stored as text (lower-case name or ``"a,b,c"``)."""
+    if value is None:
+        return None
+    use = 'use "minor", "major", "x", "y", "z" or three numbers such as [0, 0, 1]'
+    if isinstance(value, str) and value.strip().lower() in SPIN_AXIS_NAMES:
+        return value.strip().lower()
+    parts = value.replace(";", ",").split(",") if isinstance(value, str) else value
+    try:
+        nums = [float(v) for v in parts] if not isinstance(parts, bool) else []
+    except (TypeError, ValueError):
+        nums = []
+    if len(nums) != 3 or not all(math.isfinite(v) for v in nums) or not any(nums):
+        raise field_error("case_value", f"{value!r} is not an axis; {use}")
+    return ",".join(repr(v) for v in nums)
+
+
 class RunInitial(Section):
     """Initial state: spin rate (rad/s) about the minor principal axis of the (deformed)
     inertia, cone angle (rad) between the angular momentum and that axis, and an initial
     deformation in the first bending mode whose largest nodal displacement is
-    ``bending_amplitude`` (m; 0 = undeformed). Modal velocities start at zero."""
+    ``bending_amplitude`` (m; 0 = undeformed). Modal velocities start at zero.
+
+    ``spin_axis`` (optional, default the minor axis): the body-frame axis to spin about instead,
+    "x", "y", "z", "minor", "intermediate", "major" or three numbers; it must be a principal
+    axis of the deformed inertia (for equal moments exactly the axis given,
+    :mod:`quadmodes.analysis.spin_axis`)."""
 
     spin_rate: quantity("angular_rate", "41 Hz", positive)
     cone_angle: quantity("angle", "6 deg", _cone, "deg") = 0.0
     bending_amplitude: quantity("length", "0.5 in", nonnegative, "in") = 0.0
+    spin_axis: Annotated[str | None, BeforeValidator(_spin_axis), FieldMeta('"minor"')] = None
 
 
 class RunIntegration(Section):

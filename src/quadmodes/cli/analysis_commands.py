@@ -36,6 +36,20 @@ from quadmodes.cli.common import (
 )
 from quadmodes.io.atomic import write_text
 
+AXIS_HELP = (
+    "body-frame spin axis: x, y, z, minor, intermediate, major, or three numbers such as "
+    "0,0,1; a free body must spin about a principal axis (for equal moments: exactly the axis "
+    "given)"
+)
+
+
+def _axis_request(axis: str | None):
+    """The parsed ``--axis`` (None: the command's default)."""
+    from quadmodes.analysis.spin_axis import parse_axis
+
+    return parse_axis(axis, "--axis")
+
+
 # ------------------------------------------------------------------------------ campbell
 
 
@@ -47,9 +61,12 @@ def _campbell_summary(result, case_name: str, formulation: str) -> dict:
         "case": case_name,
         "formulation": formulation,
         "spin_rate_rad_s": [float(v) for v in result.spin],
+        "axis": [float(v) for v in result.axis],
         "branches": list(result.labels),
-        "frequency_rad_s": np.asarray(result.frequency).tolist(),
-        "frequency_hz": np.asarray(result.frequency_hz).tolist(),
+        # null where a branch does not exist (it ended or had not started: tracking refused a
+        # poor match)
+        "frequency_rad_s": _finite(np.asarray(result.frequency).tolist()),
+        "frequency_hz": _finite(np.asarray(result.frequency_hz).tolist()),
         "unstable_spin_rates_rad_s": [
             float(w)
             for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)
@@ -63,7 +80,8 @@ def _print_campbell(result, case_name: str, summary: dict) -> None:
     freqs = np.asarray(result.frequency)
     table = Table("spin (rad/s)", *result.labels[:6], title=f"{case_name}: rotating-frame (rad/s)")
     for k in np.linspace(0, len(result.spin) - 1, min(9, len(result.spin))).astype(int):
-        table.add_row(f"{result.spin[k]:.3g}", *[f"{v:.4g}" for v in freqs[k, :6]])
+        cells = [f"{v:.4g}" if np.isfinite(v) else "-" for v in freqs[k, :6]]
+        table.add_row(f"{result.spin[k]:.3g}", *cells)
     out.print(table)
     if summary["unstable_spin_rates_rad_s"]:
         out.print(
@@ -83,13 +101,15 @@ def campbell(
         help="highest spin rate, e.g. '45 Hz' (Kane's beam: '10 rad/s')")] = "45 Hz",
     n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
     formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
+    axis: Annotated[str | None, typer.Option(help=AXIS_HELP + " (default: see above)")] = None,
     output_dir: CampbellOutput = None,
     as_json: JsonFlag = False,
     yes: LargeModelFlag = False,
 ) -> None:
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
-    (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; free
-    bodies spin about their minor principal axis, clamped bodies on a hub about z."""
+    (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; by
+    default a free body spins about its symmetry axis (the principal axis whose moment differs
+    most from the other two), a clamped body on a hub about z; --axis chooses."""
     from quadmodes.analysis.campbell_output import campbell_main
     from quadmodes.case import parse_quantity
 
@@ -102,13 +122,15 @@ def campbell(
             raise UserError(f"--spin-max: {spin_max} is below --spin-min {spin_min}; swap them")
         if formulation not in LINEAR_FORMULATIONS:
             raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
+        request = _axis_request(axis)
         check_output_folder(output_dir)
         c = load_model_case(case)
         guard_model_size(c, yes)
         guard_reduced_model(c, None, yes, spins=True)
         with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
             result, _ = campbell_main(
-                c, lo, hi, n, formulation=formulation, output_dir=scratch, progress=progress
+                c, lo, hi, n, axis=request, formulation=formulation, output_dir=scratch,
+                progress=progress, axis_option="--axis",
             )
     summary = _campbell_summary(result, c.name, formulation)
     if as_json:
@@ -183,6 +205,7 @@ def rotating_command(
     ] = "0 Hz, 20 Hz, 41 Hz",
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
     formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",
+    axis: Annotated[str, typer.Option(help=AXIS_HELP)] = "minor",
     output: RotatingOutput = None,
     as_json: JsonFlag = False,
     no_cache: NoCacheFlag = False,
@@ -198,13 +221,16 @@ def rotating_command(
         output = output_file_in(output, "rotating.md")
         spin_list = _parse_spins_hz(spins)
         names = parse_formulations(formulations, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
+        request = _axis_request(axis)
         if modes < 1:
             raise UserError("--modes: must be at least 1")
         c = load_model_case(case)
         guard_model_size(c, yes)
         guard_reduced_model(c, modes, yes, spins=True, from_option=True)
         with progress_bars(not as_json) as bars:
-            table = rotating_frequency_comparison(c, spin_list, modes, names, progress=bars)
+            table = rotating_frequency_comparison(
+                c, spin_list, modes, names, axis=request, progress=bars, axis_option="--axis"
+            )
     text = table.to_text()
     if as_json:
         sys.stdout.write(json.dumps(_rotating_summary(table), indent=2) + "\n")

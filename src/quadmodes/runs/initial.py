@@ -1,5 +1,7 @@
 """Initial state of a free-body run: a deformation in the first bending mode and the coning
-angular velocity about the minor principal axis of the deformed body."""
+angular velocity about the minor principal axis of the deformed body, or about
+``initial.spin_axis`` (a principal axis of the deformed inertia, exactly the axis given for equal
+moments: :mod:`quadmodes.analysis.spin_axis`)."""
 
 from __future__ import annotations
 
@@ -7,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from quadmodes.analysis.spin_axis import AXIS_TOL, axis_for_inertia
 from quadmodes.case import CaseError, RunCase
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import reduced as red
@@ -42,7 +45,7 @@ class InitialState:
     """Initial state of a run.
 
     y0 (7+2N,): [q, ω, s, ṡ]. spin_axis (3,): body-frame minor principal axis of J̃(s0) (sign:
-    largest component positive). inertia (3,3) kg m²: J̃(s0). bending_modes: indices of the
+    largest component positive), or the axis of ``initial.spin_axis``. inertia (3,3) kg m²: J̃(s0). bending_modes: indices of the
     first bending pair (may be empty). notes: remarks (e.g. an ignored deformation)."""
 
     y0: np.ndarray
@@ -74,20 +77,54 @@ def _initial_deformation(
     return s0
 
 
+def coning_about(jt: np.ndarray, e: np.ndarray, spin: float, cone_angle: float) -> np.ndarray:
+    """Body angular velocity (3,) rad/s spinning at ``spin`` about the principal axis ``e`` (3,)
+    of ``jt`` (3, 3) kg m² with cone angle ``cone_angle`` (rad) between H = J ω and e
+    (tan θ = I_t ω⊥ / (I_a ω_a)); the transverse part lies along the transverse principal
+    direction of smaller moment (for the minor axis: the intermediate axis, as
+    :func:`quadmodes.rom.dynamics.coning_omega`)."""
+    basis = np.linalg.svd(np.eye(3) - np.outer(e, e))[0][:, :2]  # plane across e
+    lam_t, vec_t = np.linalg.eigh(basis.T @ jt @ basis)
+    et = basis @ vec_t[:, 0]
+    i_a = float(e @ jt @ e)
+    return spin * e + np.tan(cone_angle) * i_a * spin / lam_t[0] * et
+
+
+def _spin_axis(model: red.ReducedModel, jt: np.ndarray, run: RunCase) -> np.ndarray | None:
+    """The axis of ``initial.spin_axis`` for J̃(s0) ``jt`` (None when not given); a model
+    expanded about a spinning state must spin about the axis it was expanded about."""
+    if run.initial.spin_axis is None:
+        return None
+    e = axis_for_inertia(jt, run.initial.spin_axis, "initial.spin_axis")
+    ref = model.reference_axis
+    if model.reference_spin and ref is not None and abs(e @ ref) < np.cos(AXIS_TOL):
+        raise CaseError(
+            "initial.spin_axis: the reduced model is expanded about the spinning state about "
+            f"({ref[0]:.4g}, {ref[1]:.4g}, {ref[2]:.4g}); remove spin_axis or set "
+            'reduced.reference = "rest"',
+            field="initial.spin_axis",
+        )
+    return e
+
+
 def initial_state(system: rsys.ReducedSystem, model: red.ReducedModel, run: RunCase) -> InitialState:
     """Initial state of ``run``: modal displacement s0 in the first bending mode (largest nodal
     displacement = ``initial.bending_amplitude``), ṡ0 = 0, q0 = identity, and the body angular
     velocity of :func:`quadmodes.rom.dynamics.coning_omega` for J̃(s0): spin ``initial.spin_rate``
-    about the minor principal axis of J̃(s0), cone angle ``initial.cone_angle`` between
-    H = J̃(s0) ω and that axis."""
+    about the minor principal axis of J̃(s0) (or ``initial.spin_axis``, :func:`coning_about`),
+    cone angle ``initial.cone_angle`` between H = J̃(s0) ω and that axis."""
     n = system.n_modes
     notes: list[str] = []
     pair = bending_pair(model.labels, model.frequencies_hz) if n else ()
     s0 = _initial_deformation(model, n, pair, run.initial.bending_amplitude, notes)
     jt = dyn.inertia_tensor(system, s0, "rot")
     jt = 0.5 * (jt + jt.T)
-    omega = dyn.coning_omega(jt, run.initial.spin_rate, run.initial.cone_angle)
-    lam, vec = np.linalg.eigh(jt)
-    axis = vec[:, 0] * np.sign(vec[np.argmax(np.abs(vec[:, 0])), 0])
+    axis = _spin_axis(model, jt, run)
+    if axis is None:
+        omega = dyn.coning_omega(jt, run.initial.spin_rate, run.initial.cone_angle)
+        lam, vec = np.linalg.eigh(jt)
+        axis = vec[:, 0] * np.sign(vec[np.argmax(np.abs(vec[:, 0])), 0])
+    else:
+        omega = coning_about(jt, axis, run.initial.spin_rate, run.initial.cone_angle)
     y0 = rsys.pack_state(system, omega=omega, s=s0)
     return InitialState(y0, axis, jt, pair, tuple(notes))
