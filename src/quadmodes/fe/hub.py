@@ -105,14 +105,24 @@ def clamp_transform(root: np.ndarray, frame: np.ndarray) -> np.ndarray:
     return p
 
 
+def triad_stiffness(
+    rigidity: float, root_stiffness: float, moments: np.ndarray, boom_omega2: float
+) -> float:
+    """Distortion stiffness (N m) of the hub's triad: ``rigidity`` × the stiffest boom root's
+    bending stiffness ``4EI/ℓ`` (the hub deforms 1/rigidity as much as a boom element), and at
+    least enough to put the triad's modes ``√(k/S_i)`` 100 × above the booms' first clamped
+    bending frequency (a heavy hub must not become dynamically soft)."""
+    dynamic = float(np.max(moments)) * 1e4 * boom_omega2
+    return max(rigidity * root_stiffness, dynamic, 1.0)
+
+
 def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1e4) -> Structure:
-    """The structure of a rigid hub with booms. ``rigidity``: the triad's distortion stiffness
-    over the stiffest boom root's bending stiffness ``4 EI/ℓ`` (dimensionless)."""
+    """The structure of a rigid hub with booms. ``rigidity``: see :func:`triad_stiffness`."""
     centre = np.asarray(hub.centre, float)
     reference = [centre[None], np.eye(3)]
     translational = [np.array([True, False, False, False])]
     sets, mass_parts, groups, first = [], [], {}, HUB_DOFS
-    root_stiffness = 0.0
+    root_stiffness = boom_omega2 = 0.0
     for b in booms:
         frame = beam_frame(b.direction, b.director2)
         root = np.asarray(b.root, float)
@@ -129,12 +139,15 @@ def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1
         mass_parts.append((conn, boom_sets[0].mass()))
         groups[f"boom:{b.name}"] = first + DOFS_PER_NODE * np.arange(b.elements)
         first += DOFS_PER_NODE * b.elements
-        ell = b.length / b.elements
-        root_stiffness = max(root_stiffness, 4.0 * max(b.section.EI2, b.section.EI3) / ell)
+        ei = max(b.section.EI2, b.section.EI3)
+        root_stiffness = max(root_stiffness, 4.0 * ei / (b.length / b.elements))
+        # first clamped bending frequency² of the boom, (1.875²)² EI/(ρA L⁴)
+        boom_omega2 = max(boom_omega2, 12.36 * ei / (b.section.rho_A * b.length**4))
     n = first
-    hub_set = hub_rigidity_set(rigidity * max(root_stiffness, 1.0))
+    moments = second_moments_of_mass(np.asarray(hub.inertia))
+    hub_set = hub_rigidity_set(triad_stiffness(rigidity, root_stiffness, moments, boom_omega2))
     ms = assemble_scalar_matrix(np.arange(HUB_DOFS)[None, :], np.diag(
-        np.concatenate([[hub.mass], second_moments_of_mass(np.asarray(hub.inertia))]))[None], n)
+        np.concatenate([[hub.mass], moments]))[None], n)
     for conn, blocks in mass_parts:
         ms = ms + assemble_scalar_matrix(conn, blocks, n)
     trans = np.concatenate(translational)

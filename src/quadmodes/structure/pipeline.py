@@ -43,6 +43,7 @@ from quadmodes.mesh.revolution import (
     with_ring_at_radius,
 )
 from quadmodes.mesh.surface import TriangleSurface, check_closed_surface, min_angle_deg
+from quadmodes.structure.boom_labels import boom_labels
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import ModalResult, compute_modes
 from quadmodes.structure.prestress import PrestressedState, inflate
@@ -233,7 +234,8 @@ def build_modal_model(case: Case, progress: Progress | None = None) -> ModalMode
     modes = compute_modes(structure, x, case.modes.count)
     if progress:
         progress("modes", 1.0)
-    return ModalModel(case, structure, state, x, modes, label_modes(structure, x, modes.shapes))
+    labeller = boom_labels if case.kind == "spacecraft" else label_modes
+    return ModalModel(case, structure, state, x, modes, labeller(structure, x, modes.shapes))
 
 
 def modes_summary(model: ModalModel) -> dict:
