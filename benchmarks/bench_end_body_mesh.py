@@ -15,6 +15,10 @@ Usage::
     nice -n 5 python benchmarks/bench_end_body_mesh.py                  # factors 1, 1.41, 2, 2.83
     nice -n 5 python benchmarks/bench_end_body_mesh.py --factors 1,2,4  # ~65k nodes at f = 4
     python benchmarks/bench_end_body_mesh.py --case paper-membrane --rim-grading 8
+    python benchmarks/bench_end_body_mesh.py --table run1.txt run2.txt   # tables of saved rows
+
+Each row is also printed as one JSON line (frequencies in Hz, time in s), so the outputs of
+several runs (say, the f = 4 mesh alone) can be joined into one table with ``--table``.
 
 Results in docs/calibration.md ("Mesh-objective end bodies"). Nothing here asserts anything.
 """
@@ -121,7 +125,16 @@ def main() -> None:
     parser.add_argument("--rim-grading", type=float, default=None,
                         help="elements per attach radius for a case without rim grading")
     parser.add_argument("--quick", action="store_true", help="factors 0.5, 0.71, 1 (coarse)")
+    parser.add_argument("--table", nargs="+", metavar="FILE",
+                        help="print the tables of the JSON rows in these outputs; build nothing")
     args = parser.parse_args()
+    if args.table:
+        rows = [json.loads(line) for path in args.table for line in open(path)
+                if line.startswith("{")]  # fmt: skip
+        for name in dict.fromkeys(r["case"] for r in rows):
+            mine = sorted((r for r in rows if r["case"] == name), key=lambda r: r["factor"])
+            print(markdown(mine))
+        return
     factors = [0.5, 0.71, 1.0] if args.quick else [float(f) for f in args.factors.split(",")]
     for name in args.case or DEFAULT_CASES:
         rows = study(name, factors, args.rim_grading)
