@@ -12,7 +12,7 @@ from quadmodes.case.model_loading import case_from_toml
 from quadmodes.fe.build import element_thickness
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import total_mass
-from quadmodes.structure.pipeline import build_modal_model, structure_for_case
+from quadmodes.structure.pipeline import build_modal_model, structure_for_case, surface_for_case
 
 IN = 0.0254
 OBJECTIVE = "paper-membrane-objective"
@@ -115,3 +115,16 @@ def test_flange_frequencies_converge_with_refinement():
     bare = [build_modal_model(_coarse(rim, e, None)) for e in steps]
     b = [_family(m, "bending", 2) for m in bare]
     assert abs(b[2] - b[1]) > 0.6 * abs(b[1] - b[0]), b
+
+
+def test_flange_mesh_has_rings_at_both_radii_graded_toward_them():
+    case = _coarse(load_case(OBJECTIVE), 2.0, 8)
+    points = surface_for_case(case).points
+    radial = np.hypot(points[:, 0], points[:, 1])
+    for body in case.end_body:
+        side = points[:, 2] < 0.3 if body.pole == "front" else points[:, 2] > 1.2
+        for radius in (body.attach_radius, body.flange_radius):
+            ring = side & np.isclose(radial, radius, rtol=1e-9, atol=0.0)
+            # a full ring with edges of about attach_radius / 8 around it
+            spacing = 2.0 * np.pi * radius / ring.sum()
+            assert spacing == pytest.approx(body.attach_radius / 8, rel=0.1), (body.name, radius)
