@@ -17,7 +17,10 @@ from quadmodes.case import (
     parse_quantity,
 )
 
-BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
+BUILTINS = [
+    "capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "paper-membrane-objective",
+    "sphere",
+]
 
 
 def _one_line(message: str) -> None:
