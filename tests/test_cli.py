@@ -28,8 +28,8 @@ from quadmodes.mesh.surface import TriangleSurface
 from quadmodes.structure.prestress import ConvergenceError
 
 BUILTINS = [
-    "capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "paper-membrane-objective",
-    "sphere",
+    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "paper-membrane-objective", "sphere", "two-blade-rotor",
 ]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi
 

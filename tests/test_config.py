@@ -18,8 +18,8 @@ from quadmodes.case import (
 )
 
 BUILTINS = [
-    "capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "paper-membrane-objective",
-    "sphere",
+    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "paper-membrane-objective", "sphere", "two-blade-rotor",
 ]
 
 
