@@ -14,7 +14,7 @@ Usage::
     nice -n 5 python benchmarks/bench_end_body_mesh.py --quick          # coarse meshes, ~1 min
     nice -n 5 python benchmarks/bench_end_body_mesh.py                  # factors 1, 1.41, 2, 2.83
     nice -n 5 python benchmarks/bench_end_body_mesh.py --factors 1,2,4  # ~65k nodes at f = 4
-    python benchmarks/bench_end_body_mesh.py --case paper-membrane --rim-grading 8
+    python benchmarks/bench_end_body_mesh.py --case paper-membrane-rim --rim-grading 8
     python benchmarks/bench_end_body_mesh.py --table run1.txt run2.txt   # tables of saved rows
 
 Each row is also printed as one JSON line (frequencies in Hz, time in s), so the outputs of
@@ -41,7 +41,7 @@ FAMILIES = {
     "bending": ("bending", 2),
     "rocking_front": ("rocking (front mass)", 2),
 }
-DEFAULT_CASES = ("paper-membrane-objective", "paper-membrane")
+DEFAULT_CASES = ("paper-membrane", "paper-membrane-rim")
 
 
 def refined(case: Case, factor: float, rim_grading: float | None) -> Case:
