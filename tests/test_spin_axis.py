@@ -207,3 +207,21 @@ def test_initial_spin_axis_of_a_run(small_reduced_model):
     bad = RunInitial.model_validate({"spin_rate": "20 Hz", "spin_axis": "1,0,1"})
     with pytest.raises(ValueError, match="^initial.spin_axis: .*not a principal axis"):
         initial_state(sys, model, SimpleNamespace(initial=bad))
+
+
+def test_campbell_cli_axis_option():
+    """``campbell --axis``: a clamped beam spins about the axis given; the help no longer says
+    free bodies spin about their minor axis."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from quadmodes.cli.app import app
+
+    runner = CliRunner()
+    args = ["campbell", "kane-beam", "--spin-max", "2 rad/s", "-n", "2", "--json"]
+    res = runner.invoke(app, [*args, "--axis", "0, 0, 2"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["axis"] == [0.0, 0.0, 1.0]
+    help_text = runner.invoke(app, ["campbell", "--help"]).stdout
+    assert "--axis" in help_text and "minor principal axis" not in help_text
