@@ -206,11 +206,11 @@ def _point_task(point: PointCase, group, position: int, time_run: bool) -> dict:
     return run_point(point, model, counts[position], time_run)
 
 
-def _refine_task(group, bracket: crit.Bracket, formulation: str) -> dict | None:
+def _refine_task(group, bracket: crit.Bracket, formulation: str, axis=None) -> dict | None:
     if bracket.reason == "extend":
-        found = crit.extend(group[0], bracket, formulation)
+        found = crit.extend(group[0], bracket, formulation, axis)
         return None if found is None else crit.critical_speed_record(found)
-    return crit.critical_speed_record(crit.refine(group[0], bracket, formulation))
+    return crit.critical_speed_record(crit.refine(group[0], bracket, formulation, axis))
 
 
 @dataclass(eq=False)
@@ -354,7 +354,9 @@ def _critical_speeds(plan: SweepPlan, results, groups: _Groups, client) -> list[
         for b in crit.brackets(spins, [results[i] for i in line], line):
             group, _ = groups.future(b.lo)
             form = plan.points[b.lo].case.run.reduced.formulation
-            todo.append((b, client.submit(_refine_task, group, b, form, pure=False, retries=1)))
+            axis = plan.points[b.lo].case.run.initial.spin_axis
+            todo.append((b, client.submit(_refine_task, group, b, form, axis, pure=False,
+                                          retries=1)))  # fmt: skip
     records = []
     for b, fut in todo:
         try:

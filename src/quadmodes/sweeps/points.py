@@ -102,8 +102,11 @@ def _roots(setup: sim.RunSetup) -> dict:
     the modal damping (growth rates), and the relative equilibrium (s*, ω0)."""
     spin = float(setup.run.initial.spin_rate)
     form = setup.run.reduced.formulation
-    undamped = campbell(setup.model, [spin], formulation=form, damped=False)
-    damped = campbell(setup.model, [spin], formulation=form, damped=True)
+    axis = setup.run.initial.spin_axis  # None: the default axis
+    undamped = campbell(setup.model, [spin], axis, formulation=form, damped=False,
+                        axis_option="initial.spin_axis")  # fmt: skip
+    damped = campbell(setup.model, [spin], axis, formulation=form, damped=True,
+                      axis_option="initial.spin_axis")  # fmt: skip
     nut = [i for i, lab in enumerate(damped.labels) if lab == "nutation"]
     return {
         "linearised_spin": spin,
