@@ -34,10 +34,22 @@ def test_barrier_is_a_maximum_along_its_ray(slow_q4):
 
 
 def test_initial_bending_beyond_the_barrier_is_reported(slow_q4):
+    # paper-0.5hz's 0.5 in of bending lies beyond the maximum of Q4's potential along its own
+    # direction (its modal energy is even negative there: the truncated quartic falls)
     val = slow_q4.validity
+    assert val.modal_energy < val.barrier_energy and val.past_maximum_on_ray
     assert val.beyond_barrier and not val.valid
     assert "barrier" in val.message() and "use Q" in val.message()
     assert val.as_dict()["valid"] is False
+
+
+def test_small_bending_is_within_q4_validity():
+    run = load_run_case("paper-0.5hz")
+    small = run.model_copy(update={"initial": run.initial.model_copy(
+        update={"bending_amplitude": 0.1 * run.initial.bending_amplitude})})  # fmt: skip
+    val = simulate.prepare(simulate.apply_overrides(small, formulation="Q4")).validity
+    assert 0.0 < val.modal_energy < val.barrier_energy and not val.past_maximum_on_ray
+    assert not val.beyond_barrier
 
 
 def test_spinning_case_from_rest_is_within_q4_validity():

@@ -161,6 +161,28 @@ def potential_barrier(
     return float(v[k]), (r[k] * d[k] if np.isfinite(v[k]) else np.zeros(n))
 
 
+def beyond_ray_maximum(sys: ReducedSystem, s0: np.ndarray) -> bool:
+    """Q4: whether the modal state ``s0`` (N,) lies beyond the first maximum of the effective
+    potential along its own ray ``r s0/|s0|`` (False at s0 = 0 or for a potential rising along it)."""
+    n = sys.n_modes
+    s0 = np.asarray(s0, float)
+    if not sys.quartic or n == 0 or not np.any(s0):
+        return False
+    w = sys.reference_omega
+    lam = sys.Lam - (sys.flat.J2w @ np.outer(w, w).ravel()).reshape(n, n)
+    f1 = sys.F1 - 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
+    r0 = float(np.sqrt(s0 @ lam @ s0))
+    if not r0 > 0.0:
+        return False
+    d = s0 / r0
+    c1 = float(d @ f1)
+    if abs(c1) <= 1e-9 * float(np.sqrt(f1 @ f1)) + 1e-300:
+        c1 = 0.0
+    c3 = float(np.einsum("mnp,m,n,p->", sys.V3, d, d, d))
+    c4 = float(np.einsum("mnpq,m,n,p,q->", sys.V4, d, d, d, d))
+    return r0 > _first_maximum(c1, c3, c4)
+
+
 def _first_maximum(c1: float, c3: float, c4: float) -> float:
     """Smallest r > 0 where ``V(r) = c1 r + r²/2 + c3 r³ + c4 r⁴`` has a maximum (inf if none)."""
     roots = np.roots([4.0 * c4, 3.0 * c3, 1.0, c1])

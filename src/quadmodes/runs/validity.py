@@ -40,11 +40,14 @@ class Validity:
     barrier_energy: float = math.inf
     deformation_energy_reduced: float = math.nan
     deformation_energy_condensed: float = math.nan
+    past_maximum_on_ray: bool = False
 
     @property
     def beyond_barrier(self) -> bool:
-        """Q4 only: the initial modal energy exceeds the quartic potential's lowest barrier."""
-        return self.modal_energy > self.barrier_energy
+        """Q4 only: the initial modal energy exceeds the quartic potential's lowest barrier, or
+        the initial deformation already lies beyond the potential's maximum along its own
+        direction (there the truncated potential falls, even below zero)."""
+        return self.modal_energy > self.barrier_energy or self.past_maximum_on_ray
 
     @property
     def deformation_error(self) -> float:
@@ -81,6 +84,14 @@ class Validity:
                 f"of the reduced potential: {what}; its frequency and decay at this amplitude "
                 f"are not trusted (limit {100 * DEFORMATION_ENERGY_TOLERANCE:g} %): use a "
                 "smaller initial.bending_amplitude or check with quadmodes compare"
+            )
+        if self.lost_at is None and self.past_maximum_on_ray:
+            return (
+                f"formulation {self.formulation} is outside its validity: the initial deformation "
+                "lies beyond the maximum of its truncated quartic potential along its own "
+                f"direction (modal energy {self.modal_energy:.4g} J, lowest barrier "
+                f"{self.barrier_energy:.4g} J), where Q4 means nothing; use Q, or a smaller "
+                "initial deformation"
             )
         if self.lost_at is None:
             return (
@@ -163,6 +174,7 @@ def initial_validity(system: rsys.ReducedSystem, y0: np.ndarray, formulation: st
         _, _, s0, sd0 = rsys.split_state(system, y0)
         e_modal = float(0.5 * sd0 @ system.mu @ sd0 + dyn.effective_potential(system, s0))
         validity = dataclasses.replace(
-            validity, modal_energy=e_modal, barrier_energy=dyn.potential_barrier(system)[0]
-        )
+            validity, modal_energy=e_modal, barrier_energy=dyn.potential_barrier(system)[0],
+            past_maximum_on_ray=dyn.beyond_ray_maximum(system, s0),
+        )  # fmt: skip
     return validity
