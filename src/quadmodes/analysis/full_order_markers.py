@@ -217,6 +217,20 @@ def draw_markers(ax, m: FullOrderMarkers, colours: dict, scale: float = 1.0) -> 
             name = "full order (matched)" if ok else "full order (no reduced branch)"
             colour = _colour(str(m.label[i, j]), colours) if ok else "0.5"
             ax.plot(scale * m.spin[i], scale * m.frequency[i, j], "D", ms=6, mec="k", mew=0.8,
-                    mfc=colour if ok else "none", zorder=5,
+                    mfc=colour if ok else "none", zorder=1.5,
                     label=None if name in done else name)  # fmt: skip
             done.add(name)
+
+
+def markers_from_dataset(ds) -> FullOrderMarkers:
+    """The :class:`FullOrderMarkers` stored in a dataset by :func:`marker_variables`."""
+    axis = [float(v) for v in str(ds.attrs.get("full_order_axis", "0,0,1")).split(",")]
+    return FullOrderMarkers(
+        np.asarray(ds[SPIN_DIM].values, float), np.asarray(ds["full_order_frequency"].values),
+        np.asarray(ds["full_order_growth_rate"].values),
+        np.asarray(ds["full_order_branch_label"].values, dtype=str),
+        np.asarray(ds["full_order_matched"].values) > 0,
+        np.asarray(ds["full_order_reduced_frequency"].values),
+        np.asarray(ds["full_order_relative_error"].values),
+        np.asarray(ds["full_order_captured"].values), np.asarray(axis),
+        str(ds.attrs.get("full_order_formulation", "")))  # fmt: skip

@@ -102,12 +102,14 @@ def _state(lin, reason: str):
     return int(np.sum(lin.lam.real > scale))
 
 
-def refine(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q") -> CriticalSpeed:
+def refine(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q",
+           axis=None) -> CriticalSpeed:  # fmt: skip
     """Bisect ``bracket`` on ``model`` (the reduced model of its lower point) to the spin where
     the indicator of :func:`brackets` changes (plain linearisations, no tracking); classify and
-    name the branches there."""
+    name the branches there. ``axis``: the spin-axis request (default: the model's default
+    axis, :func:`quadmodes.analysis.spin_axis.resolve_axis`)."""
     sys = rsys.reduced_system(model, formulation)
-    axis = resolve_axis(model, None)
+    axis = resolve_axis(model, axis)
     lo, hi = bracket.spin_lo, bracket.spin_hi
     start = _state(_linearisation(model, sys, lo, axis), bracket.reason)
     for _ in range(STEPS):
@@ -120,17 +122,17 @@ def refine(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q") ->
     return CriticalSpeed(0.5 * (lo + hi), kind, branch, partner, entering, bracket)
 
 
-def extend(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q"):
+def extend(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q", axis=None):
     """For a bracket of reason "extend": the model of the good (lower) point linearised at the
     failed point's spin; the refined :class:`CriticalSpeed` if the rotating stiffness or the
     number of unstable roots changes there, else None."""
     sys = rsys.reduced_system(model, formulation)
-    axis = resolve_axis(model, None)
+    request, axis = axis, resolve_axis(model, axis)
     below = _linearisation(model, sys, bracket.spin_lo, axis)
     above = _linearisation(model, sys, bracket.spin_hi, axis)
     for reason in ("stiffness", "roots"):
         if _state(below, reason) != _state(above, reason):
-            return refine(model, replace(bracket, reason=reason), formulation)
+            return refine(model, replace(bracket, reason=reason), formulation, request)
     return None
 
 

@@ -37,7 +37,7 @@ from quadmodes.runs.model_cache import cache_dir, fingerprint_files
 from quadmodes.sweeps import critical as crit
 from quadmodes.sweeps.overrides import PointCase, apply_values
 from quadmodes.sweeps.params import SweepError, SweepParameter, grid
-from quadmodes.sweeps.points import model_for_group, run_point, structural_key
+from quadmodes.sweeps.points import model_for_group, run_point, spin_axis_request, structural_key
 
 FORMAT = "quadmodes-sweep-point"
 FORMAT_VERSION = 1
@@ -206,24 +206,29 @@ def _point_task(point: PointCase, group, position: int, time_run: bool) -> dict:
     return run_point(point, model, counts[position], time_run)
 
 
-def _refine_task(group, bracket: crit.Bracket, formulation: str) -> dict | None:
+def _refine_task(group, bracket: crit.Bracket, formulation: str, run=None) -> dict | None:
+    axis = spin_axis_request(run, group[0]) if run is not None else None
     if bracket.reason == "extend":
-        found = crit.extend(group[0], bracket, formulation)
+        found = crit.extend(group[0], bracket, formulation, axis)
         return None if found is None else crit.critical_speed_record(found)
-    return crit.critical_speed_record(crit.refine(group[0], bracket, formulation))
+    return crit.critical_speed_record(crit.refine(group[0], bracket, formulation, axis))
 
 
 @dataclass(eq=False)
 class SweepOutcome:
     """Results per point (None: failed), failure messages by point index, the critical speeds
     (records of :func:`quadmodes.sweeps.critical.critical_speed_record`), how many points were
-    taken from earlier files, and the wall time of the execution (s)."""
+    taken from earlier files, and the wall time of the execution (s); with ``--full-order`` the
+    full-order markers (:class:`quadmodes.analysis.full_order_markers.FullOrderMarkers`) and the
+    failures of their spins."""
 
     results: list[dict | None]
     failures: dict[int, str] = field(default_factory=dict)
     critical: list[dict] = field(default_factory=list)
     resumed: int = 0
     wall_s: float = 0.0
+    full_order: object | None = None
+    full_order_failures: dict[str, str] = field(default_factory=dict)
 
 
 def _message(future) -> str:
@@ -353,8 +358,9 @@ def _critical_speeds(plan: SweepPlan, results, groups: _Groups, client) -> list[
         spins = [plan.points[i].values[name] for i in line]
         for b in crit.brackets(spins, [results[i] for i in line], line):
             group, _ = groups.future(b.lo)
-            form = plan.points[b.lo].case.run.reduced.formulation
-            todo.append((b, client.submit(_refine_task, group, b, form, pure=False, retries=1)))
+            run = plan.points[b.lo].case.run
+            todo.append((b, client.submit(_refine_task, group, b, run.reduced.formulation, run,
+                                          pure=False, retries=1)))  # fmt: skip
     records = []
     for b, fut in todo:
         try:

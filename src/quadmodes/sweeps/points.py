@@ -55,6 +55,14 @@ def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int
     return model, counts
 
 
+def spin_axis_request(run: RunCase, model: red.ReducedModel):
+    """The spin-axis request of the point's linearisations: the run's ``initial.spin_axis``, or
+    the minor axis (as the time run's initial state) for a free body; None (z) on a hub."""
+    if run.initial.spin_axis is not None:
+        return run.initial.spin_axis
+    return "minor" if model.free else None
+
+
 def _fixed_modes(run: RunCase, n_modes: int) -> RunCase:
     """``run`` with ``reduced.modes = n_modes`` (``"auto"`` resolved, margin dropped)."""
     table = run.reduced.model_copy(update={"modes": int(n_modes), "mode_margin": None})
@@ -102,8 +110,11 @@ def _roots(setup: sim.RunSetup) -> dict:
     the modal damping (growth rates), and the relative equilibrium (s*, ω0)."""
     spin = float(setup.run.initial.spin_rate)
     form = setup.run.reduced.formulation
-    undamped = campbell(setup.model, [spin], formulation=form, damped=False)
-    damped = campbell(setup.model, [spin], formulation=form, damped=True)
+    axis = spin_axis_request(setup.run, setup.model)
+    undamped = campbell(setup.model, [spin], axis, form, damped=False,
+                        axis_option="initial.spin_axis")  # fmt: skip
+    damped = campbell(setup.model, [spin], axis, form, damped=True,
+                      axis_option="initial.spin_axis")  # fmt: skip
     nut = [i for i, lab in enumerate(damped.labels) if lab == "nutation"]
     return {
         "linearised_spin": spin,
