@@ -17,6 +17,7 @@ from quadmodes.analysis.full_order_markers import (
     full_order_markers,
     marker_attrs,
     marker_variables,
+    relabel,
 )
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
@@ -276,5 +277,7 @@ def campbell_with_full_order(
                       axis_option=axis_option)  # fmt: skip
     markers = (full_order_markers(case_or_model, model, spins, result.axis, formulation,
                                   progress, axis_option) if spins else None)  # fmt: skip
+    if markers is not None:  # the figure's branch names
+        markers = relabel(markers, result.spin, result.frequency, result.labels)
     paths = write_campbell(result, output_dir, markers=markers) if output_dir is not None else {}
     return result, markers, paths

@@ -234,3 +234,29 @@ def markers_from_dataset(ds) -> FullOrderMarkers:
         np.asarray(ds["full_order_relative_error"].values),
         np.asarray(ds["full_order_captured"].values), np.asarray(axis),
         str(ds.attrs.get("full_order_formulation", "")))  # fmt: skip
+
+
+def relabel(m: FullOrderMarkers, spin: np.ndarray, frequency: np.ndarray, labels,
+            rtol: float = 0.01) -> FullOrderMarkers:  # fmt: skip
+    """``m`` with each matched root labelled by the branch of a Campbell diagram (``spin`` (ns,)
+    rad/s, ``frequency`` (ns, nb) rad/s, ``labels`` (nb,)) whose frequency, interpolated to the
+    marker's spin, is nearest to the matched reduced frequency (within ``rtol``; else the label
+    is kept): the branch names of the figure instead of those of the comparison's own tracking."""
+    spin, frequency = np.asarray(spin, float), np.asarray(frequency, float)
+    label = np.array(m.label, dtype=object)
+    for i, om in enumerate(m.spin):
+        at = np.full(len(labels), np.nan)
+        for b in range(len(labels)):
+            ok = np.isfinite(frequency[:, b])
+            if ok.any() and spin[ok].min() - 1e-9 <= om <= spin[ok].max() + 1e-9:
+                at[b] = np.interp(om, spin[ok], frequency[ok, b])
+        for j in np.flatnonzero(m.matched[i]):
+            target = m.reduced_frequency[i, j]
+            if not np.isfinite(target) or not np.isfinite(at).any():
+                continue
+            b = int(np.nanargmin(np.abs(at - target)))
+            if abs(at[b] - target) <= rtol * max(abs(target), 1e-9):
+                label[i, j] = labels[b]
+    return FullOrderMarkers(m.spin, m.frequency, m.growth, label.astype(str), m.matched,
+                            m.reduced_frequency, m.relative_error, m.captured, m.axis,
+                            m.formulation)  # fmt: skip
