@@ -123,6 +123,7 @@ def test_sweep_with_full_order_markers_to_zarr(folder):  # noqa: F811
         nearest = min(reduced.values(), key=lambda v: abs(v - f))
         assert f == pytest.approx(nearest, rel=0.01)  # the sweep's own branch at 20 Hz
     assert len(list((folder / "out" / "points").glob("full-order-20Hz-*.json"))) == 1
+    assert "Full-order linearisation" in (folder / "out" / "report.html").read_text()
 
 
 def test_sweep_dataset_round_trips_through_zarr(folder, tmp_path, markers):  # noqa: F811

@@ -173,6 +173,11 @@ def sweep_dataset(plan: SweepPlan, outcome: SweepOutcome, command: str = "") -> 
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
+def _finite_or_none(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
 def _full_order_summary(ds: xr.Dataset) -> list[dict]:
     """Per full-order spin (Hz) its roots (Hz) with the branch each matched."""
     if "full_order_frequency" not in ds:
@@ -183,7 +188,7 @@ def _full_order_summary(ds: xr.Dataset) -> list[dict]:
         roots = [{"branch": str(ds["full_order_branch_label"].values[i, j]),
                   "matched": bool(ds["full_order_matched"].values[i, j]),
                   "frequency_hz": float(f[j]) / (2 * math.pi),
-                  "relative_error": (float(ds["full_order_relative_error"].values[i, j])
+                  "relative_error": (_finite_or_none(ds["full_order_relative_error"].values[i, j])
                                      if ds["full_order_matched"].values[i, j] else None)}
                  for j in range(f.size) if np.isfinite(f[j])]  # fmt: skip
         out.append({"spin_hz": float(spin) / (2 * math.pi), "roots": roots})

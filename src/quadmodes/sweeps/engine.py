@@ -80,9 +80,10 @@ class SweepPlan:
         return tuple(p for p in self.params if p.swept)
 
 
-#: Source folders whose code computes a point: a change in any of them re-runs every point (the
+#: Source folders and files whose code computes a point: a change in any of them re-runs every point (the
 #: reduced models themselves stay cached by their own key).
-POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "runs", "analysis", "sweep")
+POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "runs", "analysis", "sweeps/points.py",
+              "sweeps/energy_sink.py", "sweeps/overrides.py", "sweeps/full_order.py")
 
 
 @functools.cache
