@@ -27,7 +27,10 @@ from quadmodes.mesh.revolution import sphere_surface
 from quadmodes.mesh.surface import TriangleSurface
 from quadmodes.structure.prestress import ConvergenceError
 
-BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
+BUILTINS = [
+    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "paper-membrane-rim", "sphere", "two-blade-rotor",
+]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi
 
 

@@ -17,7 +17,10 @@ from quadmodes.case import (
     parse_quantity,
 )
 
-BUILTINS = ["capsule", "kane-beam", "paper-membrane", "paper-membrane-coarse", "sphere"]
+BUILTINS = [
+    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "paper-membrane-rim", "sphere", "two-blade-rotor",
+]
 
 
 def _one_line(message: str) -> None:

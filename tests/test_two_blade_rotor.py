@@ -47,3 +47,24 @@ def test_flap_and_lag_frequencies_match_the_independent_reference(sweep, which):
                                  rho_I_flap=RHO * SECOND, rho_I_lag=RHO * SECOND)  # fmt: skip
         got = np.sort(c.frequency[k, cols])[:3]
         np.testing.assert_allclose(got, ref[which][:3], rtol=5e-3, err_msg=f"Ω = {om:.1f}")
+
+
+def test_flap_and_lag_branches_keep_their_family_over_the_whole_sweep(sweep):
+    """Every bending branch stays a pure flap (along the spin axis) or a pure lag (in the plane
+    of rotation) motion at every spin rate, and its label says which."""
+    spins, c = sweep
+    model = qm.reduced_model("two-blade-rotor", 16)
+    phi = np.asarray(model.Phi)  # (N, n, 3)
+    pos = np.asarray(model.translational, bool)
+    n = model.n_modes
+    for j, lab in enumerate(c.labels):
+        fam = family(lab)
+        if fam == "other":
+            continue
+        for k in range(spins.size):
+            ds = c.vectors[k, j, 3 : 3 + n]
+            u = np.einsum("k,kia->ia", ds, phi)[pos]  # positions only
+            along = np.sum(np.abs(u[:, 2]) ** 2)
+            total = np.sum(np.abs(u[:, 1:]) ** 2)
+            share = along / total if fam == "flap" else 1.0 - along / total
+            assert share > 0.99, (lab, k, share)

@@ -185,10 +185,14 @@ def _selected_roots(sw: _Sweep, om: float):
 
 def _point(sw: _Sweep, om: float, direction: float) -> _Point:
     """Selected roots at spin ``om`` (rad/s); at a degenerate root the eigenvectors of the
-    one-sided limit towards ``direction`` (±1) replace the arbitrary basis."""
+    one-sided limit towards ``direction`` (±1) replace the arbitrary basis (the spin nudged by
+    ``sw.nudge``, ten times more while the roots there are still degenerate, up to 1000 ×)."""
     lin, idx, lam, vec = _selected_roots(sw, om)
     if _degenerate(lin.lam, idx, sw.scale):
-        _, _, lam2, vec2 = _selected_roots(sw, om + direction * sw.nudge)
+        for k in range(4):  # nudge up to 1e-1 of the step until the roots have split
+            lin2, idx2, lam2, vec2 = _selected_roots(sw, om + direction * sw.nudge * 10.0**k)
+            if not _degenerate(lin2.lam, idx2, sw.scale):
+                break
         rows, cols = linear_sum_assignment(np.abs(lam[:, None] - lam2[None, :]))
         vec = vec.astype(complex)
         vec[:, rows] = vec2[:, cols]

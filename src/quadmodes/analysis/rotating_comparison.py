@@ -206,12 +206,17 @@ def _relative_error(rom_hz: float, full_hz: float) -> float:
 
 
 def _formulation_entry(
-    rr: ReducedRoots, label: str, j: int, full_hz: float, full: FullOrderPoint, model
+    rr: ReducedRoots, label: str, j: int, full_hz: float, full: FullOrderPoint, model,
+    claimed: np.ndarray,
 ) -> tuple[float, float, float, float]:
-    """``(frequency Hz, growth Re λ 1/s, relative error, MAC)`` of one formulation's branch
-    ``label`` against the full-order root ``j`` (−1: none)."""
+    """``(frequency Hz, growth Re λ 1/s, relative error, MAC)`` of one formulation's root
+    matched to the full-order root ``j`` (−1: none; ``claimed`` (nb,) the full-order root each
+    of its roots was assigned to), else its branch ``label``: the roots of every formulation are
+    matched to the same full-order roots, so an entry does not depend on that formulation's own
+    branch tracking (which may end a branch where the reference formulation's continues)."""
     lam = rr.lam
-    fb = rr.labels.index(label) if label in rr.labels else -1
+    mine = np.flatnonzero(claimed == j) if j >= 0 else np.zeros(0, int)
+    fb = int(mine[0]) if mine.size else (rr.labels.index(label) if label in rr.labels else -1)
     if fb >= 0 and not np.isfinite(lam[fb]):
         fb = -1
     rom_hz = float(abs(lam[fb].imag) / (2 * np.pi)) if fb >= 0 else np.nan
@@ -237,12 +242,15 @@ def _branch_row(
     full: FullOrderPoint,
     reduced: dict[str, ReducedRoots],
     model,
+    claimed: dict[str, np.ndarray],
 ) -> ComparisonRow:
-    """The row of branch ``label`` at ``spin_hz`` (Hz), matched to full-order root ``j``."""
+    """The row of branch ``label`` at ``spin_hz`` (Hz), matched to full-order root ``j``;
+    ``claimed[f]`` the full-order root of each root of formulation f (−1: none)."""
     roots = full.roots
     full_hz = float(roots.frequency_hz[j]) if j >= 0 else (0.0 if spin_hz == 0.0 else np.nan)
     entries = {
-        f: _formulation_entry(rr, label, j, full_hz, full, model) for f, rr in reduced.items()
+        f: _formulation_entry(rr, label, j, full_hz, full, model, claimed[f])
+        for f, rr in reduced.items()
     }
     return ComparisonRow(
         spin_hz=spin_hz,
@@ -309,7 +317,8 @@ def _rows_at_spin(
     ref_idx = assigned[formulations[0]][0]
     present = np.isfinite(reduced[formulations[0]].lam)
     rows = [
-        _branch_row(spin_hz, label, ref_idx[b], full, reduced, model)
+        _branch_row(spin_hz, label, ref_idx[b], full, reduced, model,
+                    {f: a[0] for f, a in assigned.items()})
         for b, label in enumerate(labels)
         if present[b]  # a branch that ended (refused match) or has not started has no row
     ]

@@ -156,6 +156,13 @@ class Case(Section):
                     f"radius {inch(radius)}; use a smaller attach_radius",
                     f"end_body[{i}].attach_radius",
                 )
+            if radius is not None and body.flange_radius and body.flange_radius >= radius:
+                raise field_error(
+                    "case_rule",
+                    f"{inch(body.flange_radius)} must be smaller than the {body.pole} cap "
+                    f"radius {inch(radius)}; use a smaller flange_radius",
+                    f"end_body[{i}].flange_radius",
+                )
 
     def _check_mesh_resolution(self) -> None:
         """The mesh edge must be at most half the body's largest radius (at least ~12 edges

@@ -166,6 +166,12 @@ class EndBody(Section):
     fixed). Membrane nodes on that cap within ``attach_radius`` of the axis are tied to it; its
     centre of mass lies ``offset`` outside the pole on the axis; ``arm`` is the half-size of the
     point-mass cluster that carries the inertia (default: 1.25 × the smallest that works).
+
+    ``attachment`` says how the body is bonded to the membrane: ``"rim"`` (the rigid patch meets
+    the bare membrane at a sharp rim), or ``"flange"`` (a bonded flange: between
+    ``attach_radius`` and ``flange_radius`` the membrane is ``flange_thickness_factor`` times as
+    thick, a doubler that carries the load from the rigid patch into the membrane; see
+    docs/calibration.md "Mesh-objective end bodies").
     """
 
     name: text("rear")
@@ -178,6 +184,9 @@ class EndBody(Section):
     attach_radius: quantity("length", "1.5 in", positive, "in")
     offset: quantity("length", "0.5 in", nonnegative, "in")
     arm: quantity("length", "1 in", positive, "in", optional=True) = None
+    attachment: choice("rim", "flange") = "rim"
+    flange_radius: quantity("length", "2 in", positive, "in", optional=True) = None
+    flange_thickness_factor: quantity("dimensionless", "4", at_least_one, optional=True) = None
 
     @field_validator("name")
     @classmethod
@@ -205,6 +214,33 @@ class EndBody(Section):
                 "missing; give inertia_axial and inertia_transverse, or radius and height "
                 '(a uniform solid cylinder), e.g. radius = "2 in"',
                 missing,
+            )
+        return self
+
+    @model_validator(mode="after")
+    def check_flange(self) -> Self:
+        flange = ("flange_radius", "flange_thickness_factor")
+        if self.attachment == "rim":
+            for name in flange:
+                if getattr(self, name) is not None:
+                    raise field_error(
+                        "case_rule", 'only used with attachment = "flange"; remove it', name
+                    )
+            return self
+        for name in flange:
+            if getattr(self, name) is None:
+                example = field_meta(EndBody, name).example
+                raise field_error(
+                    "case_rule",
+                    f'missing; attachment = "flange" needs it, e.g. {name} = {example}',
+                    name,
+                )
+        if self.flange_radius <= self.attach_radius:
+            raise field_error(
+                "case_rule",
+                f"{inch(self.flange_radius)} must exceed attach_radius "
+                f"{inch(self.attach_radius)}; the flange surrounds the rigid patch",
+                "flange_radius",
             )
         return self
 

@@ -24,7 +24,9 @@ from quadmodes.fe.rigid import point_mass_cluster, tie_connectivity
 class EndBodySpec:
     """A rigid end body (SI): mass (kg), inertias about its own centre (kg m²), the radius of the
     attached membrane patch around the pole (m), the outward offset of its centre from the pole (m)
-    and the half-size of the point-mass cluster (m)."""
+    and the half-size of the point-mass cluster (m). With ``flange_radius`` (m) the membrane
+    between ``attach_radius`` and ``flange_radius`` is ``flange_thickness_factor`` times as thick
+    (a bonded flange, or doubler); without it the rigid patch meets the bare membrane."""
 
     name: str
     pole: str
@@ -34,6 +36,28 @@ class EndBodySpec:
     attach_radius: float
     offset: float
     arm: float
+    flange_radius: float | None = None
+    flange_thickness_factor: float = 1.0
+
+
+def element_thickness(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    thickness: float,
+    end_bodies: Sequence[EndBodySpec],
+) -> float | np.ndarray:
+    """Membrane thickness (m): ``thickness``, or per triangle ``(nt,)`` with every triangle whose
+    nodes all lie within an end body's ``flange_radius`` on its cap made
+    ``flange_thickness_factor`` times as thick (the rings at the radii make this exact)."""
+    flanges = [b for b in end_bodies if b.flange_radius and b.flange_thickness_factor != 1.0]
+    if not flanges:
+        return thickness
+    t = np.full(len(triangles), float(thickness))
+    for body in flanges:
+        inside = np.zeros(len(points), bool)
+        inside[pole_nodes(points, body.pole, body.flange_radius)] = True
+        t[inside[triangles].all(axis=1)] *= body.flange_thickness_factor
+    return t
 
 
 @dataclass(frozen=True)
@@ -75,7 +99,7 @@ def build_membrane_structure(
     membrane = membrane_set(
         triangles,
         points,
-        spec.thickness,
+        element_thickness(points, triangles, spec.thickness, end_bodies),
         spec.youngs_modulus,
         spec.poisson_ratio,
         spec.density,

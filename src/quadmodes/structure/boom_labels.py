@@ -94,14 +94,5 @@ def boom_labels(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> list
             amps = np.array([profiles[n][-1, comp] for n in booms])
             pattern = _pattern(amps, azimuths)
         labels.append(f"{what} {order}, {pattern}" if kind in (1, 2) else f"{what}, {pattern}")
-    return _numbered(labels)
+    return labels
 
-
-def _numbered(labels: list[str]) -> list[str]:
-    """Repeated labels get " #2", " #3", … (degenerate pairs and like families)."""
-    seen: dict[str, int] = {}
-    out = []
-    for lab in labels:
-        seen[lab] = seen.get(lab, 0) + 1
-        out.append(lab if seen[lab] == 1 else f"{lab} #{seen[lab]}")
-    return out

@@ -412,7 +412,8 @@ def calibrate_end_masses(
     if final.modes is None or np.max(np.abs(res)) > 10 * rtol:
         raise CalibrationError(
             f"calibrate: could not reach the target frequencies (relative misfits "
-            f"{', '.join(f'{r:+.1e}' for r in res)}); change the end-body attach radii or targets"
+            f"{', '.join(f'{r:+.1e}' for r in res)}); change the end-body attach radii, their "
+            'attachment (e.g. attachment = "flange", docs/calibration.md) or the targets'
         )
     freqs = family_frequencies(trials, log_p, reference, targets)
     if progress:

@@ -69,12 +69,15 @@ def revolution_profile(case: Case):
     profile = profiles[g.shape]()
     # a ring at each attach radius gives every end body a sharp, mesh-independent patch edge;
     # the membrane stress is singular at that rim, so the mesh is refined there
+    # (a flange adds a ring, and the same refinement, at its outer edge: the thickness jumps there)
     refine = []
     for body in case.end_body:
-        profile = with_ring_at_radius(profile, body.pole, body.attach_radius)
-        if case.mesh.elements_per_attach_radius:
-            s_ring = ring_arc_length(profile, body.pole, body.attach_radius)
-            refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
+        radii = [body.attach_radius] + ([body.flange_radius] if body.flange_radius else [])
+        for radius in radii:
+            profile = with_ring_at_radius(profile, body.pole, radius)
+            if case.mesh.elements_per_attach_radius:
+                s_ring = ring_arc_length(profile, body.pole, radius)
+                refine.append((s_ring, body.attach_radius / case.mesh.elements_per_attach_radius))
     return profile, tuple(refine)
 
 
@@ -105,6 +108,8 @@ def end_body_specs(case: Case) -> list[EndBodySpec]:
             b.attach_radius,
             b.offset,
             b.cluster_arm(),
+            b.flange_radius,
+            b.flange_thickness_factor or 1.0,
         )
         for b in case.end_body
     ]

@@ -102,14 +102,14 @@ def _state(lin, reason: str):
     return int(np.sum(lin.lam.real > scale))
 
 
-def refine(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q",
-           axis=None) -> CriticalSpeed:  # fmt: skip
+def refine(
+    model: red.ReducedModel, bracket: Bracket, formulation: str = "Q", axis=None
+) -> CriticalSpeed:
     """Bisect ``bracket`` on ``model`` (the reduced model of its lower point) to the spin where
     the indicator of :func:`brackets` changes (plain linearisations, no tracking); classify and
-    name the branches there. ``axis``: the spin-axis request (default: the model's default
-    axis, :func:`quadmodes.analysis.spin_axis.resolve_axis`)."""
+    name the branches there. ``axis``: the run's ``initial.spin_axis`` (None: the default)."""
     sys = rsys.reduced_system(model, formulation)
-    axis = resolve_axis(model, axis)
+    request, axis = axis, resolve_axis(model, axis, "initial.spin_axis")
     lo, hi = bracket.spin_lo, bracket.spin_hi
     start = _state(_linearisation(model, sys, lo, axis), bracket.reason)
     for _ in range(STEPS):
@@ -118,7 +118,8 @@ def refine(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q",
             lo = mid
         else:
             hi = mid
-    kind, branch, partner, entering = _classify(model, sys, axis, lo, hi, bracket.reason, formulation)
+    kind, branch, partner, entering = _classify(model, sys, axis, lo, hi, bracket.reason, formulation,
+                                                request)  # fmt: skip
     return CriticalSpeed(0.5 * (lo + hi), kind, branch, partner, entering, bracket)
 
 
@@ -127,7 +128,7 @@ def extend(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q", ax
     failed point's spin; the refined :class:`CriticalSpeed` if the rotating stiffness or the
     number of unstable roots changes there, else None."""
     sys = rsys.reduced_system(model, formulation)
-    request, axis = axis, resolve_axis(model, axis)
+    request, axis = axis, resolve_axis(model, axis, "initial.spin_axis")
     below = _linearisation(model, sys, bracket.spin_lo, axis)
     above = _linearisation(model, sys, bracket.spin_hi, axis)
     for reason in ("stiffness", "roots"):
@@ -146,7 +147,8 @@ def _static_mode_label(model, sys, spin: float, axis) -> str:
     return str(model.labels[int(np.argmax(np.abs(vec)))])
 
 
-def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: str):
+def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: str,
+              request=None):  # fmt: skip
     """(kind, branch, partner, entering) at a refined crossing [lo, hi] (rad/s): the labels from
     the MAC tracking of :func:`~quadmodes.analysis.campbell.campbell` over the two spins."""
     below, above = (_linearisation(model, sys, x, axis) for x in (lo, hi))
@@ -159,7 +161,7 @@ def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: 
     grow = unstable.lam[unstable.lam.real > scale]
     divergence = bool(grow.size and np.all(np.abs(grow.imag) <= 1e3 * scale))
     try:
-        track = campbell(model, [lo, hi], formulation=formulation, max_bisections=3,
+        track = campbell(model, [lo, hi], request, formulation=formulation, max_bisections=3,
                          max_refinements=4)  # fmt: skip
     except (ValueError, RuntimeError, np.linalg.LinAlgError):
         return ("divergence" if divergence else "flutter"), "", "", bool(entering)
@@ -167,14 +169,15 @@ def _classify(model, sys, axis, lo: float, hi: float, reason: str, formulation: 
     changed = np.flatnonzero(track.unstable[0] != track.unstable[1])
     elastic = [i for i, lab in enumerate(labels) if lab != "nutation"] or list(range(len(labels)))
     if divergence:
-        i = int(changed[0]) if changed.size else min(elastic, key=lambda j: track.frequency[:, j].min())
+        i = int(changed[0]) if changed.size else min(elastic, key=lambda j: np.nanmin(track.frequency[:, j]))
         return "divergence", labels[i], "", bool(entering)
     if changed.size == 0:
         target = float(np.abs(grow.imag).min()) if grow.size else 0.0
-        changed = np.array([int(np.argmin(np.abs(f - target)))])
+        changed = np.array([int(np.nanargmin(np.abs(f - target)))])
     i = int(changed[0])
     others = [j for j in range(len(labels)) if j != i]
-    j = min(others, key=lambda k: abs(f[k] - f[i])) if others else i
+    # a branch that ended (or starts) at this end has NaN there: never the partner
+    j = min(others, key=lambda k: np.nan_to_num(abs(f[k] - f[i]), nan=np.inf)) if others else i
     return "flutter", labels[i], labels[j] if j != i else "", bool(entering)
 
 

@@ -37,7 +37,7 @@ from quadmodes.runs.model_cache import cache_dir, fingerprint_files
 from quadmodes.sweeps import critical as crit
 from quadmodes.sweeps.overrides import PointCase, apply_values
 from quadmodes.sweeps.params import SweepError, SweepParameter, grid
-from quadmodes.sweeps.points import model_for_group, run_point, spin_axis_request, structural_key
+from quadmodes.sweeps.points import model_for_group, run_point, structural_key
 
 FORMAT = "quadmodes-sweep-point"
 FORMAT_VERSION = 1
@@ -207,8 +207,7 @@ def _point_task(point: PointCase, group, position: int, time_run: bool) -> dict:
     return run_point(point, model, counts[position], time_run)
 
 
-def _refine_task(group, bracket: crit.Bracket, formulation: str, run=None) -> dict | None:
-    axis = spin_axis_request(run, group[0]) if run is not None else None
+def _refine_task(group, bracket: crit.Bracket, formulation: str, axis=None) -> dict | None:
     if bracket.reason == "extend":
         found = crit.extend(group[0], bracket, formulation, axis)
         return None if found is None else crit.critical_speed_record(found)
@@ -359,9 +358,10 @@ def _critical_speeds(plan: SweepPlan, results, groups: _Groups, client) -> list[
         spins = [plan.points[i].values[name] for i in line]
         for b in crit.brackets(spins, [results[i] for i in line], line):
             group, _ = groups.future(b.lo)
-            run = plan.points[b.lo].case.run
-            todo.append((b, client.submit(_refine_task, group, b, run.reduced.formulation, run,
-                                          pure=False, retries=1)))  # fmt: skip
+            form = plan.points[b.lo].case.run.reduced.formulation
+            axis = plan.points[b.lo].case.run.initial.spin_axis
+            todo.append((b, client.submit(_refine_task, group, b, form, axis, pure=False,
+                                          retries=1)))  # fmt: skip
     records = []
     for b, fut in todo:
         try:

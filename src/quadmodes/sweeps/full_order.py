@@ -47,7 +47,7 @@ def full_order_task(case: PointCase) -> dict:
     model = model.select(list(range(counts[0]))) if counts[0] < model.n_modes else model
     run = case.run
     markers = fom.full_order_markers(case.model_case, model, [float(run.initial.spin_rate)],
-                                     spin_axis_request(run, model), run.reduced.formulation,
+                                     spin_axis_request(run), run.reduced.formulation,
                                      axis_option="initial.spin_axis")  # fmt: skip
     return fom.to_record(markers)
 

@@ -55,12 +55,11 @@ def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int
     return model, counts
 
 
-def spin_axis_request(run: RunCase, model: red.ReducedModel):
-    """The spin-axis request of the point's linearisations: the run's ``initial.spin_axis``, or
-    the minor axis (as the time run's initial state) for a free body; None (z) on a hub."""
-    if run.initial.spin_axis is not None:
-        return run.initial.spin_axis
-    return "minor" if model.free else None
+def spin_axis_request(run: RunCase):
+    """The spin-axis request of the point's linearisations (its roots, critical speeds and
+    full-order markers): the run's ``initial.spin_axis``; None is the default axis of
+    :func:`quadmodes.analysis.spin_axis.resolve_axis` (the symmetry axis of a free body)."""
+    return run.initial.spin_axis
 
 
 def _fixed_modes(run: RunCase, n_modes: int) -> RunCase:
@@ -110,10 +109,10 @@ def _roots(setup: sim.RunSetup) -> dict:
     the modal damping (growth rates), and the relative equilibrium (s*, ω0)."""
     spin = float(setup.run.initial.spin_rate)
     form = setup.run.reduced.formulation
-    axis = spin_axis_request(setup.run, setup.model)
-    undamped = campbell(setup.model, [spin], axis, form, damped=False,
+    axis = setup.run.initial.spin_axis  # None: the default axis
+    undamped = campbell(setup.model, [spin], axis, formulation=form, damped=False,
                         axis_option="initial.spin_axis")  # fmt: skip
-    damped = campbell(setup.model, [spin], axis, form, damped=True,
+    damped = campbell(setup.model, [spin], axis, formulation=form, damped=True,
                       axis_option="initial.spin_axis")  # fmt: skip
     nut = [i for i, lab in enumerate(damped.labels) if lab == "nutation"]
     return {
