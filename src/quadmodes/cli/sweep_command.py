@@ -121,7 +121,7 @@ def sweep_command(
     axis: Annotated[str | None, typer.Option(help="body-frame spin axis of every point (sets "
                                              "initial.spin_axis): x, y, z, minor, "
                                              "intermediate, major or three numbers such as "
-                                             "0,0,1; default the run case's (minor)")] = None,
+                                             "0,0,1; default: the run case's initial.spin_axis")] = None,
     full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP.replace(
         "campbell", "sweep").replace("sweep.png", "the Campbell diagram"))] = None,
     fmt: Annotated[str | None, typer.Option("--format", help="netcdf (sweep.nc) or zarr "
