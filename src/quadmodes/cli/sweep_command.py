@@ -125,7 +125,7 @@ def sweep_command(
     full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP.replace(
         "campbell", "sweep").replace("sweep.png", "the Campbell diagram"))] = None,
     fmt: Annotated[str | None, typer.Option("--format", help="netcdf (sweep.nc) or zarr "
-                                            "(sweep.zarr, the [zarr] extra); default netcdf, "
+                                            "(sweep.zarr, the zarr extra); default netcdf, "
                                             "zarr above 256 MiB when installed")] = None,
 ) -> None:
     """Sweep a run case over case fields: stability map, critical speeds, coning time constants.
