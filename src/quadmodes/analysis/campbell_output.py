@@ -11,15 +11,26 @@ from pathlib import Path
 import numpy as np
 
 from quadmodes.analysis.campbell import CampbellResult, campbell
+from quadmodes.analysis.full_order_markers import (
+    FullOrderMarkers,
+    draw_markers,
+    full_order_markers,
+    marker_attrs,
+    marker_variables,
+    relabel,
+)
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
 from quadmodes.rom.reduced import ReducedModel
 
 
-def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str | None = None):
+def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str | None = None,
+                  markers: FullOrderMarkers | None = None):  # fmt: skip
     """Campbell figure (matplotlib Figure, Agg canvas): frequency (rad/s) of each branch vs spin
     rate, engine-order lines f = kΩ for k in ``orders`` and unstable roots marked (×, with
-    their growth rate on a second panel when there are any). Saved to ``path`` if given."""
+    their growth rate on a second panel when there are any); the full-order roots of
+    ``markers`` as diamonds in the colour of the branch they matched. Saved to ``path`` if
+    given."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -29,13 +40,18 @@ def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str |
     FigureCanvasAgg(fig)
     axs = fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0]
     ax = axs[0]
+    colours = {}
     for b, lab in enumerate(result.labels):
         (line,) = ax.plot(result.spin, result.frequency[:, b], "-", lw=1.5, label=lab)
+        colours.setdefault(lab, line.get_color())
         bad = unstable[:, b]
         if bad.any():
             ax.plot(result.spin[bad], result.frequency[bad, b], "x", color=line.get_color())
             axs[1].plot(result.spin, result.growth[:, b], "-", color=line.get_color(), label=lab)
     top = max(float(np.nanmax(result.frequency, initial=0.0)) * 1.05, 1e-9)
+    if markers is not None:
+        draw_markers(ax, markers, colours)
+        top = max(top, float(np.nanmax(markers.frequency, initial=0.0)) * 1.05)
     for k in orders:
         ax.plot(result.spin, k * result.spin, "k:", lw=0.8)
         j = np.searchsorted(k * result.spin, top) - 1
@@ -59,8 +75,10 @@ def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str |
     return fig
 
 
-def to_dataset(result: CampbellResult):
-    """xarray Dataset of a Campbell result with units (CF-style ``units`` attributes)."""
+def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
+    """xarray Dataset of a Campbell result with units (CF-style ``units`` attributes); with
+    ``markers`` also the full-order roots (``full_order_*`` over full_order_spin,
+    full_order_root, :func:`~quadmodes.analysis.full_order_markers.marker_variables`)."""
     import xarray as xr
 
     c = cf.coordinate
@@ -103,6 +121,9 @@ def to_dataset(result: CampbellResult):
                         "degenerate roots by span; a branch with MAC < 0.8 ends (NaN after)",
         },
     )  # fmt: skip
+    if markers is not None:
+        ds = ds.assign(marker_variables(markers))
+        ds.attrs.update(marker_attrs(markers))
     return ds
 
 
@@ -149,16 +170,17 @@ def write_csv(result: CampbellResult, path) -> Path:
     return Path(path)
 
 
-def write_campbell(result: CampbellResult, directory, stem: str = "campbell") -> dict[str, Path]:
+def write_campbell(result: CampbellResult, directory, stem: str = "campbell",
+                   markers: FullOrderMarkers | None = None) -> dict[str, Path]:  # fmt: skip
     """Write ``campbell.png``, ``campbell.nc`` (NetCDF4, h5netcdf, units in attributes) and
     ``campbell.csv`` (one row per spin rate and branch) into ``directory``, each atomically;
-    returns the paths."""
+    with ``markers`` the full-order roots on the figure and in the dataset. Returns the paths."""
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"png": out / f"{stem}.png", "nc": out / f"{stem}.nc", "csv": out / f"{stem}.csv"}
-    plot_campbell(result, paths["png"])
+    plot_campbell(result, paths["png"], markers=markers)
     with atomic_path(paths["nc"]) as tmp:
-        to_dataset(result).to_netcdf(tmp, engine="h5netcdf")
+        to_dataset(result, markers).to_netcdf(tmp, engine="h5netcdf")
     write_csv(result, paths["csv"])
     return paths
 
@@ -211,17 +233,51 @@ def campbell_main(
 
     ``case_or_model``: a :class:`ReducedModel`, a case name / TOML path or a Case. ``axis``: the
     spin-axis request of :func:`~quadmodes.analysis.campbell.campbell` (``axis_option`` names it
-    in errors)."""
+    in errors). With full-order markers: :func:`campbell_with_full_order`."""
+    result, _, paths = campbell_with_full_order(case_or_model, spin_min, spin_max, n, axis,
+                                                formulation, output_dir, damped, progress,
+                                                axis_option)  # fmt: skip
+    return result, paths
+
+
+def campbell_with_full_order(
+    case_or_model,
+    spin_min: float,
+    spin_max: float,
+    n: int = 41,
+    axis=None,
+    formulation: str = "Q",
+    output_dir=None,
+    damped: bool = False,
+    progress=None,
+    axis_option: str = "axis",
+    full_order_spins=(),
+) -> tuple[CampbellResult, FullOrderMarkers | None, dict[str, Path]]:
+    """:func:`campbell_main` and, at ``full_order_spins`` (rad/s; a free-body case, not a bare
+    model), the full-order model linearised about its spinning equilibrium about the diagram's
+    axis, its roots matched to the branches (:mod:`quadmodes.analysis.full_order_markers`),
+    drawn on ``campbell.png`` and stored in ``campbell.nc``. Returns ``(result, markers or None,
+    paths)``."""
     if n < 1:
         raise ValueError("n: give at least one spin rate")
     if spin_max < spin_min:
         raise ValueError("spin_max: must not be below spin_min")
+    spins = [float(s) for s in (full_order_spins or ())]
+    if spins and isinstance(case_or_model, ReducedModel):
+        raise ValueError("full_order_spins: give the case, not a reduced model")
     model = (
         case_or_model
         if isinstance(case_or_model, ReducedModel)
         else model_for_case(case_or_model, progress)
     )
+    if spins and not model.free:
+        raise ValueError("full_order_spins: the full-order rotating-frame analysis is for free "
+                         "bodies; this case is clamped to a hub")  # fmt: skip
     result = campbell(model, np.linspace(spin_min, spin_max, n), axis, formulation, damped,
                       axis_option=axis_option)  # fmt: skip
-    paths = write_campbell(result, output_dir) if output_dir is not None else {}
-    return result, paths
+    markers = (full_order_markers(case_or_model, model, spins, result.axis, formulation,
+                                  progress, axis_option) if spins else None)  # fmt: skip
+    if markers is not None:  # the figure's branch names
+        markers = relabel(markers, result.spin, result.frequency, result.labels)
+    paths = write_campbell(result, output_dir, markers=markers) if output_dir is not None else {}
+    return result, markers, paths

@@ -90,6 +90,44 @@ def _print_campbell(result, case_name: str, summary: dict) -> None:
         )
 
 
+FULL_ORDER_HELP = (
+    'spin rates at which the full-order model is linearised about its spinning equilibrium, '
+    'comma-separated, e.g. "20 Hz, 41 Hz": its roots are drawn as markers on campbell.png and '
+    "stored in campbell.nc (free bodies; minutes per spin on the default meshes)"
+)
+
+
+def parse_full_order(text: str | None, option: str = "--full-order") -> list[float]:
+    """The spin rates (rad/s) of ``--full-order`` ("20 Hz, 41 Hz"; [] when not given)."""
+    from quadmodes.case import QuantityError, parse_quantity
+
+    if text is None:
+        return []
+    items = [v.strip() for v in text.split(",") if v.strip()]
+    try:
+        spins = [parse_quantity(v, "angular_rate", option) for v in items]
+    except QuantityError as exc:
+        raise UserError(f'{exc}; give spin rates with units, e.g. {option} "20 Hz, 41 Hz"') from None
+    if not spins or any(v < 0 for v in spins):
+        raise UserError(f'{option}: give one or more non-negative spin rates with units, e.g. '
+                        f'{option} "20 Hz, 41 Hz"')  # fmt: skip
+    return spins
+
+
+def _full_order_summary(markers) -> list[dict]:
+    """The JSON of the full-order markers: per spin the matched roots (rad/s and Hz)."""
+    out = []
+    for i in range(markers.count):
+        roots = [{"label": str(markers.label[i, j]), "matched": bool(markers.matched[i, j]),
+                  "frequency_rad_s": _finite(float(markers.frequency[i, j])),
+                  "frequency_hz": _finite(float(markers.frequency[i, j]) / (2 * np.pi)),
+                  "relative_error": _finite(float(markers.relative_error[i, j]))}
+                 for j in range(markers.frequency.shape[1])
+                 if np.isfinite(markers.frequency[i, j])]  # fmt: skip
+        out.append({"spin_rate_rad_s": float(markers.spin[i]), "roots": roots})
+    return out
+
+
 CampbellCase = case_argument("model case (membrane or beam), name or TOML file")
 CampbellOutput = output_path("folder for campbell.png/.nc/.csv")
 
@@ -102,6 +140,7 @@ def campbell(
     n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
     formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
     axis: Annotated[str | None, typer.Option(help=AXIS_HELP + " (default: see above)")] = None,
+    full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP)] = None,
     output_dir: CampbellOutput = None,
     as_json: JsonFlag = False,
     yes: LargeModelFlag = False,
@@ -109,8 +148,9 @@ def campbell(
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; by
     default a free body spins about its symmetry axis (the principal axis whose moment differs
-    most from the other two), a clamped body on a hub about z; --axis chooses."""
-    from quadmodes.analysis.campbell_output import campbell_main
+    most from the other two), a clamped body on a hub about z; --axis chooses. --full-order adds
+    the full-order model's roots at a few spins as markers."""
+    from quadmodes.analysis.campbell_output import campbell_with_full_order
     from quadmodes.case import parse_quantity
 
     with one_line_errors():
@@ -123,16 +163,22 @@ def campbell(
         if formulation not in LINEAR_FORMULATIONS:
             raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
         request = _axis_request(axis)
+        full_spins = parse_full_order(full_order)
         check_output_folder(output_dir)
         c = load_model_case(case)
+        if full_spins and c.kind == "beam" and c.beam.support == "clamped":
+            raise UserError("--full-order: the full-order rotating-frame analysis is for free "
+                            "bodies; this beam is clamped to a hub (drop --full-order)")  # fmt: skip
         guard_model_size(c, yes)
         guard_reduced_model(c, None, yes, spins=True)
         with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
-            result, _ = campbell_main(
+            result, markers, _ = campbell_with_full_order(
                 c, lo, hi, n, axis=request, formulation=formulation, output_dir=scratch,
-                progress=progress, axis_option="--axis",
+                progress=progress, axis_option="--axis", full_order_spins=full_spins,
             )
     summary = _campbell_summary(result, c.name, formulation)
+    if markers is not None:
+        summary["full_order"] = _full_order_summary(markers)
     if as_json:
         sys.stdout.write(json.dumps(summary) + "\n")
         return

@@ -20,6 +20,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from quadmodes.case import load_run_case, run_case_from_dict
+from quadmodes.cli.analysis_commands import FULL_ORDER_HELP, parse_full_order
 from quadmodes.cli.common import check_output_folder, err, one_line_errors, out
 from quadmodes.sweeps.params import SweepError
 
@@ -53,30 +54,51 @@ def _progress_bar(enabled: bool):
                     TimeElapsedColumn(), console=err, disable=not enabled)  # fmt: skip
 
 
-def _plan(case: str, param: list[str], zipped: bool, time_run: bool):
+def _plan(case: str, param: list[str], zipped: bool, time_run: bool, axis: str | None = None):
     from quadmodes.sweeps.run import plan_from_texts
 
     run, from_file, zip_file = load_sweep_case(case)
-    return plan_from_texts(run, from_file + list(param or []), zipped or zip_file, time_run)
+    return plan_from_texts(run, from_file + list(param or []), zipped or zip_file, time_run, axis)
 
 
-def _write(plan, outcome, directory: Path, plots: bool = True) -> dict:
+def _write(plan, outcome, directory: Path, plots: bool = True, fmt: str | None = None) -> dict:
     from quadmodes.sweeps.run import write_sweep_files
 
     command = shlex.join(["quadmodes", *sys.argv[1:]])
-    return write_sweep_files(plan, outcome, directory, command, plots)[1]
+    return write_sweep_files(plan, outcome, directory, command, plots, fmt)[1]
+
+
+def _full_order(cases, directory: Path, client, show: bool):
+    """The full-order markers at ``cases`` (:mod:`quadmodes.sweeps.full_order`), with a bar."""
+    from quadmodes.sweeps.full_order import run_full_order
+
+    bar = Progress(TextColumn("full-order linearisations"), BarColumn(), MofNCompleteColumn(),
+                   TimeElapsedColumn(), console=err, disable=not show)  # fmt: skip
+    task = bar.add_task("full order", total=len(cases))
+    with bar:
+        return run_full_order(cases, directory, client,
+                              lambda done, total: bar.update(task, completed=done))  # fmt: skip
 
 
 def _report(info: dict, directory: Path) -> None:
     out.print(f"sweep: {info['points']} points ({info['resumed']} from earlier files, "
-              f"{info['failed']} failed) in {info['wall_s']:.1f} s -> {escape(str(directory))}/sweep.nc",
+              f"{info['failed']} failed) in {info['wall_s']:.1f} s -> "
+              f"{escape(str(directory))}/{info.get('dataset', 'sweep.nc')}",
               highlight=False)  # fmt: skip
     for c in info["critical_speeds"]:
         partner = f" + {c['partner']}" if c["partner"] else ""
         out.print(f"  critical speed {c['spin_hz']:.4g} Hz: {c['kind']} of {escape(c['branch'])}"
                   f"{escape(partner)}", highlight=False)  # fmt: skip
+    for spin in info.get("full_order", []):
+        worst = max((abs(r["relative_error"]) for r in spin["roots"]
+                     if r["relative_error"] is not None), default=float("nan"))  # fmt: skip
+        out.print(f"  full order at {spin['spin_hz']:.4g} Hz: {len(spin['roots'])} roots, "
+                  f"matched branches within {100 * worst:.3g} %", highlight=False)  # fmt: skip
     for message in info["failures"].values():
         err.print(f"warning: point failed: {escape(message)}", highlight=False, soft_wrap=True)
+    for spin, message in info.get("full_order_failures", {}).items():
+        err.print(f"warning: full order at {escape(spin)} failed: {escape(message)}",
+                  highlight=False, soft_wrap=True)  # fmt: skip
 
 
 def sweep_command(
@@ -96,20 +118,34 @@ def sweep_command(
                                               "energy-sink estimate only")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write the PNG figures")] = True,
+    axis: Annotated[str | None, typer.Option(help="body-frame spin axis of every point (sets "
+                                             "initial.spin_axis): x, y, z, minor, "
+                                             "intermediate, major or three numbers such as "
+                                             "0,0,1; default: the run case's initial.spin_axis")] = None,
+    full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP.replace(
+        "campbell", "sweep").replace("sweep.png", "the Campbell diagram"))] = None,
+    fmt: Annotated[str | None, typer.Option("--format", help="netcdf (sweep.nc) or zarr "
+                                            "(sweep.zarr, the zarr extra); default netcdf, "
+                                            "zarr above 256 MiB when installed")] = None,
 ) -> None:
     """Sweep a run case over case fields: stability map, critical speeds, coning time constants.
 
-    Writes DIR/sweep.nc (one dimension per swept parameter), sweep.json, campbell.png,
-    stability.png and energy_sink.png; finished points stay in DIR/points/ so that the same
-    command run again skips them."""
+    Writes DIR/sweep.nc (one dimension per swept parameter; or sweep.zarr), sweep.json,
+    campbell.png, stability.png and energy_sink.png; finished points stay in DIR/points/ so that
+    the same command run again skips them."""
     from quadmodes.sweeps.engine import dask_client, execute
+    from quadmodes.sweeps.full_order import full_order_cases
+    from quadmodes.sweeps.store import check_format
 
     if workers is not None and scheduler:
         with one_line_errors():
             raise SweepError("--workers: not used with --scheduler (the cluster has its own "
                              "workers); give one of them")  # fmt: skip
     with one_line_errors():
-        plan = _plan(case, param, zipped, not no_time_run)
+        fmt = check_format(fmt)
+        full_spins = parse_full_order(full_order)
+        plan = _plan(case, param, zipped, not no_time_run, axis)
+        cases = full_order_cases(plan, full_spins) if full_spins else []
         check_output_folder(output_dir, "-o")
     bar = _progress_bar(not as_json)
     with one_line_errors(), dask_client(workers, scheduler) as client:
@@ -119,14 +155,17 @@ def sweep_command(
             with bar:
                 outcome = execute(plan, output_dir, client,
                                   lambda done, total: bar.update(task, completed=done))  # fmt: skip
+            if cases:
+                outcome.full_order, outcome.full_order_failures = _full_order(
+                    cases, output_dir, client, not as_json)
         except KeyboardInterrupt:
             err.print(f"interrupted: the finished points are in {escape(str(output_dir))}/points; "
                       "run the same command again to go on", highlight=False)  # fmt: skip
             raise typer.Exit(code=130) from None
-    info = _write(plan, outcome, output_dir, plots)
+    info = _write(plan, outcome, output_dir, plots, fmt)
     if as_json:
         out.print_json(json.dumps(info))
     else:
         _report(info, output_dir)
-    if outcome.failures:
+    if outcome.failures or outcome.full_order_failures:
         raise typer.Exit(code=1)

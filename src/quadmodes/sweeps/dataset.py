@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes import __version__
+from quadmodes.analysis.full_order_markers import marker_attrs, marker_variables
 from quadmodes.sweeps.engine import SweepOutcome, SweepPlan
 
 FORMAT = "quadmodes-sweep"
@@ -164,7 +165,34 @@ def sweep_dataset(plan: SweepPlan, outcome: SweepOutcome, command: str = "") -> 
              "zipped": int(plan.zipped), "time_run": int(plan.time_run), "command": command,
              "failures": json.dumps(outcome.failures), "points": len(plan.points),
              "points_resumed": outcome.resumed}  # fmt: skip
+    if outcome.full_order is not None:
+        data.update(marker_variables(outcome.full_order))
+        attrs.update(marker_attrs(outcome.full_order))
+    if outcome.full_order_failures:
+        attrs["full_order_failures"] = json.dumps(outcome.full_order_failures)
     return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _finite_or_none(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _full_order_summary(ds: xr.Dataset) -> list[dict]:
+    """Per full-order spin (Hz) its roots (Hz) with the branch each matched."""
+    if "full_order_frequency" not in ds:
+        return []
+    out = []
+    for i, spin in enumerate(ds["full_order_spin"].values):
+        f = ds["full_order_frequency"].values[i]
+        roots = [{"branch": str(ds["full_order_branch_label"].values[i, j]),
+                  "matched": bool(ds["full_order_matched"].values[i, j]),
+                  "frequency_hz": float(f[j]) / (2 * math.pi),
+                  "relative_error": (_finite_or_none(ds["full_order_relative_error"].values[i, j])
+                                     if ds["full_order_matched"].values[i, j] else None)}
+                 for j in range(f.size) if np.isfinite(f[j])]  # fmt: skip
+        out.append({"spin_hz": float(spin) / (2 * math.pi), "roots": roots})
+    return out
 
 
 def summary(ds: xr.Dataset, outcome: SweepOutcome) -> dict:
@@ -175,4 +203,6 @@ def summary(ds: xr.Dataset, outcome: SweepOutcome) -> dict:
     return {"points": int(ds.attrs["points"]), "resumed": outcome.resumed,
             "failed": len(outcome.failures), "failures": outcome.failures,
             "critical_speeds": crit, "wall_s": outcome.wall_s,
+            "full_order": _full_order_summary(ds),
+            "full_order_failures": outcome.full_order_failures,
             "dimensions": {k: int(v) for k, v in ds.sizes.items()}}  # fmt: skip

@@ -80,9 +80,10 @@ class SweepPlan:
         return tuple(p for p in self.params if p.swept)
 
 
-#: Source folders whose code computes a point: a change in any of them re-runs every point (the
+#: Source folders and files whose code computes a point: a change in any of them re-runs every point (the
 #: reduced models themselves stay cached by their own key).
-POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "runs", "analysis", "sweep")
+POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "runs", "analysis", "sweeps/points.py",
+              "sweeps/energy_sink.py", "sweeps/overrides.py", "sweeps/full_order.py")
 
 
 @functools.cache
@@ -217,13 +218,17 @@ def _refine_task(group, bracket: crit.Bracket, formulation: str, axis=None) -> d
 class SweepOutcome:
     """Results per point (None: failed), failure messages by point index, the critical speeds
     (records of :func:`quadmodes.sweeps.critical.critical_speed_record`), how many points were
-    taken from earlier files, and the wall time of the execution (s)."""
+    taken from earlier files, and the wall time of the execution (s); with ``--full-order`` the
+    full-order markers (:class:`quadmodes.analysis.full_order_markers.FullOrderMarkers`) and the
+    failures of their spins."""
 
     results: list[dict | None]
     failures: dict[int, str] = field(default_factory=dict)
     critical: list[dict] = field(default_factory=list)
     resumed: int = 0
     wall_s: float = 0.0
+    full_order: object | None = None
+    full_order_failures: dict[str, str] = field(default_factory=dict)
 
 
 def _message(future) -> str:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from quadmodes.analysis.full_order_markers import draw_markers, markers_from_dataset
 from quadmodes.io.figures import new_figure, save_png
 
 SPIN = "spin_rate"
@@ -20,13 +21,14 @@ SPIN = "spin_rate"
 
 def _first_line(ds: xr.Dataset) -> xr.Dataset:
     """``ds`` along the spin dimension at the first value of every other dimension."""
-    other = {d: 0 for d in ds.dims if d not in (SPIN, "branch", "critical")}
+    other = {d: 0 for d in ds.dims
+             if d not in (SPIN, "branch", "critical") and not str(d).startswith("full_order")}
     return ds.isel(other) if other else ds
 
 
 def campbell_figure(ds: xr.Dataset, path: Path) -> Path:
     """Rotating-frame frequencies (Hz) of every branch against spin (Hz), by label; critical
-    speeds as vertical lines."""
+    speeds as vertical lines; the full-order roots (``full_order_*``) as diamonds."""
     line = _first_line(ds)
     spin_hz = line[SPIN].values / (2 * math.pi)
     freq = line["branch_frequency"].values / (2 * math.pi)
@@ -39,6 +41,8 @@ def campbell_figure(ds: xr.Dataset, path: Path) -> Path:
         mask = np.vectorize(lambda s, n=name: str(s).split(" #")[0] == n)(labels)
         xs = np.broadcast_to(spin_hz[:, None], freq.shape)[mask]
         ax.plot(xs, freq[mask], "o", ms=3, color=colours[name], label=name)
+    if "full_order_frequency" in ds:
+        draw_markers(ax, markers_from_dataset(ds), colours, 1 / (2 * math.pi))
     for k in range(ds.sizes.get("critical", 0)):
         f = float(ds["critical_speed_hz"].values[k])
         what = f"{ds['critical_speed_kind'].values[k]}: {ds['critical_speed_branch'].values[k]}"

@@ -55,6 +55,13 @@ def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int
     return model, counts
 
 
+def spin_axis_request(run: RunCase):
+    """The spin-axis request of the point's linearisations (its roots, critical speeds and
+    full-order markers): the run's ``initial.spin_axis``; None is the default axis of
+    :func:`quadmodes.analysis.spin_axis.resolve_axis` (the symmetry axis of a free body)."""
+    return run.initial.spin_axis
+
+
 def _fixed_modes(run: RunCase, n_modes: int) -> RunCase:
     """``run`` with ``reduced.modes = n_modes`` (``"auto"`` resolved, margin dropped)."""
     table = run.reduced.model_copy(update={"modes": int(n_modes), "mode_margin": None})

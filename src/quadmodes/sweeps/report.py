@@ -57,6 +57,12 @@ def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str
     table = _point_table(ds)
     if table:
         sections.append(rep.Section("Headline numbers per point", table))
+    full = [[spin["spin_hz"], r["branch"], r["frequency_hz"],
+             "—" if r["relative_error"] is None else f"{100 * r['relative_error']:+.3f} %"]
+            for spin in info.get("full_order", []) for r in spin["roots"]]  # fmt: skip
+    if full:
+        sections.append(rep.Section("Full-order linearisation", rep.table(
+            ["spin (Hz)", "matched branch", "full order (Hz)", "reduced vs full"], full)))
     if failures:
         sections.append(rep.Section("Failed points", rep.key_values(sorted(failures.items()))))
     sections.append(rep.Section("Figures", rep.figures(directory, _FIGURES)))
