@@ -223,6 +223,10 @@ def _correction(problem: FullOrderProblem, matrix, r, rot) -> np.ndarray:
     return dz.reshape(n, 3) @ rot.T
 
 
+#: A Newton correction larger than this × the body size means the iteration diverged.
+DIVERGED = 1.0
+
+
 def _rho(matrix) -> float:
     """Contraction above which ``matrix`` is renewed (:data:`RHO_REFACTOR`,
     :data:`RHO_SOFT` for a condensed one)."""
@@ -266,16 +270,28 @@ def solve_step(
         n_factor, since = n_factor + 1, 0
     prev, nd, ok = None, math.inf, False
     stalled = 0  # refactorisations that did not restore contraction (a kink of the law)
+    predictor, restarted = x1, False
     residual_at = _LastResidual(residual)
-    for _ in range(max_newton):
+    budget = max_newton  # iterations left (renewed once, by a restart)
+    while budget > 0:
+        budget -= 1
         vh, r, fd = residual_at(x1)
-        if full_newton and since > 0:
+        if (full_newton or restarted) and since > 0:
             matrix = make(x @ rot, x1 @ rot)
             n_factor, since = n_factor + 1, 0
         matrix.update(x @ rot, x1 @ rot)
-        x1, dx = _step_to(problem, matrix, residual_at, x1, r, rot, search=stalled > 0)
+        with np.errstate(all="ignore"):
+            x1, dx = _step_to(problem, matrix, residual_at, x1, r, rot, search=stalled > 0)
         n_newton, since = n_newton + 1, since + 1
         nd = float(np.max(np.abs(dx)))
+        if (not np.isfinite(nd) or nd > DIVERGED * problem.scale) and not restarted:
+            # a matrix from earlier steps sent the iteration off (a fast transient in stiff
+            # DOFs): start the step again from its predictor, with full Newton (a matrix
+            # factorised at every iterate) for the rest of this step
+            x1, restarted, budget = predictor, True, max_newton
+            matrix = make(x @ rot, x1 @ rot)
+            n_factor, since, prev = n_factor + 1, 0, None
+            continue
         if not np.isfinite(nd):
             break
         if nd <= problem.tol:
