@@ -36,19 +36,74 @@ SYMMETRIC_OPTIONS = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.01,
 GENERAL_OPTIONS = {"permc_spec": "COLAMD"}
 
 
-def lu_factor(a: sp.spmatrix, symmetric: bool = True) -> spla.SuperLU:
+class PermutedLU:
+    """SuperLU factors of ``A[p][:, p]`` (ordered ahead, ``permc_spec="NATURAL"``) behind the
+    solve of ``A``: ``solve(b)`` returns ``A⁻¹ b`` for b ``(n,)`` or ``(n, k)``."""
+
+    def __init__(self, lu: spla.SuperLU, order: np.ndarray):
+        self.lu, self.order = lu, order
+        self.shape = lu.shape
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        rhs = np.asarray(rhs)
+        out = np.empty(rhs.shape, np.result_type(rhs.dtype, self.lu.L.dtype))
+        out[self.order] = self.lu.solve(rhs[self.order])
+        return out
+
+
+#: Fill-reducing orderings by sparsity pattern (the minimum degree of SuperLU, found by the first
+#: factorisation of a pattern): the Newton iterations and the modes of one structure factorise
+#: matrices of a few patterns many times, and the ordering is about half of a factorisation.
+_ORDERINGS: dict[tuple, np.ndarray] = {}
+_ORDERINGS_KEPT = 8
+
+
+def _pattern_key(a: sp.csc_matrix) -> tuple:
+    """Key of the pattern of the nonzeros of ``a`` (CSC, sorted indices)."""
+    if np.all(a.data != 0):
+        indptr, indices = a.indptr, a.indices
+    else:
+        b = a.copy()
+        b.eliminate_zeros()
+        indptr, indices = b.indptr, b.indices
+    return (a.shape, indices.size, hash(indptr.tobytes()), hash(indices.tobytes()))
+
+
+def _keep_ordering(key: tuple, order: np.ndarray) -> None:
+    if len(_ORDERINGS) >= _ORDERINGS_KEPT:
+        _ORDERINGS.pop(next(iter(_ORDERINGS)))
+    _ORDERINGS[key] = order
+
+
+def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0) -> spla.SuperLU | PermutedLU:
     """SuperLU factorisation of the square sparse matrix ``a`` (real or complex).
 
     symmetric: ``a`` has a symmetric sparsity pattern and acceptable diagonal pivots (use
     :data:`SYMMETRIC_OPTIONS`); if that factorisation finds an exactly singular pivot it is
-    redone with :data:`GENERAL_OPTIONS` (full partial pivoting) before giving up."""
+    redone with :data:`GENERAL_OPTIONS` (full partial pivoting) before giving up. The ordering of
+    a symmetric pattern is computed once and reused for later matrices of the same pattern
+    (same factors, without the ordering's cost). border: the last ``border`` rows and columns
+    are constraint ones (a bordered matrix); the ordering is then also kept for the leading
+    block alone (its border entries dropped), e.g. for a shifted ``K − σM`` of the same ``K``."""
     a = sp.csc_matrix(a)
     if not symmetric:
         return spla.splu(a, **GENERAL_OPTIONS)
+    a.sort_indices()
+    key = _pattern_key(a)
     try:
-        return spla.splu(a, **SYMMETRIC_OPTIONS)
+        if key in _ORDERINGS:
+            order = _ORDERINGS[key]
+            natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
+            return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order)
+        lu = spla.splu(a, **SYMMETRIC_OPTIONS)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
+    order = np.argsort(lu.perm_c)
+    _keep_ordering(key, order)
+    if border:
+        lead = a.shape[0] - border
+        _keep_ordering(_pattern_key(sp.csc_matrix(a[:lead, :lead])), order[order < lead])
+    return lu
 
 
 class Factorization(Protocol):
@@ -71,8 +126,8 @@ class _SuperLU:
 
     backend = "superlu"
 
-    def __init__(self, a: sp.spmatrix, symmetric: bool):
-        self.lu = lu_factor(a, symmetric)
+    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0):
+        self.lu = lu_factor(a, symmetric, border)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.lu.solve(rhs)
@@ -115,15 +170,15 @@ class _Single:
 
     backend = "superlu (float32)"
 
-    def __init__(self, a: sp.spmatrix, symmetric: bool):
-        self.lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric)
+    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0):
+        self.lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric, border)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.lu.solve(np.asarray(rhs, np.float32)).astype(np.float64)
 
 
 def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None,
-              single: bool = False) -> Factorization:  # fmt: skip
+              single: bool = False, border: int = 0) -> Factorization:  # fmt: skip
     """Factorise the real or complex square sparse matrix ``a`` once, for many solves.
 
     symmetric: ``a`` has a symmetric pattern and usable diagonal pivots (the SuperLU ordering
@@ -131,13 +186,14 @@ def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None
     SuperLU). Every back end solves to round-off; only the cost differs. single: factorise a
     real matrix in single precision (SuperLU, float32; solves take and return float64, to
     about 1e-7 × cond(a) relative): an approximate inverse for an iteration whose residual is
-    computed in double (modified Newton), half the memory and faster solves."""
+    computed in double (modified Newton), half the memory and faster solves. border: see
+    :func:`lu_factor` (SuperLU only)."""
     if single and not np.iscomplexobj(a.data if sp.issparse(a) else a):
-        return _Single(a, symmetric)
+        return _Single(a, symmetric, border)
     name = backend_choice(backend)
     if name == "pardiso" and not np.iscomplexobj(a.data if sp.issparse(a) else a):
         return _Pardiso(a, symmetric)
-    return _SuperLU(a, symmetric)
+    return _SuperLU(a, symmetric, border)
 
 
 def with_rank_one_terms(solve: Solve, low_rank: Sequence[tuple[float, np.ndarray]]) -> Solve:

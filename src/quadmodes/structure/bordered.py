@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.linalg.factor import Solve, lu_factor, with_rank_one_terms
+from quadmodes.linalg.factor import Solve, factorize, lu_factor, with_rank_one_terms
 
 
 def bordered_matrix(k: sp.spmatrix, constraint: np.ndarray | None) -> sp.csc_matrix:
@@ -38,11 +38,16 @@ def padded_low_rank(low_rank: Sequence[tuple[float, np.ndarray]], size: int) -> 
     return out
 
 
-def bordered_full_solver(a: sp.spmatrix, low_rank: Sequence[tuple[float, np.ndarray]]) -> Solve:
+def bordered_full_solver(
+    a: sp.spmatrix, low_rank: Sequence[tuple[float, np.ndarray]], border: int = 0,
+    single: bool = False,
+) -> Solve:
     """Factorise the bordered matrix ``a`` (from :func:`bordered_matrix`) plus rank-one terms
     (``v`` of the unbordered size) and return ``rhs (m + r,) -> solution (m + r,)``,
-    multipliers included."""
-    lu = lu_factor(a, symmetric=True)
+    multipliers included. border: the number of constraint columns of ``a``. single: a single-precision factorisation (an approximate inverse,
+    to about 1e-7 cond(a) relative, for a Krylov iteration; see
+    :func:`quadmodes.linalg.factor.factorize`)."""
+    lu = factorize(a, symmetric=True, single=single, border=border)
     return with_rank_one_terms(lu.solve, padded_low_rank(low_rank, a.shape[0]))
 
 
@@ -73,8 +78,8 @@ def bordered_solver(
     """
     n = k.shape[0]
     a = bordered_matrix(k, constraint)
-    lu = lu_factor(a, symmetric=True)
     m = a.shape[0]
+    lu = lu_factor(a, symmetric=True, border=m - n)
 
     def base(rhs: np.ndarray) -> np.ndarray:
         full = np.zeros(m)
