@@ -6,8 +6,10 @@ factorisation at every iteration) on a small case."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from quadmodes.case import load_case
+from quadmodes.linalg import factor
 from quadmodes.linalg.factor import lu_factor
 from quadmodes.linalg.krylov import gmres
 from quadmodes.structure import prestress
@@ -67,3 +69,32 @@ def test_inexact_newton_inflation_matches_full_newton(coarse_case, monkeypatch):
     assert np.abs(x_fast - x_full).max() <= 1e-9 * extent
     assert state_fast.residual_norm < 1e-8 and state_full.residual_norm < 1e-8
     np.testing.assert_allclose(f_fast, f_full, rtol=1e-9)
+
+
+def _node_laplacian(n: int = 20) -> sp.csc_matrix:
+    """Three DOFs per node of an n × n grid (all coupled), bordered by six dense columns."""
+    lap1 = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    block = np.array([[4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]])
+    k = sp.kron(sp.kronsum(lap1, lap1), block)
+    c = np.random.default_rng(5).standard_normal((k.shape[0], 6))
+    return sp.bmat([[k, sp.csc_matrix(c)], [sp.csc_matrix(c).T, None]], format="csc")
+
+
+def test_node_ordering_fills_like_minimum_degree_and_is_reused():
+    a = _node_laplacian()
+    lead = a.shape[0] - 6
+    order = factor.node_ordering(a, np.arange(lead) // 3)
+    assert np.array_equal(np.sort(order), np.arange(a.shape[0]))
+    assert np.array_equal(order[-6:], np.arange(lead, a.shape[0]))  # the border last
+    mmd = lu_factor(a * 1.0)  # SuperLU's own minimum degree on the scalar pattern
+    natural = dict(factor.SYMMETRIC_OPTIONS, permc_spec="NATURAL")
+    ours = spla.splu(a[order][:, order].tocsc(), **natural)
+    fill = lambda lu: lu.L.nnz + lu.U.nnz  # noqa: E731
+    assert fill(ours) <= 1.3 * fill(mmd)
+    b = np.random.default_rng(6).standard_normal(a.shape[0])
+    first = lu_factor(a, border=6, nodes=np.arange(lead) // 3)
+    again = lu_factor(2.0 * a, border=6, nodes=np.arange(lead) // 3)  # same pattern: kept order
+    assert isinstance(again, factor.PermutedLU)
+    np.testing.assert_allclose(again.solve(b), first.solve(b) / 2.0, rtol=1e-9, atol=0)
+    x = lu_factor(a, border=6).solve(b)
+    assert np.linalg.norm(a @ x - b) <= 1e-10 * np.linalg.norm(b)

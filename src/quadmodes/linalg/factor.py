@@ -75,7 +75,27 @@ def _keep_ordering(key: tuple, order: np.ndarray) -> None:
     _ORDERINGS[key] = order
 
 
-def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0) -> spla.SuperLU | PermutedLU:
+def node_ordering(a: sp.csc_matrix, nodes: np.ndarray) -> np.ndarray:
+    """A fill-reducing ordering ``(m,)`` of ``a`` ``(m, m)`` from minimum degree on its node
+    graph: ``nodes`` ``(l,)`` gives the node of each of the leading ``l`` rows (the DOFs of a
+    node couple to the same neighbours); the rows after them (a border) come last. The graph
+    has about a ninth of the entries of ``a`` for three DOFs per node, so its ordering costs a
+    fraction of SuperLU's on ``a``, for nearly the same fill (+3 % on the 20k-node tangent)."""
+    lead = nodes.size
+    ids, node_of = np.unique(nodes, return_inverse=True)
+    agg = sp.csr_matrix((np.ones(lead), (node_of, np.arange(lead))), shape=(ids.size, lead))
+    graph = (agg @ abs(a[:lead, :lead]) @ agg.T).tocsc()
+    graph.data[:] = 1.0
+    graph = sp.csc_matrix(graph + 100.0 * sp.identity(ids.size))  # diagonally dominant
+    perm = spla.splu(graph, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                     options={"SymmetricMode": True}).perm_c  # fmt: skip
+    # perm_c[j]: the place of node j in the elimination order; rows sorted by it, then by row
+    key = perm[node_of].astype(np.int64) * (lead + 1) + np.arange(lead)
+    return np.concatenate([np.argsort(key), np.arange(lead, a.shape[0])])
+
+
+def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
+              nodes: np.ndarray | None = None) -> spla.SuperLU | PermutedLU:  # fmt: skip
     """SuperLU factorisation of the square sparse matrix ``a`` (real or complex).
 
     symmetric: ``a`` has a symmetric sparsity pattern and acceptable diagonal pivots (use
@@ -84,26 +104,35 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0) -> spla.S
     a symmetric pattern is computed once and reused for later matrices of the same pattern
     (same factors, without the ordering's cost). border: the last ``border`` rows and columns
     are constraint ones (a bordered matrix); the ordering is then also kept for the leading
-    block alone (its border entries dropped), e.g. for a shifted ``K − σM`` of the same ``K``."""
+    block alone (its border entries dropped), e.g. for a shifted ``K − σM`` of the same ``K``.
+    nodes: ``(m − border,)`` node of each leading row: the ordering is then computed on the node
+    graph (:func:`node_ordering`), much faster than SuperLU's own on ``a``."""
     a = sp.csc_matrix(a)
     if not symmetric:
         return spla.splu(a, **GENERAL_OPTIONS)
     a.sort_indices()
     key = _pattern_key(a)
+    order = _ORDERINGS.get(key)
+    if order is None and nodes is not None:
+        order = node_ordering(a, np.asarray(nodes))
+        _keep_orderings(a, key, order, border)
     try:
-        if key in _ORDERINGS:
-            order = _ORDERINGS[key]
+        if order is not None:
             natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
             return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order)
         lu = spla.splu(a, **SYMMETRIC_OPTIONS)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
-    order = np.argsort(lu.perm_c)
+    _keep_orderings(a, key, np.argsort(lu.perm_c), border)
+    return lu
+
+
+def _keep_orderings(a: sp.csc_matrix, key: tuple, order: np.ndarray, border: int) -> None:
+    """Keep ``order`` for the pattern ``key`` of ``a`` and, with a border, for its leading block."""
     _keep_ordering(key, order)
     if border:
         lead = a.shape[0] - border
         _keep_ordering(_pattern_key(sp.csc_matrix(a[:lead, :lead])), order[order < lead])
-    return lu
 
 
 class Factorization(Protocol):
@@ -126,8 +155,8 @@ class _SuperLU:
 
     backend = "superlu"
 
-    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0):
-        self.lu = lu_factor(a, symmetric, border)
+    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0, nodes=None):
+        self.lu = lu_factor(a, symmetric, border, nodes)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.lu.solve(rhs)
@@ -170,15 +199,16 @@ class _Single:
 
     backend = "superlu (float32)"
 
-    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0):
-        self.lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric, border)
+    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0, nodes=None):
+        self.lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric, border, nodes)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.lu.solve(np.asarray(rhs, np.float32)).astype(np.float64)
 
 
 def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None,
-              single: bool = False, border: int = 0) -> Factorization:  # fmt: skip
+              single: bool = False, border: int = 0,
+              nodes: np.ndarray | None = None) -> Factorization:  # fmt: skip
     """Factorise the real or complex square sparse matrix ``a`` once, for many solves.
 
     symmetric: ``a`` has a symmetric pattern and usable diagonal pivots (the SuperLU ordering
@@ -186,14 +216,14 @@ def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None
     SuperLU). Every back end solves to round-off; only the cost differs. single: factorise a
     real matrix in single precision (SuperLU, float32; solves take and return float64, to
     about 1e-7 × cond(a) relative): an approximate inverse for an iteration whose residual is
-    computed in double (modified Newton), half the memory and faster solves. border: see
+    computed in double (modified Newton), half the memory and faster solves. border, nodes: see
     :func:`lu_factor` (SuperLU only)."""
     if single and not np.iscomplexobj(a.data if sp.issparse(a) else a):
-        return _Single(a, symmetric, border)
+        return _Single(a, symmetric, border, nodes)
     name = backend_choice(backend)
     if name == "pardiso" and not np.iscomplexobj(a.data if sp.issparse(a) else a):
         return _Pardiso(a, symmetric)
-    return _SuperLU(a, symmetric, border)
+    return _SuperLU(a, symmetric, border, nodes)
 
 
 def with_rank_one_terms(solve: Solve, low_rank: Sequence[tuple[float, np.ndarray]]) -> Solve:

@@ -40,14 +40,16 @@ def padded_low_rank(low_rank: Sequence[tuple[float, np.ndarray]], size: int) -> 
 
 def bordered_full_solver(
     a: sp.spmatrix, low_rank: Sequence[tuple[float, np.ndarray]], border: int = 0,
-    single: bool = False,
+    single: bool = False, nodes: np.ndarray | None = None,
 ) -> Solve:
     """Factorise the bordered matrix ``a`` (from :func:`bordered_matrix`) plus rank-one terms
     (``v`` of the unbordered size) and return ``rhs (m + r,) -> solution (m + r,)``,
-    multipliers included. border: the number of constraint columns of ``a``. single: a single-precision factorisation (an approximate inverse,
+    multipliers included. border: the number of constraint columns of ``a``. nodes:
+    ``(m,)`` node of each unconstrained row, for a fast ordering (see
+    :func:`quadmodes.linalg.factor.lu_factor`), or None. single: a single-precision factorisation (an approximate inverse,
     to about 1e-7 cond(a) relative, for a Krylov iteration; see
     :func:`quadmodes.linalg.factor.factorize`)."""
-    lu = factorize(a, symmetric=True, single=single, border=border)
+    lu = factorize(a, symmetric=True, single=single, border=border, nodes=nodes)
     return with_rank_one_terms(lu.solve, padded_low_rank(low_rank, a.shape[0]))
 
 
@@ -69,17 +71,19 @@ def bordered_solver(
     k: sp.spmatrix,
     constraint: np.ndarray | None,
     low_rank: Sequence[tuple[float, np.ndarray]],
+    nodes: np.ndarray | None = None,
 ) -> Callable[[np.ndarray], np.ndarray]:
     """Factorise ``[[K + Σ c v vᵀ, C], [Cᵀ, 0]]`` and return ``rhs (m,) -> solution (m,)``.
 
     k: ``(m, m)`` sparse matrix. constraint: ``(m, r)`` constraint columns ``C``, or None.
     low_rank: ``(c, v)`` pairs of rank-one terms ``c v vᵀ`` with ``v`` of shape ``(m,)``; empty
-    for none. The multipliers are dropped from the solution.
+    for none. nodes: ``(m,)`` node of each row of ``k``, for a fast ordering, or None. The
+    multipliers are dropped from the solution.
     """
     n = k.shape[0]
     a = bordered_matrix(k, constraint)
     m = a.shape[0]
-    lu = lu_factor(a, symmetric=True, border=m - n)
+    lu = lu_factor(a, symmetric=True, border=m - n, nodes=nodes)
 
     def base(rhs: np.ndarray) -> np.ndarray:
         full = np.zeros(m)

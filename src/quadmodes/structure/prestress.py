@@ -120,10 +120,11 @@ class _KeptFactorisation:
 
 def newton_direction(
     a: sp.spmatrix, border: int, low_rank: list, rhs: np.ndarray, kept: _KeptFactorisation,
-    rtol: float,
+    rtol: float, nodes: np.ndarray | None = None,
 ) -> np.ndarray:
     """Solve the bordered Newton system ``(a + Σ c v vᵀ) d = rhs`` (``(m + r,)``, ``r =
-    border`` constraint rows) to the relative residual ``rtol`` by GMRES on ``a`` preconditioned with a kept factorisation.
+    border`` constraint rows; ``nodes`` ``(m,)`` the node of each other row, for the ordering)
+    to the relative residual ``rtol`` by GMRES on ``a`` preconditioned with a kept factorisation.
 
     The kept one (of an earlier tangent) is tried first, for at most :data:`KRYLOV_ITERATIONS`
     steps; if that does not converge (or nothing is kept yet), ``a`` is factorised in single
@@ -138,7 +139,7 @@ def newton_direction(
         if result.converged:
             return result.x
     for single in (True, False):
-        kept.solve = bordered_full_solver(a, low_rank, border, single=single)
+        kept.solve = bordered_full_solver(a, low_rank, border, single=single, nodes=nodes)
         kept.count += 1
         if KRYLOV_ITERATIONS == 0:  # full Newton: the direct solve
             return kept.solve(rhs)
@@ -179,11 +180,15 @@ def solve_static(
     rel = np.linalg.norm(r) / scale
     history = [rel]
     kept = _KeptFactorisation()
+    lin_tol = 1.0
     for it in range(1, max_iterations + 1):
         # Converged: below rtol, or stalled at the round-off floor (stiff ties and small elements
         # put it near 1e-9 relative): no gain over two iterations at a level below 1e-7.
+        # Or at that floor after one iteration: below 10 rtol and far less gain than the linear
+        # tolerance of the last step promised (the rest is round-off in the residual).
         stalled = len(history) > 3 and rel < 1e-7 and rel > 0.5 * min(history[-4:-1])
-        if rel <= rtol or stalled:
+        floor = len(history) > 1 and rel < 10.0 * rtol and rel > 10.0 * lin_tol * history[-2]
+        if rel <= rtol or stalled or floor:
             return x, rel, it - 1
         k = tangent_stiffness(structure, x)[free][:, free]
         psi = rigid_body_modes(structure, x)[free] if structure.is_free else None
@@ -194,7 +199,7 @@ def solve_static(
         lin_tol = float(np.clip(10.0 * rel, 1e-3, 1e-2))
         dx = np.zeros(3 * structure.n)
         d_free = newton_direction(a, a.shape[0] - free.size, tangent_low_rank(structure, x), rhs,
-                                  kept, lin_tol)[: free.size]  # fmt: skip
+                                  kept, lin_tol, free // 3)[: free.size]  # fmt: skip
         if constraint is not None:  # the frame conditions exactly, as a direct solve has them
             d_free = d_free - psi @ np.linalg.solve(constraint.T @ psi, constraint.T @ d_free)
         dx[free] = d_free
