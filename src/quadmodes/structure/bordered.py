@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from quadmodes.linalg.factor import Solve, factorize, lu_factor, with_rank_one_terms
+from quadmodes.linalg.factor import Solve, factorize, with_rank_one_terms
 
 
 def bordered_matrix(k: sp.spmatrix, constraint: np.ndarray | None) -> sp.csc_matrix:
@@ -83,7 +83,7 @@ def bordered_solver(
     n = k.shape[0]
     a = bordered_matrix(k, constraint)
     m = a.shape[0]
-    lu = lu_factor(a, symmetric=True, border=m - n, nodes=nodes)
+    lu = factorize(a, symmetric=True, border=m - n, nodes=nodes)  # $QUADMODES_LINALG
 
     def base(rhs: np.ndarray) -> np.ndarray:
         full = np.zeros(m)
