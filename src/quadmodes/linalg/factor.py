@@ -55,18 +55,17 @@ class PermutedLU:
 #: factorisation of a pattern): the Newton iterations and the modes of one structure factorise
 #: matrices of a few patterns many times, and the ordering is about half of a factorisation.
 _ORDERINGS: dict[tuple, np.ndarray] = {}
-_ORDERINGS_KEPT = 8
+_ORDERINGS_KEPT = 16
 
 
-def _pattern_key(a: sp.csc_matrix) -> tuple:
-    """Key of the pattern of the nonzeros of ``a`` (CSC, sorted indices)."""
-    if np.all(a.data != 0):
-        indptr, indices = a.indptr, a.indices
-    else:
+def _pattern_key(a: sp.csc_matrix, nonzero: bool = False) -> tuple:
+    """Key of the stored pattern of ``a`` (CSC, sorted indices), or of its nonzeros only."""
+    indptr, indices = a.indptr, a.indices
+    if nonzero and not np.all(a.data != 0):
         b = a.copy()
         b.eliminate_zeros()
         indptr, indices = b.indptr, b.indices
-    return (a.shape, indices.size, hash(indptr.tobytes()), hash(indices.tobytes()))
+    return (a.shape, indices.size, hash(indptr.tobytes()), hash(indices.tobytes()), nonzero)
 
 
 def _keep_ordering(key: tuple, order: np.ndarray) -> None:
@@ -111,11 +110,12 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
     if not symmetric:
         return spla.splu(a, **GENERAL_OPTIONS)
     a.sort_indices()
-    key = _pattern_key(a)
-    order = _ORDERINGS.get(key)
+    order = _ORDERINGS.get(_pattern_key(a))
+    if order is None:  # the same matrix with other exact zeros (e.g. an unstressed state)?
+        order = _ORDERINGS.get(_pattern_key(a, nonzero=True))
     if order is None and nodes is not None:
         order = node_ordering(a, np.asarray(nodes))
-        _keep_orderings(a, key, order, border)
+        _keep_orderings(a, order, border)
     try:
         if order is not None:
             natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
@@ -123,16 +123,21 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
         lu = spla.splu(a, **SYMMETRIC_OPTIONS)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
-    _keep_orderings(a, key, np.argsort(lu.perm_c), border)
+    _keep_orderings(a, np.argsort(lu.perm_c), border)
     return lu
 
 
-def _keep_orderings(a: sp.csc_matrix, key: tuple, order: np.ndarray, border: int) -> None:
-    """Keep ``order`` for the pattern ``key`` of ``a`` and, with a border, for its leading block."""
-    _keep_ordering(key, order)
+def _keep_orderings(a: sp.csc_matrix, order: np.ndarray, border: int) -> None:
+    """Keep ``order`` for the stored and the nonzero pattern of ``a`` and, with a border, of
+    its leading block."""
+    for nonzero in (False, True):
+        _keep_ordering(_pattern_key(a, nonzero), order)
     if border:
         lead = a.shape[0] - border
-        _keep_ordering(_pattern_key(sp.csc_matrix(a[:lead, :lead])), order[order < lead])
+        block = sp.csc_matrix(a[:lead, :lead])
+        block.sort_indices()
+        for nonzero in (False, True):
+            _keep_ordering(_pattern_key(block, nonzero), order[order < lead])
 
 
 class Factorization(Protocol):
