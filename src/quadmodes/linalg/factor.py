@@ -51,21 +51,16 @@ class PermutedLU:
         return out
 
 
-#: Fill-reducing orderings by sparsity pattern (the minimum degree of SuperLU, found by the first
-#: factorisation of a pattern): the Newton iterations and the modes of one structure factorise
-#: matrices of a few patterns many times, and the ordering is about half of a factorisation.
+#: Node-graph orderings by stored sparsity pattern: the Newton iterations of one structure
+#: factorise matrices of one pattern several times, and SuperLU's own ordering was about half
+#: of a factorisation.
 _ORDERINGS: dict[tuple, np.ndarray] = {}
 _ORDERINGS_KEPT = 16
 
 
-def _pattern_key(a: sp.csc_matrix, nonzero: bool = False) -> tuple:
-    """Key of the stored pattern of ``a`` (CSC, sorted indices), or of its nonzeros only."""
-    indptr, indices = a.indptr, a.indices
-    if nonzero and not np.all(a.data != 0):
-        b = a.copy()
-        b.eliminate_zeros()
-        indptr, indices = b.indptr, b.indices
-    return (a.shape, indices.size, hash(indptr.tobytes()), hash(indices.tobytes()), nonzero)
+def _pattern_key(a: sp.csc_matrix) -> tuple:
+    """Key of the stored pattern of ``a`` (CSC, sorted indices)."""
+    return (a.shape, a.indices.size, hash(a.indptr.tobytes()), hash(a.indices.tobytes()))
 
 
 def _keep_ordering(key: tuple, order: np.ndarray) -> None:
@@ -99,45 +94,27 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
 
     symmetric: ``a`` has a symmetric sparsity pattern and acceptable diagonal pivots (use
     :data:`SYMMETRIC_OPTIONS`); if that factorisation finds an exactly singular pivot it is
-    redone with :data:`GENERAL_OPTIONS` (full partial pivoting) before giving up. The ordering of
-    a symmetric pattern is computed once and reused for later matrices of the same pattern
-    (same factors, without the ordering's cost). border: the last ``border`` rows and columns
-    are constraint ones (a bordered matrix); the ordering is then also kept for the leading
-    block alone (its border entries dropped), e.g. for a shifted ``K − σM`` of the same ``K``.
-    nodes: ``(m − border,)`` node of each leading row: the ordering is then computed on the node
-    graph (:func:`node_ordering`), much faster than SuperLU's own on ``a``."""
+    redone with :data:`GENERAL_OPTIONS` (full partial pivoting) before giving up. border: the
+    number of trailing constraint rows and columns (a bordered matrix). nodes: ``(m − border,)``
+    node of each leading row: the ordering is then computed on the node graph
+    (:func:`node_ordering`, much faster than SuperLU's own on ``a``), once per stored sparsity
+    pattern (a pure function of it, so the factors do not depend on what was factorised
+    before), and the permuted matrix is factorised with ``NATURAL``."""
     a = sp.csc_matrix(a)
     if not symmetric:
         return spla.splu(a, **GENERAL_OPTIONS)
-    a.sort_indices()
-    order = _ORDERINGS.get(_pattern_key(a))
-    if order is None:  # the same matrix with other exact zeros (e.g. an unstressed state)?
-        order = _ORDERINGS.get(_pattern_key(a, nonzero=True))
-    if order is None and nodes is not None:
-        order = node_ordering(a, np.asarray(nodes))
-        _keep_orderings(a, order, border)
     try:
-        if order is not None:
-            natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
-            return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order)
-        lu = spla.splu(a, **SYMMETRIC_OPTIONS)
+        if nodes is None:
+            return spla.splu(a, **SYMMETRIC_OPTIONS)
+        a.sort_indices()
+        key = _pattern_key(a)
+        if key not in _ORDERINGS:
+            _keep_ordering(key, node_ordering(a, np.asarray(nodes)))
+        order = _ORDERINGS[key]
+        natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
+        return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
-    _keep_orderings(a, np.argsort(lu.perm_c), border)
-    return lu
-
-
-def _keep_orderings(a: sp.csc_matrix, order: np.ndarray, border: int) -> None:
-    """Keep ``order`` for the stored and the nonzero pattern of ``a`` and, with a border, of
-    its leading block."""
-    for nonzero in (False, True):
-        _keep_ordering(_pattern_key(a, nonzero), order)
-    if border:
-        lead = a.shape[0] - border
-        block = sp.csc_matrix(a[:lead, :lead])
-        block.sort_indices()
-        for nonzero in (False, True):
-            _keep_ordering(_pattern_key(block, nonzero), order[order < lead])
 
 
 class Factorization(Protocol):
