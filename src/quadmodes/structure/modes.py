@@ -49,21 +49,25 @@ class ModalResult:
         return 2.0 * np.pi * self.frequencies_hz
 
 
-def rigid_projector_basis(structure: Structure, x: np.ndarray) -> np.ndarray:
+def rigid_projector_basis(
+    structure: Structure, x: np.ndarray, mass: sp.spmatrix | None = None
+) -> np.ndarray:
     """M-orthonormal rigid-body basis ``(3n, r)``; ``r < 6`` when a rigid motion carries no mass
-    (e.g. spin of a line beam about its own axis)."""
+    (e.g. spin of a line beam about its own axis). mass: ``mass_matrix(structure)`` if known."""
     psi = rigid_body_modes(structure, x)
-    m = mass_matrix(structure)
+    m = mass_matrix(structure) if mass is None else mass
     gram = psi.T @ (m @ psi)
     lam, vec = sla.eigh(gram)
     keep = lam > 1e-10 * lam.max()
     return psi @ (vec[:, keep] / np.sqrt(lam[keep]))
 
 
-def remove_rigid_part(structure: Structure, x: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+def remove_rigid_part(
+    structure: Structure, x: np.ndarray, vectors: np.ndarray, mass: sp.spmatrix | None = None
+) -> np.ndarray:
     """``v − Ψ (ΨᵀMΨ)⁻¹ ΨᵀM v`` for columns of ``vectors`` ``(3n, k)``."""
-    q = rigid_projector_basis(structure, x)
-    m = mass_matrix(structure)
+    m = mass_matrix(structure) if mass is None else mass
+    q = rigid_projector_basis(structure, x, m)
     return vectors - q @ (q.T @ (m @ vectors))
 
 
@@ -88,12 +92,14 @@ def compute_modes(
     if softening is not None:
         return _constrained_modes(structure, x, count, degeneracy_rtol, shift_hz, softening)
     free = structure.free_dofs
-    n_rigid = rigid_projector_basis(structure, x).shape[1] if structure.is_free else 0
+    mfull = mass_matrix(structure)
+    q = rigid_projector_basis(structure, x, mfull) if structure.is_free else None
+    n_rigid = q.shape[1] if structure.is_free else 0
     k = tangent_stiffness(structure, x)[free][:, free]
-    m = mass_matrix(structure)[free][:, free]
+    m = mfull[free][:, free]
     sigma = -((2.0 * np.pi * (shift_hz if shift_hz is not None else 1.0)) ** 2)
     low_rank = [(c, v[free]) for c, v in tangent_low_rank(structure, x)]
-    solve = bordered_solver((k - sigma * m).tocsr(), None, low_rank)
+    solve = bordered_solver((k - sigma * m).tocsr(), None, low_rank, free // 3)
     op_inv = spla.LinearOperator(k.shape, matvec=solve, dtype=float)
     n_total = k.shape[0]
     n_request = min(count + n_rigid + 4, n_total - 1)
@@ -107,30 +113,38 @@ def compute_modes(
             return out
 
         k_op = spla.LinearOperator(k.shape, matvec=k_mat, dtype=float)
-    lam, vec = spla.eigsh(k_op, k=n_request, M=m, sigma=sigma, which="LM", OPinv=op_inv, tol=1e-12)
+    lam, vec = spla.eigsh(k_op, k=n_request, M=m, sigma=sigma, which="LM", OPinv=op_inv, tol=1e-12,
+                          v0=_start_vector(n_total))  # fmt: skip
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]
     full = np.zeros((3 * structure.n, vec.shape[1]))
     full[free] = vec
     if n_rigid:
-        q = rigid_projector_basis(structure, x)
-        mfull = mass_matrix(structure)
         overlap = np.sum((q.T @ (mfull @ full)) ** 2, axis=0) / np.einsum(
             "ik,ik->k", full, mfull @ full
         )
         rigid_idx = np.sort(np.argsort(-overlap)[:n_rigid])
         elastic_idx = np.setdiff1d(np.arange(len(lam)), rigid_idx)
         rigid_lam = lam[rigid_idx]
-        elastic = remove_rigid_part(structure, x, full[:, elastic_idx])
+        elastic = full[:, elastic_idx]
+        elastic = elastic - q @ (q.T @ (mfull @ elastic))
         overlap_e = overlap[elastic_idx]
         lam_e = lam[elastic_idx]
     else:
         rigid_lam = np.zeros(0)
         elastic, lam_e, overlap_e = full, lam, np.zeros(len(lam))
-    return _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degeneracy_rtol)
+    return _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degeneracy_rtol,
+                         mfull)  # fmt: skip
 
 
-def _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degeneracy_rtol):
+def _start_vector(size: int) -> np.ndarray:
+    """A fixed pseudo-random Lanczos start ``(size,)``: the same eigenpairs on every run (ARPACK's
+    own random start makes two runs differ at its tolerance, ~1e-9 relative)."""
+    return np.random.default_rng(20261202).standard_normal(size)
+
+
+def _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degeneracy_rtol,
+                  mfull=None):  # fmt: skip
     """:class:`ModalResult` of the ascending eigenpairs ``(lam_e (k,) 1/s², elastic (3n, k))``:
     the lowest ``count`` plus the degenerate partners of the last one, mass-normalised."""
     n_keep = min(count, len(lam_e))
@@ -139,7 +153,7 @@ def _modal_result(structure, elastic, lam_e, rigid_lam, overlap_e, count, degene
     ) <= 2 * degeneracy_rtol * abs(lam_e[n_keep - 1]):
         n_keep += 1
     elastic, lam_e, overlap_e = elastic[:, :n_keep], lam_e[:n_keep], overlap_e[:n_keep]
-    mfull = mass_matrix(structure)
+    mfull = mass_matrix(structure) if mfull is None else mfull
     norms = np.sqrt(np.einsum("ik,ik->k", elastic, mfull @ elastic))
     elastic = elastic / norms
     freqs = np.sign(lam_e) * np.sqrt(np.abs(lam_e)) / (2.0 * np.pi)
@@ -164,10 +178,11 @@ def _constrained_modes(structure, x, count, degeneracy_rtol, shift_hz, softening
     constraint = None
     if structure.is_free:
         constraint = (mass_matrix(structure) @ rigid_projector_basis(structure, x))[free]
-    solve = bordered_solver((k - sigma * m).tocsr(), constraint, low_rank)
+    solve = bordered_solver((k - sigma * m).tocsr(), constraint, low_rank, free // 3)
     op_inv = spla.LinearOperator(k.shape, matvec=solve, dtype=float)
     n_request = min(count + 4, k.shape[0] - 1)
-    lam, vec = spla.eigsh(k, k=n_request, M=m, sigma=sigma, which="LM", OPinv=op_inv, tol=1e-12)
+    lam, vec = spla.eigsh(k, k=n_request, M=m, sigma=sigma, which="LM", OPinv=op_inv, tol=1e-12,
+                          v0=_start_vector(k.shape[0]))  # fmt: skip
     order = np.argsort(lam)
     full = np.zeros((3 * structure.n, len(lam)))
     full[free] = vec[:, order]
