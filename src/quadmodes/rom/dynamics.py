@@ -136,9 +136,7 @@ def potential_barrier(
     n = sys.n_modes
     if not sys.quartic or n == 0:
         return math.inf, np.zeros(n)
-    w = sys.reference_omega  # effective potential V − ½ωᵀJ̃(s)ω at the reference spin
-    lam = sys.Lam - (sys.flat.J2w @ np.outer(w, w).ravel()).reshape(n, n)
-    f1 = sys.F1 - 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
+    lam, f1 = _effective_quadratic(sys)
     d = np.random.default_rng(seed).standard_normal((n_directions, n))
     d /= np.sqrt(np.einsum("km,mn,kn->k", d, lam, d))[:, None]
     c3 = np.einsum("mnp,km,kn,kp->k", sys.V3, d, d, d)
@@ -161,6 +159,14 @@ def potential_barrier(
     return float(v[k]), (r[k] * d[k] if np.isfinite(v[k]) else np.zeros(n))
 
 
+def _effective_quadratic(sys: ReducedSystem) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness (N,N) and linear force (N,) of the effective potential V − ½ωᵀJ̃(s)ω at the
+    system's reference spin ω (Λ − ωᵀJ2ω, F1 − ½ωᵀJ1ω)."""
+    n, w = sys.n_modes, sys.reference_omega
+    lam = sys.Lam - (sys.flat.J2w @ np.outer(w, w).ravel()).reshape(n, n)
+    return lam, sys.F1 - 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
+
+
 def beyond_ray_maximum(sys: ReducedSystem, s0: np.ndarray) -> bool:
     """Q4: whether the modal state ``s0`` (N,) lies beyond the first maximum of the effective
     potential along its own ray ``r s0/|s0|`` (False at s0 = 0 or for a potential rising along it)."""
@@ -168,9 +174,7 @@ def beyond_ray_maximum(sys: ReducedSystem, s0: np.ndarray) -> bool:
     s0 = np.asarray(s0, float)
     if not sys.quartic or n == 0 or not np.any(s0):
         return False
-    w = sys.reference_omega
-    lam = sys.Lam - (sys.flat.J2w @ np.outer(w, w).ravel()).reshape(n, n)
-    f1 = sys.F1 - 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w)
+    lam, f1 = _effective_quadratic(sys)
     r0 = float(np.sqrt(s0 @ lam @ s0))
     if not r0 > 0.0:
         return False
