@@ -62,3 +62,14 @@ def test_run_command_flags_a_large_initial_deformation(tmp_path):
     assert summary["valid"] is False
     red, cond = v["initial_deformation_energy_reduced_J"], v["initial_deformation_energy_condensed_J"]
     assert red > cond > 0 and (red - cond) / cond > 0.02
+
+
+def test_slack_onset_is_a_property_of_the_direction_not_of_the_amplitude(checked):
+    """The linearised onset of wrinkling along the bending mode is the same length whatever the
+    initial amplitude; 2 in lies far beyond it and the warning says so."""
+    small, large = checked[0.05], checked[2.0]
+    assert small.slack_onset_amplitude == pytest.approx(large.slack_onset_amplitude, rel=1e-9)
+    assert 0.0 < large.slack_onset_amplitude < 0.0254 * 0.5
+    assert large.slack_onset_fraction < 1.0 and large.slack_fraction > small.slack_fraction
+    assert "loses tension" in large.message()
+    assert large.as_dict()["slack_onset_amplitude_m"] == pytest.approx(large.slack_onset_amplitude)

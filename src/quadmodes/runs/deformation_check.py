@@ -26,6 +26,7 @@ from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.rom import system as rsys
 from quadmodes.structure import pipeline
+from quadmodes.structure.tension_margin import slack_onset
 
 
 def initial_deformation_energies(setup) -> tuple[float, float] | None:
@@ -50,6 +51,26 @@ def initial_deformation_energies(setup) -> tuple[float, float] | None:
     return reduced, condensed.value if condensed.converged else float("nan")
 
 
+def initial_slack_onset(setup) -> tuple[float, float, float] | None:
+    """Along the linear part ``Φ s0`` of a prepared run's initial deformation: ``(a, a·d, f)``,
+    the fraction ``a`` of it at which a membrane element off the bonded patches first loses
+    tension (linearised, :func:`quadmodes.structure.tension_margin.slack_onset`), that as the
+    largest nodal displacement (m, ``d`` the deformation's), and the slack fraction ``f`` of
+    the membrane at the full deformation; None without a deformation or a membrane."""
+    system, model = setup.system, setup.model
+    s0 = rsys.split_state(system, setup.initial.y0)[2]
+    if not np.any(s0):
+        return None
+    case = setup.model_case
+    structure = pipeline.structure_for_case(case)
+    u = np.einsum("m,mi->i", s0, np.asarray(model.Phi, float).reshape(len(s0), -1))
+    onset = slack_onset(structure, np.asarray(model.X, float), u.reshape(-1, 3))
+    if onset is None:
+        return None
+    largest = float(np.max(np.linalg.norm(u.reshape(-1, 3), axis=1)))
+    return onset.fraction, onset.fraction * largest, onset.slack_at_unit
+
+
 def with_deformation_check(setup, progress=None):
     """``setup`` with its validity carrying :func:`initial_deformation_energies` (unchanged
     when the run has no initial deformation or no validity)."""
@@ -66,4 +87,8 @@ def with_deformation_check(setup, progress=None):
         return setup
     validity = dataclasses.replace(setup.validity, deformation_energy_reduced=energies[0],
                                    deformation_energy_condensed=energies[1])  # fmt: skip
+    slack = initial_slack_onset(setup)
+    if slack is not None:
+        validity = dataclasses.replace(validity, slack_onset_fraction=slack[0],
+                                       slack_onset_amplitude=slack[1], slack_fraction=slack[2])  # fmt: skip
     return dataclasses.replace(setup, validity=validity)

@@ -41,6 +41,9 @@ class Validity:
     deformation_energy_reduced: float = math.nan
     deformation_energy_condensed: float = math.nan
     past_maximum_on_ray: bool = False
+    slack_onset_fraction: float = math.inf
+    slack_onset_amplitude: float = math.nan
+    slack_fraction: float = math.nan
 
     @property
     def beyond_barrier(self) -> bool:
@@ -69,6 +72,17 @@ class Validity:
     def valid(self) -> bool:
         return self.lost_at is None and not self.beyond_barrier and not self.beyond_deformation_range
 
+    def slack_note(self) -> str:
+        """Where the membrane first loses tension along the initial deformation, when that lies
+        before the deformation ("" otherwise; :mod:`quadmodes.structure.tension_margin`)."""
+        if not self.slack_onset_fraction < 1.0:
+            return ""
+        return (f"the membrane first loses tension (wrinkles) at "
+                f"{100 * self.slack_onset_fraction:.2g} % of this deformation "
+                f"({1e3 * self.slack_onset_amplitude:.3g} mm of largest displacement; "
+                f"{100 * self.slack_fraction:.0f} % of the membrane slack at the full "
+                "deformation, linearised), beyond which no smooth reduced potential holds")  # fmt: skip
+
     def message(self) -> str:
         """One line for a warning ("" when valid)."""
         if self.valid:
@@ -79,11 +93,13 @@ class Validity:
                     f"the reduced potential is {100 * err:.1f} % off the FE model's condensed "
                     f"energy ({self.deformation_energy_reduced:.4g} J against "
                     f"{self.deformation_energy_condensed:.4g} J)")  # fmt: skip
+            slack = self.slack_note()
             return (
                 f"formulation {self.formulation}: the initial deformation is outside the range "
-                f"of the reduced potential: {what}; its frequency and decay at this amplitude "
-                f"are not trusted (limit {100 * DEFORMATION_ENERGY_TOLERANCE:g} %): use a "
-                "smaller initial.bending_amplitude or check with quadmodes compare"
+                f"of the reduced potential: {what}{'; ' + slack if slack else ''}; its frequency "
+                f"and decay at this amplitude are not trusted (limit "
+                f"{100 * DEFORMATION_ENERGY_TOLERANCE:g} %): use a smaller "
+                "initial.bending_amplitude or check with quadmodes compare"
             )
         if self.lost_at is None and self.past_maximum_on_ray:
             return (
@@ -124,6 +140,9 @@ class Validity:
                 self.deformation_energy_condensed
             ),
             "initial_deformation_energy_error": _json_float(self.deformation_error),
+            "slack_onset_fraction_of_initial_deformation": _json_float(self.slack_onset_fraction),
+            "slack_onset_amplitude_m": _json_float(self.slack_onset_amplitude),
+            "slack_membrane_fraction_at_initial_deformation": _json_float(self.slack_fraction),
             "message": self.message(),
         }
 
