@@ -209,6 +209,9 @@ def test_modes_small_sphere_json(runner, tmp_path):
     assert summary["pressure_pa"] == pytest.approx(2068.43, abs=0.01)  # 0.3 psi
     assert summary["prestress"]["elements_in_compression"] == 0
     assert summary["prestress"]["stress_resultant_min_n_per_m"] > 0
+    # each mode slackens the membrane at some amplitude well below the sphere's size
+    onsets = np.array(summary["slack_onset_m"], float)
+    assert onsets.shape == (len(freqs),) and np.all((onsets > 1e-6) & (onsets < 0.05))
 
 
 def test_modes_writes_output_folder(runner, tmp_path):

@@ -127,17 +127,24 @@ def _write_modal_outputs(model, directory: Path) -> None:
     write_text(directory / "modes.json", json.dumps(modes_summary(model), indent=2))
 
 
-def _mode_table(title: str, frequencies_hz, labels) -> Table:
-    """Mode number, frequency (Hz) and label, one row a mode."""
-    table = Table("mode", "frequency (Hz)", "label", title=title)
+def _mode_table(title: str, frequencies_hz, labels, slack_onset_m=None) -> Table:
+    """Mode number, frequency (Hz) and label, one row a mode (with ``slack_onset_m``, the
+    amplitude at which the membrane first loses tension, in mm)."""
+    columns = ["mode", "frequency (Hz)", "label"] + (["slackens at (mm)"] if slack_onset_m else [])
+    table = Table(*columns, title=title)
     for k, (f, lab) in enumerate(zip(frequencies_hz, labels, strict=True)):
-        table.add_row(str(k + 1), f"{f:.3f}", lab)
+        extra = []
+        if slack_onset_m:
+            a = slack_onset_m[k]
+            extra = ["never" if a is None else f"{1e3 * a:.3g}"]
+        table.add_row(str(k + 1), f"{f:.3f}", lab, *extra)
     return table
 
 
 def _print_modes_summary(name: str, summary: dict) -> None:
     """The ``modes`` report: frequencies, rigid-body frequencies, mass, inertia, prestress."""
-    out.print(_mode_table(f"{name}: elastic modes", summary["frequencies_hz"], summary["labels"]))
+    out.print(_mode_table(f"{name}: elastic modes", summary["frequencies_hz"], summary["labels"],
+                          summary.get("slack_onset_m")))  # fmt: skip
     rigid = ", ".join(f"{f:.2e}" for f in summary["rigid_frequencies_hz"]) or "none (clamped)"
     out.print(f"rigid-body frequencies (Hz): {rigid}")
     out.print(f"mass: {summary['mass_kg']:.5g} kg")
@@ -154,6 +161,9 @@ def _print_modes_summary(name: str, summary: dict) -> None:
             f"{p['stress_resultant_min_n_per_m']:.3g}–{p['stress_resultant_max_n_per_m']:.3g} N/m, "
             f"{p['elements_in_compression']} elements in compression"
         )
+    if summary.get("slack_onset_m"):
+        out.print("slackens at: the mode's largest displacement at which the membrane first "
+                  "loses tension (linearised); beyond it the taut model does not hold")  # fmt: skip
 
 
 ModesOutput = output_path("folder for VTU/PVD, PNG and JSON")

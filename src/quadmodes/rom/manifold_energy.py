@@ -325,19 +325,29 @@ def condensed_energy(
     return Condensed(value, y, max_iterations, decrement, _converged(decrement, value))
 
 
-def condensed_energy_along_ray(ctx: EnergyContext, s: np.ndarray) -> Condensed:
+#: Continuation schedules of :func:`condensed_energy_along_ray` (equal steps along the ray).
+RAY_SCHEDULES = (1, 4, 16)
+
+
+def condensed_energy_along_ray(ctx: EnergyContext, s: np.ndarray, progress=None) -> Condensed:
     """:func:`condensed_energy` at ``s`` (N,) reached by continuation along the ray ``a s``,
     ``a → 1``, in 1, 4 and then 16 equal steps until Newton converges at every step (a large
     deformation is not reached from the quadratic-manifold point in one go). The result's
-    ``converged`` is False if even 16 steps fail."""
+    ``converged`` is False if even 16 steps fail. ``progress(fraction)``, if given, is called
+    after every continuation step with the share of the worst-case schedule done."""
     s = np.asarray(s, float)
-    for steps in (1, 4, 16):
+    total, done = sum(RAY_SCHEDULES), 0
+    for steps in RAY_SCHEDULES:
         y = None
         for a in np.linspace(0.0, 1.0, steps + 1)[1:]:
             result = condensed_energy(ctx, a * s, y0=y)
+            done += 1
+            if progress:
+                progress(done / total)
             if not result.converged:
                 break
             y = result.unknowns
         if result.converged:
             return result
+        done = sum(RAY_SCHEDULES[: RAY_SCHEDULES.index(steps) + 1])
     return result

@@ -29,7 +29,7 @@ from quadmodes.structure import pipeline
 from quadmodes.structure.tension_margin import slack_onset
 
 
-def initial_deformation_energies(setup) -> tuple[float, float] | None:
+def initial_deformation_energies(setup, progress=None) -> tuple[float, float] | None:
     """``(V(s0), W_c(s0))`` (J) of a prepared run (:class:`~quadmodes.runs.simulate.RunSetup`)
     whose initial state has a modal deformation, both without the work of ``f(x_ref)``; None
     when ``s0 = 0``. ``W_c`` is NaN when its Newton iteration does not converge."""
@@ -40,7 +40,7 @@ def initial_deformation_energies(setup) -> tuple[float, float] | None:
     case = setup.model_case
     structure = pipeline.with_gas_law(case, pipeline.structure_for_case(case), model.X)
     ctx = me.energy_context(structure, model.X, model)
-    condensed = me.condensed_energy_along_ray(ctx, s0)
+    condensed = me.condensed_energy_along_ray(ctx, s0, progress)
     y = np.zeros(7 + 2 * system.n_modes)
     y[0] = 1.0
     y[7 : 7 + system.n_modes] = s0
@@ -78,11 +78,13 @@ def with_deformation_check(setup, progress=None):
         return setup
     if not np.any(rsys.split_state(setup.system, setup.initial.y0)[2]):
         return setup  # no initial deformation: nothing to check (and no progress line)
-    if progress:
-        progress("initial deformation vs the FE model", 0.0)
-    energies = initial_deformation_energies(setup)
-    if progress:
-        progress("initial deformation vs the FE model", 1.0)
+    label = "initial deformation vs the FE model"
+    step = (lambda f: progress(label, f)) if progress else None
+    if step:
+        step(0.0)
+    energies = initial_deformation_energies(setup, step)
+    if step:
+        step(1.0)
     if energies is None:
         return setup
     validity = dataclasses.replace(setup.validity, deformation_energy_reduced=energies[0],

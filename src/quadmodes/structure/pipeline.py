@@ -268,4 +268,21 @@ def modes_summary(model: ModalModel) -> dict:
             "elements_in_compression": int(np.sum(st.stress_resultants[:, 0] <= 0.0)),
             "relative_residual": st.residual_norm,
         }
+        out["slack_onset_m"] = mode_slack_onsets(s, x, model.modes.shapes)
     return out
+
+
+def mode_slack_onsets(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> list:
+    """Per mode of ``shapes`` ``(N, n, 3)``: the largest nodal displacement (m) of the mode at
+    which the membrane first loses tension off the end-body patches (linearised,
+    :func:`quadmodes.structure.tension_margin.slack_onset`; None if it never does) — the
+    amplitude beyond which the taut model, and any smooth reduced potential, stops holding."""
+    from quadmodes.structure.tension_margin import slack_onset
+
+    onsets = []
+    for u in shapes:
+        unit = u / np.max(np.linalg.norm(u, axis=1))
+        first = slack_onset(structure, x, unit)
+        ok = first is not None and np.isfinite(first.fraction)
+        onsets.append(float(first.fraction) if ok else None)
+    return onsets

@@ -73,8 +73,8 @@ class SlackOnset:
     fraction: the smallest ``a`` (dimensionless, in units of the direction given) at which an
     element off the bonded patches loses tension (inf: none does along the linearised path);
     element: that element's index in its membrane set (-1 if none); position ``(3,)`` m: its
-    centroid in ``x0``; slack_at_unit: fraction of the off-patch elements already slack at
-    ``a = 1`` (linearised); slack_at_rest: off-patch elements not taut at ``x0``."""
+    centroid in ``x0``; slack_at_unit: fraction of the off-patch membrane area (reference) already
+    slack at ``a = 1`` (linearised); slack_at_rest: off-patch elements not taut at ``x0``."""
 
     fraction: float
     element: int
@@ -102,6 +102,7 @@ def slack_onset(structure: Structure, x0: np.ndarray, u: np.ndarray) -> SlackOns
         fraction=first,
         element=k if np.isfinite(first) else -1,
         position=position,
-        slack_at_unit=float(np.mean(candidates[off_patch] <= 1.0)),
+        slack_at_unit=float(np.average(candidates[off_patch] <= 1.0,
+                                       weights=membrane.area0[off_patch])),  # fmt: skip
         slack_at_rest=int(at_rest.sum()),
     )
