@@ -28,11 +28,22 @@ from quadmodes.rom import system as rsys
 from quadmodes.structure import pipeline
 from quadmodes.structure.tension_margin import slack_onset
 
+#: Below this fraction of the initial deformation at which the membrane first loses tension
+#: (the deformation at least 10 × the linearised onset of wrinkling) ``W_c`` is attempted once,
+#: without continuation along the ray: that far beyond the onset an SVK membrane's condensed
+#: state buckles at the scale of the mesh (docs/full-order.md, "Where the membrane loses
+#: tension"), so even a converged continuation is no reference, and on a fine mesh it takes
+#: many minutes.
+SLACK_CONTINUATION_LIMIT = 0.1
 
-def initial_deformation_energies(setup, progress=None) -> tuple[float, float] | None:
+
+def initial_deformation_energies(
+    setup, progress=None, continuation: bool = True
+) -> tuple[float, float] | None:
     """``(V(s0), W_c(s0))`` (J) of a prepared run (:class:`~quadmodes.runs.simulate.RunSetup`)
     whose initial state has a modal deformation, both without the work of ``f(x_ref)``; None
-    when ``s0 = 0``. ``W_c`` is NaN when its Newton iteration does not converge."""
+    when ``s0 = 0``. ``W_c`` is NaN when its Newton iteration does not converge (reached by
+    continuation along the ray, or in one go if not ``continuation``)."""
     system, model = setup.system, setup.model
     s0 = rsys.split_state(system, setup.initial.y0)[2]
     if not np.any(s0):
@@ -40,7 +51,10 @@ def initial_deformation_energies(setup, progress=None) -> tuple[float, float] | 
     case = setup.model_case
     structure = pipeline.with_gas_law(case, pipeline.structure_for_case(case), model.X)
     ctx = me.energy_context(structure, model.X, model)
-    condensed = me.condensed_energy_along_ray(ctx, s0, progress)
+    if continuation:
+        condensed = me.condensed_energy_along_ray(ctx, s0, progress)
+    else:
+        condensed = me.condensed_energy(ctx, s0)
     y = np.zeros(7 + 2 * system.n_modes)
     y[0] = 1.0
     y[7 : 7 + system.n_modes] = s0
@@ -82,14 +96,15 @@ def with_deformation_check(setup, progress=None):
     step = (lambda f: progress(label, f)) if progress else None
     if step:
         step(0.0)
-    energies = initial_deformation_energies(setup, step)
+    slack = initial_slack_onset(setup)
+    continuation = slack is None or not slack[0] < SLACK_CONTINUATION_LIMIT
+    energies = initial_deformation_energies(setup, step, continuation)
     if step:
         step(1.0)
     if energies is None:
         return setup
     validity = dataclasses.replace(setup.validity, deformation_energy_reduced=energies[0],
                                    deformation_energy_condensed=energies[1])  # fmt: skip
-    slack = initial_slack_onset(setup)
     if slack is not None:
         validity = dataclasses.replace(validity, slack_onset_fraction=slack[0],
                                        slack_onset_amplitude=slack[1], slack_fraction=slack[2])  # fmt: skip
