@@ -62,6 +62,9 @@ def test_run_command_flags_a_large_initial_deformation(tmp_path):
     assert summary["valid"] is False
     red, cond = v["initial_deformation_energy_reduced_J"], v["initial_deformation_energy_condensed_J"]
     assert red > cond > 0 and (red - cond) / cond > 0.02
+    # 2 in is far beyond where the membrane first loses tension along the bending mode
+    assert 0 < v["slack_onset_amplitude_m"] < 0.0254 * 0.5
+    assert v["slack_onset_fraction_of_initial_deformation"] < 0.25
 
 
 def test_slack_onset_is_a_property_of_the_direction_not_of_the_amplitude(checked):

@@ -195,6 +195,11 @@ def validity_attrs(validity) -> dict:
         "initial_deformation_energy_reduced": float(validity.deformation_energy_reduced),
         "initial_deformation_energy_condensed": float(validity.deformation_energy_condensed),
         "initial_deformation_energy_units": "J",
+        # where the membrane first loses tension along the initial deformation (linearised)
+        "slack_onset_fraction": float(validity.slack_onset_fraction),
+        "slack_onset_amplitude": float(validity.slack_onset_amplitude),
+        "slack_onset_amplitude_units": "m",
+        "slack_membrane_fraction": float(validity.slack_fraction),
     }
 
 
@@ -223,6 +228,13 @@ def validity_summary(ds: xr.Dataset) -> dict:
             ),
             "initial_deformation_energy_condensed_J": _float(
                 ds.attrs.get("initial_deformation_energy_condensed", float("nan"))
+            ),
+            "slack_onset_fraction_of_initial_deformation": _float(
+                ds.attrs.get("slack_onset_fraction", float("nan"))
+            ),
+            "slack_onset_amplitude_m": _float(ds.attrs.get("slack_onset_amplitude", float("nan"))),
+            "slack_membrane_fraction_at_initial_deformation": _float(
+                ds.attrs.get("slack_membrane_fraction", float("nan"))
             ),
         },
     }
