@@ -48,6 +48,10 @@ def test_metrics_vanish_against_itself_and_rigid_misses_vibration():
     payload = c.as_json()
     json.dumps(payload, allow_nan=False)  # strict JSON
     assert set(payload["formulations"]) == set(cm.FORMULATIONS)
+    # the resolved basis ("auto" -> N) and reference are reported with the scores
+    assert isinstance(payload["reduced_model"]["modes"], int)
+    assert payload["reduced_model"]["reference"] == run.reduced.reference
+    assert payload["reduced_model"]["spin_rate_hz"] == pytest.approx(41.0)
 
 
 @pytest.fixture(scope="module")

@@ -212,6 +212,11 @@ class Comparison:
                 "damping_cutoff_hz": float(self.full.stats.get("damping_cutoff_hz", math.nan)),
             },
             "reduce_wall_s": self.reduce_wall_s,
+            "reduced_model": {  # what the reduced runs used ("auto" resolved to N)
+                "modes": self.run.reduced.modes,
+                "reference": self.run.reduced.reference,
+                "spin_rate_hz": float(self.run.initial.spin_rate) / (2 * math.pi),
+            },
             "quasi_steady": self.secular.as_json() if self.secular else None,
             "formulations": {k: dict(v) for k, v in self.table.items()},
             "notes": list(self.notes),
