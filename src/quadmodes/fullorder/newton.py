@@ -132,10 +132,14 @@ class NewtonMatrix:
     factorisation serve later steps whose body-frame pair is close to (z₀, z₁):
     ``A⁻¹ r ≈ 𝒬 A(z)⁻¹ 𝒬ᵀ r`` with Q the current frame, whatever the rigid rotation since."""
 
-    def __init__(self, a_free, low: list, weight: float, free: np.ndarray, single: bool = False):
+    def __init__(self, a_free, low: list, weight: float, free: np.ndarray, single: bool = False,
+                 node_order: bool = False):  # fmt: skip
         """a_free: A on the free DOFs (sparse); low: rank-one terms ``(c, v)`` of J (v over all
-        3n DOFs); weight: Δt²/2 (s²); single: factorise in float32 (a preconditioner)."""
-        self.lu = factorize(a_free, symmetric=True, single=single)
+        3n DOFs); weight: Δt²/2 (s²); single: factorise in float32 (a preconditioner);
+        node_order: the fill-reducing ordering computed on the node graph, once per pattern
+        (:func:`~quadmodes.linalg.factor.lu_factor`; about a quarter of a factorisation)."""
+        nodes = free // 3 if node_order else None
+        self.lu = factorize(a_free, symmetric=True, single=single, nodes=nodes)
         self.low = []
         for coef, vec in low:
             vf = np.asarray(vec).ravel()[free]
@@ -143,10 +147,12 @@ class NewtonMatrix:
 
     @classmethod
     def at(cls, problem: FullOrderProblem, z0: np.ndarray, z1: np.ndarray,
-           ops: StepOperators | None = None, single: bool = False) -> NewtonMatrix:  # fmt: skip
+           ops: StepOperators | None = None, single: bool = False,
+           node_order: bool = False) -> NewtonMatrix:  # fmt: skip
         """The Newton matrix of ``problem`` at the body-frame pair (z0, z1) (n,3), assembled
         by ``ops`` (the run's :class:`~quadmodes.fullorder.kernels.StepOperators`; None: the
-        straightforward COO assembly of :func:`step_jacobian`); single: in float32."""
+        straightforward COO assembly of :func:`step_jacobian`); single, node_order: see
+        :class:`NewtonMatrix`."""
         weight, free = 0.5 * problem.h * problem.h, problem.free
         if ops is None:
             jac, low = step_jacobian(problem.structure, z0, z1, problem.energy_momentum)
@@ -154,7 +160,7 @@ class NewtonMatrix:
         else:
             low = [(0.5 * c, v) for c, v in tangent_low_rank(problem.structure, 0.5 * (z0 + z1))]
             a = ops.newton_matrix(z0, z1, weight)
-        return cls(a, low, weight, free, single)
+        return cls(a, low, weight, free, single, node_order)
 
     def update(self, z0: np.ndarray, z1: np.ndarray) -> None:
         """Nothing to renew per iterate (the interface of a condensed matrix)."""
@@ -251,7 +257,7 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)
     if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
         return lambda z0, z1: KrylovNewtonMatrix(
-            problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True)
+            problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
         )
     return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
 
