@@ -271,8 +271,11 @@ def solve_step(
     factorise at the start with ``make`` (:func:`matrix_factory`; default: the straightforward
     :class:`NewtonMatrix`)); it is renewed at the current iterate when successive corrections
     shrink by less than :data:`RHO_REFACTOR` (after at least two iterations with it), and its
-    ``update`` (the ties of a condensed matrix) is taken at every iterate; a condensed matrix is
-    renewed already when they shrink by less than :data:`RHO_SOFT`. ``full_newton``:
+    ``update`` (the ties of a condensed matrix, the operator of a Krylov one) is taken at every
+    iterate; a condensed or Krylov matrix is renewed already when they shrink by less than
+    :data:`RHO_SOFT`, a Krylov one also when a solve on it did not converge (``stale``, at the
+    current iterate) or the last step needed too many Krylov steps (``worn``, at the start of
+    the step). ``full_newton``:
     a fresh factorisation at every iteration (the reference Newton; slow).
     ``residual(y) -> (v½, r, f_d)``. Corrections above :data:`LINE_SEARCH` × body size
     backtrack on the residual norm (:func:`line_search`)."""
