@@ -3,21 +3,24 @@ factorisation kept over many steps: for models whose stiff ties are too many to 
 
 Why: on the flange-bonded ``paper-membrane`` (6,085 nodes) the end-body ties touch 1,896 free
 DOFs (every node of the two bonded patches is tied to its end body), too many for the dense
-Schur system of :mod:`~quadmodes.fullorder.condensed`; the patches, the ties and the graded
-mesh's 1/16 in elements at the patch rims rock with the end bodies relative to the body frame
-(the rocking pair is at 31 Hz, close to the 41 Hz spin), so a kept factorisation of the whole
-Newton matrix loses its contraction within a few steps (at 41 Hz the modified Newton needed 7.8
-iterations and 0.49 factorisations per step). The error of a stale factorisation lies in a few
-directions (the rim rings and the rear body): GMRES on the current matrix, right-preconditioned
-by the kept factorisation, reaches 1e-4 of the exact correction in about four steps where the
-modified Newton contracts by 0.3–0.5 per iteration.
+Schur system of :mod:`~quadmodes.fullorder.condensed`, so the whole Newton matrix was kept, and
+it goes stale within a few steps: besides the ties, the graded mesh's 1/16 in elements at the
+patch rims are stiff on the step's scale (c Δt / L ≈ 100 against ≈ 6 for 1 in elements), so
+their blocks change with every small motion of the iterate (the rigid rotation is already
+taken out by the frame covariance; the end bodies turn by only 0.02° relative to the body frame
+over 7 steps, and rotating their zones does not help). At 41 Hz the modified Newton needed 7.8
+iterations and 0.55 factorisations per step. The error of a kept factorisation lies in a few
+directions at a time, concentrated at the rim rings: GMRES on the current matrix,
+right-preconditioned by the kept factorisation, reaches 1e-4 of the exact correction in about
+four steps where the modified Newton contracts by 0.3–0.5 per iteration.
 
-The operator ``A(z) v = M v + (Δt²/2) J(z₀, z₁) v`` is applied without assembling J (75 ms on
-this model against 1.2 ms for a step force): J v by the central difference of the step force,
-which is a cubic polynomial of x₁ for SVK membranes and Green-strain bars (relative error
-≈ (ε/L)² ≈ 1e-12 at a 1e-6 × body-size perturbation); the gas-law terms are in that force. The
-equations, the step force and the stopping test are those of the modified Newton: only the linear
-solve is more accurate.
+The operator ``A(z) v = M v + (Δt²/2) J(z₀, z₁) v`` is applied without assembling J (50–75
+ms on this model against 0.7–1.2 ms for a step force): J v by the central difference of the
+step force, a cubic polynomial of x₁ for SVK membranes and Green-strain bars, so the truncation
+error is of order (ε/L)² for the smallest element; at ε = :data:`FD_STEP` × body size the
+difference from the assembled matrix is 2e-10 relative on paper-membrane (1e-5 and 1e-7 are
+worse). The gas-law terms are in that force. The equations, the step force and the stopping
+test are those of the modified Newton: only the linear solve is more accurate.
 """
 
 from __future__ import annotations
