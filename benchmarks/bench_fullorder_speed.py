@@ -158,6 +158,7 @@ def differences(old: dict, new: dict) -> dict:
 def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp: Path,
             setups: Path) -> dict:  # fmt: skip
     setup = build_setup(case, setups)
+    case = setup.stem  # a .toml file: its name
     runs = {"old": [], "new": []}
     for k in range(repeat):
         for label, src in (("old", old_src), ("new", NEW_SRC)):

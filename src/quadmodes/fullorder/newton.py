@@ -37,6 +37,12 @@ RHO_SOFT = 0.1
 #: dense and refactorised at every iteration; the paper models have 75 and 123).
 MAX_TIE_DOFS = 600
 
+#: With more tie DOFs than :data:`MAX_TIE_DOFS`: GMRES on the current matrix preconditioned
+#: by a kept factorisation (:class:`~quadmodes.fullorder.krylov.KrylovNewtonMatrix`); False:
+#: the kept factorisation alone (the modified Newton before session 7; on paper-41hz 1.5–1.9×
+#: slower at 41 Hz, but 1.15–1.35× faster at 20 Hz, where it goes stale more slowly).
+KRYLOV_MANY_TIES = True
+
 #: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
 LINE_SEARCH = 1e-5
 
@@ -255,6 +261,8 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
     split = TieSplit.of(ops, problem.free)
     if split is None:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)
+    if len(split.tie) > MAX_TIE_DOFS and not KRYLOV_MANY_TIES:
+        return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)  # the kept whole matrix
     if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
         return lambda z0, z1: KrylovNewtonMatrix(
             problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
