@@ -39,8 +39,9 @@ MAX_TIE_DOFS = 600
 
 #: With more tie DOFs than :data:`MAX_TIE_DOFS`: GMRES on the current matrix preconditioned
 #: by a kept factorisation (:class:`~quadmodes.fullorder.krylov.KrylovNewtonMatrix`); False:
-#: the kept factorisation alone (the modified Newton before session 7; on paper-41hz 1.5–1.9×
-#: slower at 41 Hz, but 1.15–1.35× faster at 20 Hz, where it goes stale more slowly).
+#: the kept factorisation alone (the modified Newton before session 7; on paper-membrane
+#: 1.15–1.5× more CPU time at 41 Hz, about even at 20 Hz, where it goes stale more slowly;
+#: docs/performance.md).
 KRYLOV_MANY_TIES = True
 
 #: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
