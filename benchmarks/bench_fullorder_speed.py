@@ -113,10 +113,11 @@ def offline(old_src: Path, edges: str, n_modes: int, tmp: Path) -> None:
 
 
 def build_setup(case: str, folder: Path) -> Path:
-    """Pickle the full-order setup of ``case`` (this tree) into ``folder`` (kept if there)."""
+    """Pickle the full-order setup of ``case`` (a run case name or .toml file, e.g.
+    ``benchmarks/cases/paper-20hz.toml``; this tree) into ``folder`` (kept if there)."""
     from quadmodes.fullorder.runs import setup_for_run
 
-    path = folder / f"{case}.pkl"
+    path = folder / f"{Path(case).stem if case.endswith('.toml') else case}.pkl"
     if path.is_file():
         return path
     st = setup_for_run(case)
@@ -157,6 +158,7 @@ def differences(old: dict, new: dict) -> dict:
 def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp: Path,
             setups: Path) -> dict:  # fmt: skip
     setup = build_setup(case, setups)
+    case = setup.stem  # a .toml file: its name
     runs = {"old": [], "new": []}
     for k in range(repeat):
         for label, src in (("old", old_src), ("new", NEW_SRC)):

@@ -1,8 +1,9 @@
 """The fast full-order step against its straightforward forms: the element forces (numpy and
 compiled), the Newton matrix summed into its CSC pattern against a COO assembly, the tangent
 through the precomputed CSR scatter, the damping force without forming W, the tie-condensed
-solve, and a short spinning run with the modified (condensed, reused) Newton against the same
-run with a fresh factorisation at every iteration.
+solve, the Krylov solve on a kept factorisation (the path of models with too many ties to
+condense), and short spinning runs with the modified (condensed or Krylov, reused) Newton
+against the same run with a fresh factorisation at every iteration.
 
 All on the small capsule of conftest.py (≈400 nodes, a rear end body on stiff ties)."""
 
@@ -17,10 +18,12 @@ from quadmodes.fe.model import centre_of_mass, mass_matrix, strain_energy, tange
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.fullorder import condensed, initial_state_from_reduced, integrate_full_order
 from quadmodes.fullorder import kinematics as kin
+from quadmodes.fullorder import newton as nwt
 from quadmodes.fullorder import step as stp
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
 from quadmodes.fullorder.kernels import StepOperators, jit_module
-from quadmodes.fullorder.newton import step_jacobian
+from quadmodes.fullorder.krylov import KrylovNewtonMatrix
+from quadmodes.fullorder.newton import NewtonMatrix, step_jacobian
 from quadmodes.fullorder.setup import setup_problem
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import system as rsys
@@ -159,26 +162,80 @@ def test_condensed_solve_is_the_block_elimination_of_the_whole_matrix(pair, smal
     assert np.abs(approx.solve(rhs) - ref).max() <= 1e-4 * np.abs(ref).max()
 
 
-@pytest.fixture(scope="module")
-def spin_runs(small_modal_model, small_reduced_model):
-    """10 Hz spin with a 5° cone and a 1 mm bending, 40 steps at 0.25 ms, damped (ζ = 2 %):
-    the default stepping and the reference with a fresh factorisation at every iteration."""
+def test_krylov_operator_and_solve_on_a_stale_factorisation(pair, small_modal_model):
+    # the matrix-free operator is the assembled Newton matrix (with the gas law's rank-one term)
+    # at the current pair; GMRES preconditioned by a float32 factorisation at another pair (2°
+    # and 0.1 mm away) solves the current matrix to the tolerance it was asked for
+    _, gas, x0, x1 = pair
+    m = small_modal_model
+    problem = setup_problem(gas, m.x, (0.0, H), H, model=None, damping=False, hub=None,
+                            newton_tol=1e-11, energy_momentum=True, rotation_map=True)  # fmt: skip
+    ops = StepOperators.build(gas, problem.m_full, problem.free, True)
+    w = 0.5 * H * H
+    _, low = step_jacobian(gas, x0, x1, True)
+    dense = ops.newton_matrix(x0, x1, w).toarray()
+    for coef, vec in low:
+        vf = vec[problem.free]
+        dense += w * coef * np.outer(vf, vf)
+    mat = KrylovNewtonMatrix(problem, ops, NewtonMatrix.at(problem, x0, x0, ops, single=True))
+    mat.update(x0, x1)
+    v = np.random.default_rng(11).standard_normal(len(problem.free))
+    ref = dense @ v
+    assert np.abs(mat.apply(v) - ref).max() <= 1e-8 * np.abs(ref).max()
+    rhs = np.random.default_rng(7).standard_normal(len(problem.free))
+    exact = np.linalg.solve(dense, rhs)
+    got = mat.solve(rhs)
+    stale = mat.base.solve(rhs)
+    assert not mat.stale and mat.krylov_steps >= 2
+    resid = np.linalg.norm(dense @ got - rhs) / np.linalg.norm(rhs)
+    assert resid <= 1e-4  # KRYLOV_RTOL_MIN: the correction of this rhs is far above tolerance
+    err = np.abs(got - exact).max() / np.abs(exact).max()
+    assert err <= 1e-3 and err <= 0.01 * np.abs(stale - exact).max() / np.abs(exact).max()
+
+
+def _spin_start(small_modal_model, small_reduced_model):
+    """10 Hz spin with a 5° cone and a 1 mm bending of the small capsule: (x0, v0)."""
     model, m = small_reduced_model, small_modal_model
     system = rsys.reduced_system(model, "Q")
     omega = dyn.coning_omega(model.J0, 2 * np.pi * 10.0, math.radians(5.0))
     s0 = np.zeros(model.n_modes)
     s0[2] = 1e-3 / largest_nodal_displacement(model, 2)
     y0 = rsys.pack_state(system, omega=omega, s=s0)
-    x0, v0 = initial_state_from_reduced(model, y0, p=centre_of_mass(m.structure, m.x))
-    runs = {}
-    for full in (False, True):
-        runs[full] = integrate_full_order(m.structure, m.x, x0, v0, (0.0, 40 * H), H,
-                                          model=model, full_newton=full)  # fmt: skip
-    return runs[False], runs[True]
+    return initial_state_from_reduced(model, y0, p=centre_of_mass(m.structure, m.x))
 
 
-def test_modified_newton_matches_full_newton_to_the_newton_tolerance(spin_runs):
-    new, ref = spin_runs
+@pytest.fixture(scope="module")
+def spin_runs(small_modal_model, small_reduced_model):
+    """The spin of :func:`_spin_start`, 40 steps at 0.25 ms, damped (ζ = 2 %): the default
+    stepping (condensed ties), the same with the ties treated as too many to condense (the
+    Krylov path of paper-membrane) and the reference with a fresh factorisation at every
+    iteration."""
+    model, m = small_reduced_model, small_modal_model
+    x0, v0 = _spin_start(m, model)
+
+    def run(full):
+        return integrate_full_order(m.structure, m.x, x0, v0, (0.0, 40 * H), H, model=model,
+                                    full_newton=full)  # fmt: skip
+
+    made = []
+
+    class Counted(KrylovNewtonMatrix):
+        def __init__(self, *args):
+            super().__init__(*args)
+            made.append(self)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(nwt, "MAX_TIE_DOFS", 0)
+        mp.setattr(nwt, "KrylovNewtonMatrix", Counted)
+        krylov = run(False)
+    assert len(made) == krylov.stats["n_factor"] and sum(k.krylov_steps for k in made) > 0
+    return run(False), run(True), krylov
+
+
+@pytest.mark.parametrize("path", ["condensed", "krylov"])
+def test_modified_newton_matches_full_newton_to_the_newton_tolerance(spin_runs, path):
+    cond, ref, krylov = spin_runs
+    new = cond if path == "condensed" else krylov
     assert new.status == 0 and ref.status == 0
     assert new.stats["n_factor"] < ref.stats["n_factor"] / 10  # the point of it
     h_ref = ref.H_norm[0]

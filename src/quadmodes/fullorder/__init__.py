@@ -34,7 +34,10 @@ Choices (and why)
   iterations *and* steps while successive corrections shrink at least twofold (modified Newton);
   refactored otherwise. With end-body ties (far stiffer than the step resolves) the free DOFs
   are split: the ties' block is renewed at every iteration and condensed onto their few DOFs,
-  the rest is factorised once for many steps (:mod:`~quadmodes.fullorder.condensed`; the step
+  the rest is factorised once for many steps (:mod:`~quadmodes.fullorder.condensed`); when the
+  ties touch too many DOFs for that (the flange-bonded ``paper-membrane``: 1,896), each
+  correction is GMRES on the current matrix (applied matrix-free) preconditioned by a kept
+  float32 factorisation (:mod:`~quadmodes.fullorder.krylov`; the step
   force and the matrix come from :mod:`~quadmodes.fullorder.kernels`, compiled by
   :mod:`~quadmodes.fullorder.jit` when numba is installed; docs/performance.md). Only the
   linear solves differ from full Newton (``full_newton=True``), not the equations or the

@@ -23,6 +23,7 @@ from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
 from quadmodes.fe.quadratic_strain import QuadraticStrainSet
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
 from quadmodes.fullorder.kernels import StepOperators
+from quadmodes.fullorder.krylov import KrylovNewtonMatrix
 from quadmodes.fullorder.setup import FullOrderProblem
 from quadmodes.linalg.factor import factorize
 
@@ -35,6 +36,13 @@ RHO_SOFT = 0.1
 #: Condense the ties only when they touch at most this many free DOFs (their Schur system is
 #: dense and refactorised at every iteration; the paper models have 75 and 123).
 MAX_TIE_DOFS = 600
+
+#: With more tie DOFs than :data:`MAX_TIE_DOFS`: GMRES on the current matrix preconditioned
+#: by a kept factorisation (:class:`~quadmodes.fullorder.krylov.KrylovNewtonMatrix`); False:
+#: the kept factorisation alone (the modified Newton before session 7; on paper-membrane
+#: 1.15–1.5× more CPU time at 41 Hz, about even at 20 Hz, where it goes stale more slowly;
+#: docs/performance.md).
+KRYLOV_MANY_TIES = True
 
 #: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
 LINE_SEARCH = 1e-5
@@ -131,10 +139,14 @@ class NewtonMatrix:
     factorisation serve later steps whose body-frame pair is close to (z₀, z₁):
     ``A⁻¹ r ≈ 𝒬 A(z)⁻¹ 𝒬ᵀ r`` with Q the current frame, whatever the rigid rotation since."""
 
-    def __init__(self, a_free, low: list, weight: float, free: np.ndarray):
+    def __init__(self, a_free, low: list, weight: float, free: np.ndarray, single: bool = False,
+                 node_order: bool = False):  # fmt: skip
         """a_free: A on the free DOFs (sparse); low: rank-one terms ``(c, v)`` of J (v over all
-        3n DOFs); weight: Δt²/2 (s²)."""
-        self.lu = factorize(a_free, symmetric=True)
+        3n DOFs); weight: Δt²/2 (s²); single: factorise in float32 (a preconditioner);
+        node_order: the fill-reducing ordering computed on the node graph, once per pattern
+        (:func:`~quadmodes.linalg.factor.lu_factor`; about a quarter of a factorisation)."""
+        nodes = free // 3 if node_order else None
+        self.lu = factorize(a_free, symmetric=True, single=single, nodes=nodes)
         self.low = []
         for coef, vec in low:
             vf = np.asarray(vec).ravel()[free]
@@ -142,10 +154,12 @@ class NewtonMatrix:
 
     @classmethod
     def at(cls, problem: FullOrderProblem, z0: np.ndarray, z1: np.ndarray,
-           ops: StepOperators | None = None) -> NewtonMatrix:  # fmt: skip
+           ops: StepOperators | None = None, single: bool = False,
+           node_order: bool = False) -> NewtonMatrix:  # fmt: skip
         """The Newton matrix of ``problem`` at the body-frame pair (z0, z1) (n,3), assembled
         by ``ops`` (the run's :class:`~quadmodes.fullorder.kernels.StepOperators`; None: the
-        straightforward COO assembly of :func:`step_jacobian`)."""
+        straightforward COO assembly of :func:`step_jacobian`); single, node_order: see
+        :class:`NewtonMatrix`."""
         weight, free = 0.5 * problem.h * problem.h, problem.free
         if ops is None:
             jac, low = step_jacobian(problem.structure, z0, z1, problem.energy_momentum)
@@ -153,7 +167,7 @@ class NewtonMatrix:
         else:
             low = [(0.5 * c, v) for c, v in tangent_low_rank(problem.structure, 0.5 * (z0 + z1))]
             a = ops.newton_matrix(z0, z1, weight)
-        return cls(a, low, weight, free)
+        return cls(a, low, weight, free, single, node_order)
 
     def update(self, z0: np.ndarray, z1: np.ndarray) -> None:
         """Nothing to renew per iterate (the interface of a condensed matrix)."""
@@ -229,22 +243,31 @@ DIVERGED = 1.0
 
 def _rho(matrix) -> float:
     """Contraction above which ``matrix`` is renewed (:data:`RHO_REFACTOR`,
-    :data:`RHO_SOFT` for a condensed one)."""
-    return RHO_SOFT if isinstance(matrix, CondensedNewtonMatrix) else RHO_REFACTOR
+    :data:`RHO_SOFT` for a condensed or a Krylov one)."""
+    kept = (CondensedNewtonMatrix, KrylovNewtonMatrix)
+    return RHO_SOFT if isinstance(matrix, kept) else RHO_REFACTOR
 
 
 def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
                    full_newton: bool = False) -> Callable:  # fmt: skip
     """``make(z0, z1)``: the Newton matrix of a run at a body-frame pair (n,3). With ``ops``
     and ties in the structure: a :class:`~quadmodes.fullorder.condensed.CondensedNewtonMatrix`
-    (the ties renewed at every iteration; at most :data:`MAX_TIE_DOFS` of them); otherwise, with
-    ``ops``: a :class:`NewtonMatrix` assembled
-    by ``ops``; ``full_newton`` or no ``ops``: the straightforward :class:`NewtonMatrix`."""
+    (the ties renewed at every iteration; at most :data:`MAX_TIE_DOFS` of them); with more ties:
+    a :class:`~quadmodes.fullorder.krylov.KrylovNewtonMatrix` (GMRES on the current matrix,
+    preconditioned by a float32 factorisation); without ties, with ``ops``: a
+    :class:`NewtonMatrix` assembled by ``ops``; ``full_newton`` or no ``ops``: the
+    straightforward :class:`NewtonMatrix`."""
     if full_newton or ops is None:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1)
     split = TieSplit.of(ops, problem.free)
-    if split is None or len(split.tie) > MAX_TIE_DOFS:  # no ties, or too many for dense LU
+    if split is None:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)
+    if len(split.tie) > MAX_TIE_DOFS and not KRYLOV_MANY_TIES:
+        return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)  # the kept whole matrix
+    if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
+        return lambda z0, z1: KrylovNewtonMatrix(
+            problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
+        )
     return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
 
 
@@ -257,15 +280,18 @@ def solve_step(
     factorise at the start with ``make`` (:func:`matrix_factory`; default: the straightforward
     :class:`NewtonMatrix`)); it is renewed at the current iterate when successive corrections
     shrink by less than :data:`RHO_REFACTOR` (after at least two iterations with it), and its
-    ``update`` (the ties of a condensed matrix) is taken at every iterate; a condensed matrix is
-    renewed already when they shrink by less than :data:`RHO_SOFT`. ``full_newton``:
+    ``update`` (the ties of a condensed matrix, the operator of a Krylov one) is taken at every
+    iterate; a condensed or Krylov matrix is renewed already when they shrink by less than
+    :data:`RHO_SOFT`, a Krylov one also when a solve on it did not converge (``stale``, at the
+    current iterate) or the last step needed too many Krylov steps (``worn``, at the start of
+    the step). ``full_newton``:
     a fresh factorisation at every iteration (the reference Newton; slow).
     ``residual(y) -> (v½, r, f_d)``. Corrections above :data:`LINE_SEARCH` × body size
     backtrack on the residual norm (:func:`line_search`)."""
     make = make if make is not None else (lambda z0, z1: NewtonMatrix.at(problem, z0, z1))
     n_newton = n_factor = 0
     since = math.inf  # Newton iterations since the last factorisation
-    if matrix is None or full_newton:
+    if matrix is None or full_newton or getattr(matrix, "worn", False):
         matrix = make(x @ rot, x1 @ rot)
         n_factor, since = n_factor + 1, 0
     prev, nd, ok = None, math.inf, False
@@ -297,8 +323,10 @@ def solve_step(
         if nd <= problem.tol:
             ok = True
             break
-        if prev is not None and nd > _rho(matrix) * prev and since >= 2:
-            # the frozen matrix no longer contracts well: renew it at this iterate; if a fresh
+        slow = prev is not None and nd > _rho(matrix) * prev
+        if since >= 2 and (slow or getattr(matrix, "stale", False)):
+            # the frozen matrix no longer contracts well (or a Krylov solve on it did not reach
+            # its tolerance): renew it at this iterate; if a fresh
             # matrix did not help either (the wrinkling law's tangent jumps between iterates,
             # and Newton can cycle), backtrack on the residual from now on
             stalled += since <= 3 and n_factor > 0

@@ -29,8 +29,9 @@ class KrylovResult:
 
 
 def gmres(
-    operator: Apply, preconditioner: Apply, b: np.ndarray, rtol: float, max_iterations: int
-) -> KrylovResult:
+    operator: Apply, preconditioner: Apply, b: np.ndarray, rtol: float, max_iterations: int,
+    first: np.ndarray | None = None,
+) -> KrylovResult:  # fmt: skip
     """GMRES (no restart, modified Gram–Schmidt) for ``A x = b``, right-preconditioned by ``P``.
 
     operator: ``v (m,) -> A v``. preconditioner: ``v (m,) -> P v`` with ``P ≈ A⁻¹``. rtol: stop
@@ -38,7 +39,8 @@ def gmres(
     many Krylov vectors (the result then has ``converged=False``, with the best ``x`` found);
     after four steps, the iteration also stops unconverged when the mean residual reduction per
     step so far extrapolates to more than ``10 rtol`` at ``max_iterations`` (a poor
-    preconditioner is recognised early)."""
+    preconditioner is recognised early). first: ``P b`` if the caller has it already (saves
+    one application of P)."""
     beta = float(np.linalg.norm(b))
     if beta == 0.0:
         return KrylovResult(np.zeros_like(b), 0.0, 0, True)
@@ -48,7 +50,7 @@ def gmres(
     residual, k = 1.0, 0
     y = np.zeros(0)
     for k in range(1, max_iterations + 1):
-        z = preconditioner(basis[-1])
+        z = first / beta if k == 1 and first is not None else preconditioner(basis[-1])
         z_cols.append(z)
         w = operator(z)
         for i, v in enumerate(basis):
