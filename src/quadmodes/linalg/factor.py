@@ -38,15 +38,17 @@ GENERAL_OPTIONS = {"permc_spec": "COLAMD"}
 
 class PermutedLU:
     """SuperLU factors of ``A[p][:, p]`` (ordered ahead, ``permc_spec="NATURAL"``) behind the
-    solve of ``A``: ``solve(b)`` returns ``A⁻¹ b`` for b ``(n,)`` or ``(n, k)``."""
+    solve of ``A``: ``solve(b)`` returns ``A⁻¹ b`` for b ``(n,)`` or ``(n, k)``. dtype: that of
+    the factorised matrix (``lu.L`` would build the whole factor as a sparse matrix: 48 ms per
+    solve on the 80k-node tangent)."""
 
-    def __init__(self, lu: spla.SuperLU, order: np.ndarray):
-        self.lu, self.order = lu, order
+    def __init__(self, lu: spla.SuperLU, order: np.ndarray, dtype: np.dtype):
+        self.lu, self.order, self.dtype = lu, order, np.dtype(dtype)
         self.shape = lu.shape
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         rhs = np.asarray(rhs)
-        out = np.empty(rhs.shape, np.result_type(rhs.dtype, self.lu.L.dtype))
+        out = np.empty(rhs.shape, np.result_type(rhs.dtype, self.dtype))
         out[self.order] = self.lu.solve(rhs[self.order])
         return out
 
@@ -112,7 +114,7 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
             _keep_ordering(key, node_ordering(a, np.asarray(nodes)))
         order = _ORDERINGS[key]
         natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
-        return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order)
+        return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order, a.dtype)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
 
