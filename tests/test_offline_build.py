@@ -99,3 +99,19 @@ def test_node_ordering_fills_like_minimum_degree_and_is_reused():
     np.testing.assert_allclose(again.solve(b), first.solve(b) / 2.0, rtol=1e-9, atol=0)
     x = lu_factor(a, border=6).solve(b)
     assert np.linalg.norm(a @ x - b) <= 1e-10 * np.linalg.norm(b)
+
+
+def test_permuted_lu_solves_in_the_precision_of_its_factors():
+    """A node-ordered factorisation solves in the precision of its factors: float64, and float32
+    (the inflation's kept preconditioner)."""
+    a = _node_laplacian(8)
+    lead = a.shape[0] - 6
+    b = np.random.default_rng(7).standard_normal(a.shape[0])
+    double = lu_factor(a, border=6, nodes=np.arange(lead) // 3)
+    single = lu_factor(a.astype(np.float32), border=6, nodes=np.arange(lead) // 3)
+    assert isinstance(double, factor.PermutedLU) and isinstance(single, factor.PermutedLU)
+    x = double.solve(b)
+    assert x.dtype == np.float64 and np.linalg.norm(a @ x - b) <= 1e-10 * np.linalg.norm(b)
+    x32 = single.solve(b.astype(np.float32))
+    assert x32.dtype == np.float32
+    assert np.linalg.norm(a @ x32 - b) <= 1e-4 * np.linalg.norm(b)
