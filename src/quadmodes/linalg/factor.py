@@ -11,8 +11,8 @@ solution to round-off; only the cost differs.
 
 :func:`factorize` is the one interface the solvers use (factor once, solve many): SuperLU by
 default (always installed), or an optional back end chosen by name or by ``$QUADMODES_LINALG``
-(``pardiso``: pypardiso, from ``quadmodes[fast]``); a missing optional back end is reported in
-one line and SuperLU is used.
+(``pardiso``: pypardiso, installed separately, about 1.2 GB with MKL); a missing optional back
+end is reported in one line and SuperLU is used.
 """
 
 from __future__ import annotations
@@ -146,16 +146,33 @@ class _SuperLU:
         return self.lu.solve(rhs)
 
 
+def upper_with_diagonal(a: sp.spmatrix) -> sp.csr_matrix:
+    """The upper triangle of the square ``a`` (CSR, sorted) with every diagonal entry stored,
+    explicit zeros included (PARDISO's symmetric modes read the upper triangle and want the
+    whole diagonal, e.g. the zero block of a bordered matrix)."""
+    u = sp.triu(a, format="coo")
+    n = a.shape[0]
+    diag = np.arange(n)
+    # COO → CSR sums duplicates and keeps the explicit zeros
+    out = sp.csr_matrix((np.concatenate([u.data, np.zeros(n, u.dtype)]),
+                         (np.concatenate([u.row, diag]), np.concatenate([u.col, diag]))),
+                        shape=a.shape)  # fmt: skip
+    out.sort_indices()
+    return out
+
+
 class _Pardiso:
-    """PARDISO (``pypardiso``, MKL) on a real square matrix, general (unsymmetric) mode."""
+    """PARDISO (``pypardiso``, MKL) on a real square matrix: symmetric indefinite mode
+    (``mtype = -2``, Bunch–Kaufman pivoting, the upper triangle) for a symmetric one, the
+    general mode (``mtype = 11``) otherwise."""
 
     backend = "pardiso"
 
     def __init__(self, a: sp.spmatrix, symmetric: bool):
-        import pypardiso  # optional dependency: quadmodes[fast]
+        import pypardiso  # optional: pip install pypardiso
 
-        self.a = sp.csr_matrix(a)
-        self.solver = pypardiso.PyPardisoSolver(mtype=11)
+        self.a = upper_with_diagonal(a) if symmetric else sp.csr_matrix(a)
+        self.solver = pypardiso.PyPardisoSolver(mtype=-2 if symmetric else 11)
         self.solver.factorize(self.a)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
@@ -172,7 +189,7 @@ def backend_choice(backend: str | None = None) -> str:
     if name == "pardiso" and importlib.util.find_spec("pypardiso") is None:
         if name not in _REPORTED:
             _REPORTED.add(name)
-            print("note: pypardiso is not installed (pip install 'quadmodes[fast]'); using "
+            print("note: pypardiso is not installed (pip install pypardiso); using "
                   "SuperLU", file=sys.stderr)  # fmt: skip
         return "superlu"
     return name
