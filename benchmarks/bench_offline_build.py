@@ -9,7 +9,9 @@ checkout, e.g. ``git worktree add --detach /tmp/qm-old fecf956``, the version be
 The child times the stages of ``quadmodes modes`` (what ``pipeline.build_modal_model`` does) and
 counts the SuperLU factorisations of each stage and their time (a wrapper around
 ``scipy.sparse.linalg.splu``). ``--backends pardiso`` adds a build of this tree with
-``QUADMODES_LINALG=pardiso`` (reported as not installed, and skipped, without pypardiso).
+``QUADMODES_LINALG=pardiso`` (reported as not installed, and skipped, without pypardiso), on one
+core (``MKL_NUM_THREADS=1`` unless set). ``--keep DIR`` keeps each build's state, frequencies
+and times.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_offline_build.py --old /tmp/qm-old/src \\
         --edges "0.39 in" --repeat 2
@@ -92,6 +94,7 @@ def child(edge: str, n_modes: int, out: str) -> None:
 
 def run(src: Path, edge: str, n_modes: int, out: Path, backend: str | None) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src), OPENBLAS_NUM_THREADS="1")
+    env.setdefault("MKL_NUM_THREADS", "1")  # PARDISO on one core, as SuperLU
     env.pop("QUADMODES_LINALG", None)
     if backend:
         env["QUADMODES_LINALG"] = backend
@@ -133,6 +136,8 @@ def report(edge: str, results: dict) -> None:
         df = float(np.max(np.abs(r["f"] - old["f"]) / old["f"]))
         print(f"\n{lab} against old: max Δx / extent {dx:.1e}, max Δf / f {df:.1e}; Newton "
               f"iterations {int(old['its'])} → {int(r['its'])}")  # fmt: skip
+        each = " ".join(f"{v:.1e}" for v in np.abs(r["f"] - old["f"]) / old["f"])
+        print(f"  Δf / f per mode ({' '.join(f'{f:.2f}' for f in old['f'])} Hz): {each}")
     print(flush=True)
 
 
@@ -143,19 +148,22 @@ def main() -> None:
     ap.add_argument("--modes", type=int, default=10)
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--backends", default="", help='extra back ends of this tree: "pardiso"')
+    ap.add_argument("--keep", type=Path, help="folder to keep each build's results in (.npz)")
     args = ap.parse_args()
     backends = [b.strip() for b in args.backends.split(",") if b.strip()]
     if "pardiso" in backends and importlib.util.find_spec("pypardiso") is None:
         print("pardiso: pypardiso is not installed here; that column is skipped")
         backends.remove("pardiso")
     with tempfile.TemporaryDirectory() as tmp:
+        folder = args.keep or Path(tmp)
+        folder.mkdir(parents=True, exist_ok=True)
         for edge in (e.strip() for e in args.edges.split(",")):
             results = {"old": [], "new": [], **{b: [] for b in backends}}
-            for _ in range(args.repeat):
+            for rep in range(args.repeat):
                 for label in results:
                     src = args.old if label == "old" else NEW_SRC
                     backend = label if label not in ("old", "new") else None
-                    out = Path(tmp) / f"{label}.npz"
+                    out = folder / f"{label}-{edge.replace(' ', '')}-{rep}.npz"
                     results[label].append(run(src, edge, args.modes, out, backend))
             report(edge, results)
 
