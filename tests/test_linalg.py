@@ -86,25 +86,10 @@ def test_single_precision_factorisation_is_an_approximate_inverse():
     assert 0.0 < err <= 1e-5  # single-precision round-off, not double
 
 
-def test_upper_triangle_keeps_the_whole_diagonal():
-    """PARDISO's symmetric input: the upper triangle of a bordered matrix, with the zeros of its
-    constraint block stored on the diagonal."""
-    from quadmodes.linalg.factor import upper_with_diagonal
-
-    a = _bordered_laplacian(6)
-    u = upper_with_diagonal(a)
-    assert u.has_sorted_indices and np.all(np.diff(u.indptr) > 0)
-    rows = np.repeat(np.arange(a.shape[0]), np.diff(u.indptr))
-    assert np.all(u.indices >= rows)  # upper triangle only
-    assert np.all(u.indices[u.indptr[:-1]] == np.arange(a.shape[0]))  # diagonal first in each row
-    full = u + sp.triu(u, 1).T
-    assert abs(full - a).max() == 0.0
-
-
 @pytest.mark.parametrize("symmetric", [True, False])
 def test_pardiso_solves_as_superlu(symmetric):
-    """The optional PARDISO back end (symmetric indefinite or general mode) on the bordered
-    Laplacian: the same solution as SuperLU to round-off (skipped without pypardiso)."""
+    """The optional PARDISO back end on the bordered Laplacian: the same solution as SuperLU to
+    round-off (skipped without pypardiso)."""
     pytest.importorskip("pypardiso")
     from quadmodes.linalg.factor import factorize
 

@@ -217,33 +217,19 @@ class _SuperLU:
         return self.lu.solve(rhs)
 
 
-def upper_with_diagonal(a: sp.spmatrix) -> sp.csr_matrix:
-    """The upper triangle of the square ``a`` (CSR, sorted) with every diagonal entry stored,
-    explicit zeros included (PARDISO's symmetric modes read the upper triangle and want the
-    whole diagonal, e.g. the zero block of a bordered matrix)."""
-    u = sp.triu(a, format="coo")
-    n = a.shape[0]
-    diag = np.arange(n)
-    # COO → CSR sums duplicates and keeps the explicit zeros
-    out = sp.csr_matrix((np.concatenate([u.data, np.zeros(n, u.dtype)]),
-                         (np.concatenate([u.row, diag]), np.concatenate([u.col, diag]))),
-                        shape=a.shape)  # fmt: skip
-    out.sort_indices()
-    return out
-
-
 class _Pardiso:
-    """PARDISO (``pypardiso``, MKL) on a real square matrix: symmetric indefinite mode
-    (``mtype = -2``, Bunch–Kaufman pivoting, the upper triangle) for a symmetric one, the
-    general mode (``mtype = 11``) otherwise."""
+    """PARDISO (``pypardiso``, MKL) on a real square matrix, general (unsymmetric) mode. Its
+    symmetric modes (``mtype`` 2, −2) were measured: they factorise faster still but put the
+    shift-invert frequencies of the 20k-node model off by 1e-4 relative (general mode 3e-6,
+    SuperLU 1e-8; docs/performance.md), so the back end is not used for accuracy-bound work."""
 
     backend = "pardiso"
 
     def __init__(self, a: sp.spmatrix, symmetric: bool):
         import pypardiso  # optional: pip install pypardiso
 
-        self.a = upper_with_diagonal(a) if symmetric else sp.csr_matrix(a)
-        self.solver = pypardiso.PyPardisoSolver(mtype=-2 if symmetric else 11)
+        self.a = sp.csr_matrix(a)
+        self.solver = pypardiso.PyPardisoSolver(mtype=11)
         self.solver.factorize(self.a)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
