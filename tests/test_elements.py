@@ -153,3 +153,62 @@ def test_gas_law_pressure_follows_p_v_kappa():
     gas = sets["gas"]
     x = 1.1 * x0
     assert gas.pressure(x) == pytest.approx(2000.0 * (1 / 1.1**3) ** 1.4, rel=1e-12)
+
+
+def _reference_membrane_stiffness(mem, x):
+    """The membrane tangent as written before the batched products (einsum over the element)."""
+    f, e, s = mem.strain_stress(x)
+    g = mem.gradients
+    bm = np.stack([np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 0]),
+                   np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 1]),
+                   np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 1])
+                   + np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 0])], 1).reshape(-1, 3, 9)  # fmt: skip
+    k_mat = np.einsum("epa,epq,eqb->eab", bm, mem.material_tangent(e), bm)
+    k_geo = np.einsum("eab,ij->eaibj", np.einsum("eak,ekl,ebl->eab", g, s, g), np.eye(3))
+    return mem._volume()[:, None, None] * (k_mat + k_geo.reshape(-1, 9, 9))
+
+
+@pytest.mark.parametrize("tension_field", [False, True])
+def test_membrane_kernels_equal_the_element_formulas(tension_field):
+    """Batched-product kernels: force ``V F S G_a`` and tangent ``V (Bᵀ D B + G S Gᵀ ⊗ I)`` as the
+    einsum formulas give them (to round-off), also under the wrinkling law (per-element D)."""
+    x0 = OCTA_POINTS * 0.3
+    mem = membrane_set(OCTA_TRIS, x0, 1e-4, 3e8, 0.3, 900.0, tension_field=tension_field)
+    # stretched (taut) and squeezed (wrinkled) elements alike
+    x = x0 * np.array([1.02, 0.99, 1.0]) + 2e-3 * RNG.standard_normal(x0.shape)
+    k = mem.stiffness(x)
+    ref = _reference_membrane_stiffness(mem, x)
+    assert np.abs(k - ref).max() <= 1e-13 * np.abs(ref).max()
+    f, _, s = mem.strain_stress(x)
+    ref_f = mem._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", f, s, mem.gradients)
+    assert np.abs(mem.force(x) - ref_f).max() <= 1e-13 * np.abs(ref_f).max()
+
+
+def test_volume_hessian_is_the_derivative_of_the_volume_gradient():
+    """Element Hessian of the enclosed volume: blocks ``∓[x]x / 6`` (against the cross-product
+    matrices) and the central difference of ``∂V/∂x_a``."""
+    from quadmodes.fe.pressure import volume_gradient_elements, volume_hessian_elements
+    from quadmodes.rotations import skew
+
+    xe = _deformed(OCTA_POINTS * 0.3)[OCTA_TRIS]
+    h = volume_hessian_elements(xe)
+    ref = np.zeros((len(xe), 3, 3, 3, 3))
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        ref[:, a, :, b, :] = -skew(xe[:, c]) / 6.0
+        ref[:, a, :, c, :] = skew(xe[:, b]) / 6.0
+    np.testing.assert_allclose(h, ref.reshape(-1, 9, 9), rtol=0, atol=1e-15)
+    w, eps = RNG.standard_normal(xe.shape), 1e-6
+    fd = (volume_gradient_elements(xe + eps * w) - volume_gradient_elements(xe - eps * w)) / (2 * eps)
+    np.testing.assert_allclose(np.einsum("eab,eb->ea", h, w.reshape(-1, 9)), fd.reshape(-1, 9),
+                               rtol=0, atol=1e-9 * np.abs(fd).max())  # fmt: skip
+
+
+def test_sets_on_one_connectivity_share_their_slots():
+    """connectivity_groups: equal connectivities (a membrane and the pressure on it) map to one
+    entry, in order of first appearance; different ones (bars) get their own."""
+    from quadmodes.fe.model import connectivity_groups
+
+    bars = np.array([[0, 1], [2, 3]])
+    distinct, groups = connectivity_groups([OCTA_TRIS, bars, OCTA_TRIS.copy(), bars[:1]])
+    assert groups == (0, 1, 0, 2)
+    assert [d.shape for d in distinct] == [(8, 3), (2, 2), (1, 2)]

@@ -84,3 +84,18 @@ def test_single_precision_factorisation_is_an_approximate_inverse():
     exact = factorize(a).solve(b)
     err = np.abs(x - exact).max() / np.abs(exact).max()
     assert 0.0 < err <= 1e-5  # single-precision round-off, not double
+
+
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_pardiso_solves_as_superlu(symmetric):
+    """The optional PARDISO back end on the bordered Laplacian: the same solution as SuperLU to
+    round-off (skipped without pypardiso)."""
+    pytest.importorskip("pypardiso")
+    from quadmodes.linalg.factor import factorize
+
+    a = _bordered_laplacian()
+    b = np.random.default_rng(8).standard_normal((a.shape[0], 2))
+    f = factorize(a, symmetric=symmetric, backend="pardiso")
+    assert f.backend == "pardiso"
+    x, ref = f.solve(b), factorize(a, symmetric=symmetric).solve(b)
+    np.testing.assert_allclose(x, ref, rtol=0, atol=1e-10 * np.abs(ref).max())

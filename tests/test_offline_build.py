@@ -72,6 +72,20 @@ def test_inexact_newton_inflation_matches_full_newton(coarse_case, monkeypatch):
     np.testing.assert_allclose(f_fast, f_full, rtol=1e-9)
 
 
+@pytest.mark.parametrize("refactor_after", [None, 0])
+def test_refactorisation_rule_leaves_the_inflation_unchanged(coarse_case, monkeypatch,
+                                                             refactor_after):  # fmt: skip
+    """A fresh float32 factorisation whenever the last GMRES needed more than
+    ``REFACTOR_AFTER`` vectors (0: at every iteration; None: never by that rule) changes the
+    linear solves only: the same inflated state (1e-9 of the extent) and frequencies (1e-9)."""
+    x_ref, _, f_ref = _build(coarse_case)
+    monkeypatch.setattr(prestress, "REFACTOR_AFTER", refactor_after)
+    x, state, f = _build(coarse_case)
+    assert np.abs(x - x_ref).max() <= 1e-9 * np.ptp(x_ref, axis=0).max()
+    assert state.residual_norm < 1e-8
+    np.testing.assert_allclose(f, f_ref, rtol=1e-9)
+
+
 def _node_laplacian(n: int = 20) -> sp.csc_matrix:
     """Three DOFs per node of an n × n grid (all coupled), bordered by six dense columns."""
     lap1 = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
@@ -99,3 +113,19 @@ def test_node_ordering_fills_like_minimum_degree_and_is_reused():
     np.testing.assert_allclose(again.solve(b), first.solve(b) / 2.0, rtol=1e-9, atol=0)
     x = lu_factor(a, border=6).solve(b)
     assert np.linalg.norm(a @ x - b) <= 1e-10 * np.linalg.norm(b)
+
+
+def test_permuted_lu_solves_in_the_precision_of_its_factors():
+    """A node-ordered factorisation solves in the precision of its factors: float64, and float32
+    (the inflation's kept preconditioner)."""
+    a = _node_laplacian(8)
+    lead = a.shape[0] - 6
+    b = np.random.default_rng(7).standard_normal(a.shape[0])
+    double = lu_factor(a, border=6, nodes=np.arange(lead) // 3)
+    single = lu_factor(a.astype(np.float32), border=6, nodes=np.arange(lead) // 3)
+    assert isinstance(double, factor.PermutedLU) and isinstance(single, factor.PermutedLU)
+    x = double.solve(b)
+    assert x.dtype == np.float64 and np.linalg.norm(a @ x - b) <= 1e-10 * np.linalg.norm(b)
+    x32 = single.solve(b.astype(np.float32))
+    assert x32.dtype == np.float32
+    assert np.linalg.norm(a @ x32 - b) <= 1e-4 * np.linalg.norm(b)

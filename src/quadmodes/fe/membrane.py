@@ -63,6 +63,28 @@ def green_strain(gradients: np.ndarray, xe: np.ndarray) -> tuple[np.ndarray, np.
     return f, e
 
 
+def deformation_strain(gradients: np.ndarray, xe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`green_strain` by batched matrix products (about twice as fast; equal to round-off,
+    not bit for bit): the statics' kernels use it, the full order keeps :func:`green_strain`
+    (its discrete-gradient reference amplifies round-off in ``E``)."""
+    f = np.matmul(np.swapaxes(xe, 1, 2), gradients)  # Σ_a x_a ⊗ G_a
+    e = 0.5 * (np.matmul(np.swapaxes(f, 1, 2), f) - np.eye(2))
+    return f, e
+
+
+def strain_displacement(f: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Rows of ``δ[E11, E22, 2E12]`` per nodal displacement: ``B`` ``(ne, 3, 9)`` (1/m), column
+    ``3a + i`` for node a, component i; f ``(ne, 3, 2)`` deformation gradients, g ``(ne, 3, 2)``
+    shape-function gradients (1/m)."""
+    g0, g1 = g[:, :, 0, None], g[:, :, 1, None]  # (ne, a, 1)
+    f0, f1 = f[:, None, :, 0], f[:, None, :, 1]  # (ne, 1, i)
+    bm = np.empty((len(g), 3, 3, 3))
+    bm[:, 0] = g0 * f0
+    bm[:, 1] = g1 * f1
+    bm[:, 2] = g1 * f0 + g0 * f1
+    return bm.reshape(-1, 3, 9)
+
+
 @dataclass(frozen=True)
 class MembraneSet:
     """CST membrane elements over triangles ``conn`` ``(ne, 3)``.
@@ -147,7 +169,7 @@ class MembraneSet:
 
     def strain_stress(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``F`` ``(ne,3,2)``, Green strain ``E`` and 2nd Piola–Kirchhoff stress ``S`` ``(ne,2,2)`` (Pa)."""
-        f, e = green_strain(self.gradients, x[self.conn])
+        f, e = deformation_strain(self.gradients, x[self.conn])
         return f, e, self.material_stress(e)
 
     def energy(self, x: np.ndarray) -> float:
@@ -159,28 +181,26 @@ class MembraneSet:
 
     def force(self, x: np.ndarray) -> np.ndarray:
         f, _, s = self.strain_stress(x)
-        return self._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", f, s, self.gradients)
+        # f_a = V F S G_a: (G (F S)ᵀ)[e, a, i], batched 3×2 products (einsum over three
+        # operands was 3–4 times slower)
+        out = np.matmul(self.gradients, np.swapaxes(np.matmul(f, s), 1, 2))
+        out *= self._volume()[:, None, None]
+        return out
 
     def stiffness(self, x: np.ndarray) -> np.ndarray:
+        """Element tangents ``(ne, 9, 9)`` (N/m): material ``V Bᵀ D B`` plus geometric
+        ``V (G S Gᵀ) ⊗ I₃``, rows and columns ordered ``3a + i`` (node a, component i)."""
         f, e, s = self.strain_stress(x)
         g = self.gradients
-        # Strain–displacement rows for [E11, E22, 2E12] w.r.t. node a, component i.
-        bm = np.stack(
-            [
-                np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 0]),
-                np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 1]),
-                np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 1])
-                + np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 0]),
-            ],
-            1,
-        ).reshape(-1, 3, 9)
-        if self._relaxing() is not None:
-            k_mat = np.einsum("epa,epq,eqb->eab", bm, self.material_tangent(e), bm)
-        else:
-            k_mat = np.einsum("epa,pq,eqb->eab", bm, self.d, bm)
-        k_geo_scalar = np.einsum("eak,ekl,ebl->eab", g, s, g)
-        k_geo = np.einsum("eab,ij->eaibj", k_geo_scalar, np.eye(3)).reshape(-1, 9, 9)
-        return self._volume()[:, None, None] * (k_mat + k_geo)
+        bm = strain_displacement(f, g)
+        tangent = self.material_tangent(e) if self._relaxing() is not None else self.d
+        k = np.matmul(np.swapaxes(bm, 1, 2), np.matmul(tangent, bm))
+        k_geo = np.matmul(np.matmul(g, s), np.swapaxes(g, 1, 2))  # (ne, 3, 3): G_a S G_b
+        blocks = k.reshape(-1, 3, 3, 3, 3)  # (ne, a, i, b, j)
+        for i in range(3):
+            blocks[:, :, i, :, i] += k_geo
+        k *= self._volume()[:, None, None]
+        return k
 
     def second_order(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         g = self.gradients

@@ -98,17 +98,48 @@ def tangent_stiffness(structure: Structure, x: np.ndarray) -> sp.csr_matrix:
 
     A gas-law pressure adds a global rank-one term given by :func:`tangent_low_rank`.
     """
-    pattern = stiffness_pattern(structure)
-    return assemble_csr(pattern, [e.stiffness(x) for e in structure.elements])
+    pattern, groups = _stiffness_assembly(structure)
+    summed: list = [None] * (max(groups) + 1 if groups else 0)
+    fresh = [False] * len(summed)  # summed[g] is our own sum (a kernel's array is never written)
+    for e, g in zip(structure.elements, groups, strict=True):
+        k = e.stiffness(x)
+        if summed[g] is None:
+            summed[g] = k
+        elif fresh[g]:
+            summed[g] += k
+        else:
+            summed[g], fresh[g] = summed[g] + k, True
+    return assemble_csr(pattern, summed)
 
 
 def stiffness_pattern(structure: Structure) -> CsrPattern:
     """CSR pattern of the tangent of ``structure``'s element sets, computed once per set of
-    connectivities (keyed by their contents) and kept in ``structure.pattern_cache``."""
+    connectivities (keyed by their contents) and kept in ``structure.pattern_cache``. Its
+    slots are those of the distinct connectivities (:func:`connectivity_groups`): sets on one
+    connectivity (a membrane and the pressure on it) are summed before the scatter."""
+    return _stiffness_assembly(structure)[0]
+
+
+def connectivity_groups(conns: list[np.ndarray]) -> tuple[list[np.ndarray], tuple[int, ...]]:
+    """The distinct connectivities among ``conns`` (each ``(ne, k)``) in order of first
+    appearance, and for each of ``conns`` the index of its own among them."""
+    distinct: list[np.ndarray] = []
+    groups = []
+    for c in conns:
+        same = [i for i, d in enumerate(distinct) if d.shape == c.shape and np.array_equal(d, c)]
+        if not same:
+            distinct.append(c)
+        groups.append(same[0] if same else len(distinct) - 1)
+    return distinct, tuple(groups)
+
+
+def _stiffness_assembly(structure: Structure) -> tuple[CsrPattern, tuple[int, ...]]:
+    """``(pattern, groups)`` of :func:`stiffness_pattern` and :func:`connectivity_groups`."""
     conns = [np.asarray(e.conn) for e in structure.elements]
     key = (structure.n, *((c.shape, hash(c.tobytes())) for c in conns))
     if key not in structure.pattern_cache:
-        structure.pattern_cache[key] = csr_pattern(conns, structure.n)
+        distinct, groups = connectivity_groups(conns)
+        structure.pattern_cache[key] = (csr_pattern(distinct, structure.n), groups)
     return structure.pattern_cache[key]
 
 

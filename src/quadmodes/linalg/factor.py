@@ -11,8 +11,8 @@ solution to round-off; only the cost differs.
 
 :func:`factorize` is the one interface the solvers use (factor once, solve many): SuperLU by
 default (always installed), or an optional back end chosen by name or by ``$QUADMODES_LINALG``
-(``pardiso``: pypardiso, from ``quadmodes[fast]``); a missing optional back end is reported in
-one line and SuperLU is used.
+(``pardiso``: pypardiso, installed separately, about 1.2 GB with MKL); a missing optional back
+end is reported in one line and SuperLU is used.
 """
 
 from __future__ import annotations
@@ -27,6 +27,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from quadmodes.linalg.ordering import nested_dissection
+
 Solve = Callable[[np.ndarray], np.ndarray]
 
 #: SuperLU options for symmetric-pattern matrices with usable diagonal pivots.
@@ -38,15 +40,17 @@ GENERAL_OPTIONS = {"permc_spec": "COLAMD"}
 
 class PermutedLU:
     """SuperLU factors of ``A[p][:, p]`` (ordered ahead, ``permc_spec="NATURAL"``) behind the
-    solve of ``A``: ``solve(b)`` returns ``A⁻¹ b`` for b ``(n,)`` or ``(n, k)``."""
+    solve of ``A``: ``solve(b)`` returns ``A⁻¹ b`` for b ``(n,)`` or ``(n, k)``. dtype: that of
+    the factorised matrix (``lu.L`` would build the whole factor as a sparse matrix: 48 ms per
+    solve on the 80k-node tangent)."""
 
-    def __init__(self, lu: spla.SuperLU, order: np.ndarray):
-        self.lu, self.order = lu, order
+    def __init__(self, lu: spla.SuperLU, order: np.ndarray, dtype: np.dtype):
+        self.lu, self.order, self.dtype = lu, order, np.dtype(dtype)
         self.shape = lu.shape
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         rhs = np.asarray(rhs)
-        out = np.empty(rhs.shape, np.result_type(rhs.dtype, self.lu.L.dtype))
+        out = np.empty(rhs.shape, np.result_type(rhs.dtype, self.dtype))
         out[self.order] = self.lu.solve(rhs[self.order])
         return out
 
@@ -69,23 +73,92 @@ def _keep_ordering(key: tuple, order: np.ndarray) -> None:
     _ORDERINGS[key] = order
 
 
-def node_ordering(a: sp.csc_matrix, nodes: np.ndarray) -> np.ndarray:
-    """A fill-reducing ordering ``(m,)`` of ``a`` ``(m, m)`` from minimum degree on its node
-    graph: ``nodes`` ``(l,)`` gives the node of each of the leading ``l`` rows (the DOFs of a
-    node couple to the same neighbours); the rows after them (a border) come last. The graph
-    has about a ninth of the entries of ``a`` for three DOFs per node, so its ordering costs a
-    fraction of SuperLU's on ``a``, for nearly the same fill (+3 % on the 20k-node tangent)."""
+#: How :func:`node_ordering` orders the node graph: "auto" (whichever of the two below makes
+#: the node graph's own factorisation cheaper, :func:`elimination_cost`), "dissection" (nested
+#: dissection, :mod:`quadmodes.linalg.ordering`) or "minimum degree" (SuperLU's MMD on it).
+NODE_ORDERING = "auto"
+NODE_METHODS = ("auto", "dissection", "minimum degree")
+#: Node elimination orders by node-graph pattern and method: the inflation's bordered tangent
+#: and the modes' K − σM of one structure share their node graph, hence their ordering.
+_NODE_ORDERS: dict[tuple, np.ndarray] = {}
+
+
+def node_graph(a: sp.spmatrix, nodes: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
+    """``(node_of (l,), graph (k, k))``: for each of the leading ``l`` rows of ``a`` the index of
+    its node among the ``k`` distinct ``nodes`` ``(l,)``, and the pattern (ones, diagonal
+    included) of the node couplings of the leading block: a function of the stored pattern of
+    ``a`` only, not of its values."""
     lead = nodes.size
-    ids, node_of = np.unique(nodes, return_inverse=True)
-    agg = sp.csr_matrix((np.ones(lead), (node_of, np.arange(lead))), shape=(ids.size, lead))
-    graph = (agg @ abs(a[:lead, :lead]) @ agg.T).tocsc()
+    _, node_of = np.unique(nodes, return_inverse=True)
+    k = int(node_of.max()) + 1 if lead else 0
+    lead_block = sp.csc_matrix(a)[:lead, :lead]
+    ones = sp.csc_matrix((np.ones(lead_block.nnz), lead_block.indices, lead_block.indptr),
+                         shape=lead_block.shape)  # fmt: skip
+    agg = sp.csr_matrix((np.ones(lead), (node_of, np.arange(lead))), shape=(k, lead))
+    graph = (agg @ ones @ agg.T + sp.identity(k)).tocsc()
+    graph.sort_indices()
     graph.data[:] = 1.0
-    graph = sp.csc_matrix(graph + 100.0 * sp.identity(ids.size))  # diagonally dominant
-    perm = spla.splu(graph, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                     options={"SymmetricMode": True}).perm_c  # fmt: skip
-    # perm_c[j]: the place of node j in the elimination order; rows sorted by it, then by row
-    key = perm[node_of].astype(np.int64) * (lead + 1) + np.arange(lead)
-    return np.concatenate([np.argsort(key), np.arange(lead, a.shape[0])])
+    return node_of, graph
+
+
+def _dominant(graph: sp.csc_matrix) -> sp.csc_matrix:
+    """The node-graph pattern made diagonally dominant (factorised without pivoting)."""
+    return sp.csc_matrix(graph + 100.0 * sp.identity(graph.shape[0]))
+
+
+def elimination_cost(graph: sp.csc_matrix, place: np.ndarray) -> float:
+    """Σ_j c_j² over the columns of the Cholesky-like factor of the node graph eliminated in the
+    order ``place`` ``(k,)`` (``place[i]``: the step at which node i goes), ``c_j`` a column's
+    entries: the operation count of the factorisation up to a constant (its fill alone
+    misjudges: on the 80k-node tangent nested dissection has 14 % less fill but 40 % less
+    work). The node graph has a ninth of the matrix's entries, so this costs a small part of
+    the matrix's factorisation."""
+    order = np.empty(place.size, np.int64)
+    order[place] = np.arange(place.size)
+    permuted = _dominant(graph)[order][:, order].tocsc()
+    lower = spla.splu(permuted, permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                      options={"SymmetricMode": True}).L  # fmt: skip
+    counts = np.diff(lower.indptr).astype(float)
+    return float(counts @ counts)
+
+
+def _node_places(graph: sp.csc_matrix, method: str) -> np.ndarray:
+    """``place (k,)``: the position of each node in the elimination order of ``graph``."""
+    if method not in NODE_METHODS:
+        raise ValueError(f"node ordering {method!r}: choose from {', '.join(NODE_METHODS)}")
+    if method == "auto":
+        candidates = [_node_places(graph, m) for m in ("minimum degree", "dissection")]
+        return min(candidates, key=lambda place: elimination_cost(graph, place))
+    if method == "minimum degree":
+        return spla.splu(_dominant(graph), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                         options={"SymmetricMode": True}).perm_c  # fmt: skip
+    order = nested_dissection(graph)
+    place = np.empty(order.size, np.int64)
+    place[order] = np.arange(order.size)
+    return place
+
+
+def node_ordering(a: sp.csc_matrix, nodes: np.ndarray, method: str | None = None) -> np.ndarray:
+    """A fill-reducing ordering ``(m,)`` of ``a`` ``(m, m)`` from its node graph
+    (:func:`node_graph`): ``nodes`` ``(l,)`` gives the node of each of the leading ``l`` rows (the
+    DOFs of a node couple to the same neighbours); the rows after them (a border) come last.
+    method: one of :data:`NODE_METHODS` (default :data:`NODE_ORDERING`, "auto"). The graph
+    has about a ninth of the entries of ``a`` for three DOFs per node. On the 80k-node rim
+    tangent nested dissection leaves 72 M entries in L + U against 84 M for minimum degree
+    and SuperLU factorises it in 40 % less time; on graded meshes (the flange model) minimum
+    degree is better, and "auto" takes it (docs/performance.md)."""
+    method = method or NODE_ORDERING
+    lead = nodes.size
+    node_of, graph = node_graph(a, np.asarray(nodes))
+    key = (method, _pattern_key(graph))
+    if key not in _NODE_ORDERS:
+        if len(_NODE_ORDERS) >= _ORDERINGS_KEPT:
+            _NODE_ORDERS.pop(next(iter(_NODE_ORDERS)))
+        _NODE_ORDERS[key] = _node_places(graph, method)
+    place = _NODE_ORDERS[key]
+    # rows sorted by the place of their node, then by row
+    key_rows = place[node_of].astype(np.int64) * (lead + 1) + np.arange(lead)
+    return np.concatenate([np.argsort(key_rows), np.arange(lead, a.shape[0])])
 
 
 def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
@@ -107,12 +180,12 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
         if nodes is None:
             return spla.splu(a, **SYMMETRIC_OPTIONS)
         a.sort_indices()
-        key = _pattern_key(a)
+        key = (NODE_ORDERING, *_pattern_key(a))
         if key not in _ORDERINGS:
             _keep_ordering(key, node_ordering(a, np.asarray(nodes)))
         order = _ORDERINGS[key]
         natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
-        return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order)
+        return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order, a.dtype)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
 
@@ -145,12 +218,15 @@ class _SuperLU:
 
 
 class _Pardiso:
-    """PARDISO (``pypardiso``, MKL) on a real square matrix, general (unsymmetric) mode."""
+    """PARDISO (``pypardiso``, MKL) on a real square matrix, general (unsymmetric) mode. Its
+    symmetric modes (``mtype`` 2, −2) were measured: they factorise faster still but put the
+    shift-invert frequencies of the 20k-node model off by 1e-4 relative (general mode 3e-6,
+    SuperLU 1e-8; docs/performance.md), so the back end is not used for accuracy-bound work."""
 
     backend = "pardiso"
 
     def __init__(self, a: sp.spmatrix, symmetric: bool):
-        import pypardiso  # optional dependency: quadmodes[fast]
+        import pypardiso  # optional: pip install pypardiso
 
         self.a = sp.csr_matrix(a)
         self.solver = pypardiso.PyPardisoSolver(mtype=11)
@@ -170,7 +246,7 @@ def backend_choice(backend: str | None = None) -> str:
     if name == "pardiso" and importlib.util.find_spec("pypardiso") is None:
         if name not in _REPORTED:
             _REPORTED.add(name)
-            print("note: pypardiso is not installed (pip install 'quadmodes[fast]'); using "
+            print("note: pypardiso is not installed (pip install pypardiso); using "
                   "SuperLU", file=sys.stderr)  # fmt: skip
         return "superlu"
     return name

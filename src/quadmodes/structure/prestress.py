@@ -110,12 +110,20 @@ def backtracking_step(
 KRYLOV_ITERATIONS = 20
 
 
+#: A kept factorisation whose last GMRES solve needed more than this many Krylov vectors is
+#: replaced by one of the current tangent before the next solve (None: kept while GMRES
+#: converges within :data:`KRYLOV_ITERATIONS`).
+REFACTOR_AFTER: int | None = 15
+
+
 @dataclass
 class _KeptFactorisation:
-    """The bordered-tangent solve kept between Newton iterations (None before the first)."""
+    """The bordered-tangent solve kept between Newton iterations (None before the first);
+    steps: Krylov vectors of the last GMRES solve with it."""
 
     solve: Callable[[np.ndarray], np.ndarray] | None = None
     count: int = 0
+    steps: int = 0
 
 
 def newton_direction(
@@ -132,11 +140,13 @@ def newton_direction(
     precision if even that does not converge. The factorisation is the dominant cost on large
     meshes; a Krylov step costs one kept solve and one product with ``a``."""
     operator = bordered_operator(a, low_rank)
-    if kept.solve is not None and KRYLOV_ITERATIONS > 0:
+    stale = REFACTOR_AFTER is not None and kept.steps > REFACTOR_AFTER
+    if kept.solve is not None and KRYLOV_ITERATIONS > 0 and not stale:
         result = gmres(operator, kept.solve, rhs, rtol, KRYLOV_ITERATIONS)
         log.debug("GMRES: %d iterations, residual %.2e (tolerance %.1e)", result.iterations,
                   result.residual, rtol)  # fmt: skip
         if result.converged:
+            kept.steps = result.iterations
             return result.x
     for single in (True, False):
         kept.solve = bordered_full_solver(a, low_rank, border, single=single, nodes=nodes)
@@ -144,6 +154,9 @@ def newton_direction(
         if KRYLOV_ITERATIONS == 0:  # full Newton: the direct solve
             return kept.solve(rhs)
         result = gmres(operator, kept.solve, rhs, rtol, KRYLOV_ITERATIONS)
+        log.debug("GMRES on a fresh factorisation: %d iterations, residual %.2e",
+                  result.iterations, result.residual)  # fmt: skip
+        kept.steps = result.iterations
         if result.converged:
             break
     return result.x
