@@ -46,9 +46,11 @@ def element_slack_onset(membrane: MembraneSet, x0: np.ndarray, u: np.ndarray) ->
     real = taut & (disc >= 0.0)
     root = np.sqrt(np.where(real, disc, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
-        quadratic = np.abs(c2) > 1e-300
-        r1 = np.where(quadratic, (-c1 - root) / (2.0 * c2), -c0 / c1)
-        r2 = np.where(quadratic, (-c1 + root) / (2.0 * c2), np.inf)
+        # the cancellation-free pair q/c2, c0/q (the textbook form loses the small root when
+        # c0 c2 ≪ c1², e.g. for a nearly strain-free direction, and returns 0 for it)
+        q = -0.5 * (c1 + np.where(c1 >= 0.0, 1.0, -1.0) * root)
+        r1 = q / c2
+        r2 = c0 / q
     roots = np.stack([np.abs(r1), np.abs(r2)], -1)
     roots[~np.isfinite(roots)] = np.inf
     onset[real] = roots[real].min(axis=1)
