@@ -37,8 +37,15 @@ from quadmodes.structure.tension_margin import slack_onset
 SLACK_CONTINUATION_LIMIT = 0.1
 
 
+def deformation_structure(setup):
+    """The FE structure of a prepared run's model case, with its gas law at the model's
+    reference state (what both checks below evaluate; built once per check)."""
+    case = setup.model_case
+    return pipeline.with_gas_law(case, pipeline.structure_for_case(case), setup.model.X)
+
+
 def initial_deformation_energies(
-    setup, progress=None, continuation: bool = True
+    setup, progress=None, continuation: bool = True, structure=None
 ) -> tuple[float, float] | None:
     """``(V(s0), W_c(s0))`` (J) of a prepared run (:class:`~quadmodes.runs.simulate.RunSetup`)
     whose initial state has a modal deformation, both without the work of ``f(x_ref)``; None
@@ -48,8 +55,7 @@ def initial_deformation_energies(
     s0 = rsys.split_state(system, setup.initial.y0)[2]
     if not np.any(s0):
         return None
-    case = setup.model_case
-    structure = pipeline.with_gas_law(case, pipeline.structure_for_case(case), model.X)
+    structure = structure or deformation_structure(setup)
     ctx = me.energy_context(structure, model.X, model)
     if continuation:
         condensed = me.condensed_energy_along_ray(ctx, s0, progress)
@@ -65,7 +71,7 @@ def initial_deformation_energies(
     return reduced, condensed.value if condensed.converged else float("nan")
 
 
-def initial_slack_onset(setup) -> tuple[float, float, float] | None:
+def initial_slack_onset(setup, structure=None) -> tuple[float, float, float] | None:
     """Along the linear part ``Φ s0`` of a prepared run's initial deformation: ``(a, a·d, f)``,
     the fraction ``a`` of it at which a membrane element off the bonded patches first loses
     tension (linearised, :func:`quadmodes.structure.tension_margin.slack_onset`), that as the
@@ -75,8 +81,7 @@ def initial_slack_onset(setup) -> tuple[float, float, float] | None:
     s0 = rsys.split_state(system, setup.initial.y0)[2]
     if not np.any(s0):
         return None
-    case = setup.model_case
-    structure = pipeline.structure_for_case(case)
+    structure = structure or deformation_structure(setup)
     u = np.einsum("m,mi->i", s0, np.asarray(model.Phi, float).reshape(len(s0), -1))
     onset = slack_onset(structure, np.asarray(model.X, float), u.reshape(-1, 3))
     if onset is None:
@@ -96,9 +101,10 @@ def with_deformation_check(setup, progress=None):
     step = (lambda f: progress(label, f)) if progress else None
     if step:
         step(0.0)
-    slack = initial_slack_onset(setup)
+    structure = deformation_structure(setup)
+    slack = initial_slack_onset(setup, structure)
     continuation = slack is None or not slack[0] < SLACK_CONTINUATION_LIMIT
-    energies = initial_deformation_energies(setup, step, continuation)
+    energies = initial_deformation_energies(setup, step, continuation, structure)
     if step:
         step(1.0)
     if energies is None:
