@@ -41,7 +41,7 @@ class BackwardEulerStep:
         self.z1 = np.ones(n + 1)
         self.y1 = np.empty(2 * n)
         self.sys = sys
-        self.quartic = sys.quartic
+        self.quartic = sys.nonlinear
 
     def begin(self, x0, s0):
         """Per-step constants from the state at t0."""

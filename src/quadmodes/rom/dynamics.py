@@ -81,6 +81,10 @@ def potential_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
         ss = np.einsum("...m,...n->...mn", s, s)
         v = v + np.einsum("...mn,...p,mnp->...", ss, s, sys.V3)
         v = v + np.einsum("...mn,...pq,mnpq->...", ss, ss, sys.V4)
+    if sys.nonlinear_potential is not None:  # one evaluation per sample (a static solve each)
+        extra = sys.nonlinear_potential.nonlinear_energy
+        flat = s.reshape(-1, sys.n_modes)
+        v = v + np.array([extra(si) for si in flat]).reshape(s.shape[:-1])
     return v
 
 
@@ -99,24 +103,41 @@ def effective_potential(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
 def potential_gradient(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     """∂V/∂s (N,) J/(√kg·m) at one s (N,): ``F1 + Λs`` (+ ``3 V3·ss + 4 V4·sss`` for "Q4")."""
     g = sys.Lam @ s + sys.F1
-    return g + potential_nonlinear_force(sys, s) if sys.quartic else g
+    return g + potential_nonlinear_force(sys, s) if sys.nonlinear else g
 
 
 def potential_nonlinear_force(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
-    """``∂V/∂s − Λs = 3 V3·ss + 4 V4·sss`` (N,) J/(√kg·m) at one s (N,) (zeros unless "Q4")."""
+    """``∂V/∂s − Λs − F1 = 3 V3·ss + 4 V4·sss (+ ∂N/∂s)`` (N,) J/(√kg·m) at one s (N,) (zeros
+    for Q, P, L; N the system's ``nonlinear_potential``)."""
     ss = np.outer(s, s).ravel()
-    return sys.flat.V3g @ ss + sys.flat.V4g @ np.outer(ss, s).ravel()
+    out = sys.flat.V3g @ ss + sys.flat.V4g @ np.outer(ss, s).ravel()
+    if sys.nonlinear_potential is not None:
+        out = out + sys.nonlinear_potential.nonlinear_force(s)
+    return out
 
 
 def potential_hessian(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     """∂²V/∂s² (N,N) 1/s² at one s (N,): ``Λ`` (+ ``6 V3·s + 12 V4·ss`` for "Q4")."""
-    if not sys.quartic:
+    if not sys.nonlinear:
         return sys.Lam
     n = sys.n_modes
     ss = np.outer(s, s).ravel()
     h3 = (sys.flat.V3g.reshape(n * n, n) @ s).reshape(n, n)  # 3 V3·s
     h4 = (sys.flat.V4g.reshape(n * n, n * n) @ ss).reshape(n, n)  # 4 V4·ss
-    return sys.Lam + 2.0 * h3 + 3.0 * h4
+    h = sys.Lam + 2.0 * h3 + 3.0 * h4
+    if sys.nonlinear_potential is not None:
+        h = h + sys.nonlinear_potential.nonlinear_hessian(s)
+    return h
+
+
+def potential_nonlinear_energy(sys: ReducedSystem, s: np.ndarray) -> float:
+    """``V − F1·s − ½ sᵀΛs`` (J) at one s (N,): the cubic and quartic terms of "Q4" plus the
+    system's ``nonlinear_potential`` (zero for Q, P, L)."""
+    ss = np.outer(s, s)
+    v = float(np.einsum("mn,p,mnp->", ss, s, sys.V3) + np.einsum("mn,pq,mnpq->", ss, ss, sys.V4))
+    if sys.nonlinear_potential is not None:
+        v += float(sys.nonlinear_potential.nonlinear_energy(s))
+    return v
 
 
 def potential_barrier(
@@ -276,7 +297,7 @@ def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
     b[2] -= wx * hy - wy * hx
     pe = p if sys.same_rows else ((z @ sys.flat.YtE).reshape(n * m3, m3) @ nu).reshape(n, m3)
     b[3:] += pe @ nu - sys.Lam @ s - sys.F1 - sys.C @ sd  # ∂T/∂s_k = νᵀ (½∂𝕄/∂s_k) ν
-    if sys.quartic:
+    if sys.nonlinear:
         b[3:] -= potential_nonlinear_force(sys, s)
     if torque is not None:
         b[:3] += torque

@@ -102,12 +102,16 @@ def numba_kernel():
     return _KERNEL[0]
 
 
-def _select_backend(backend: str, method: str):
+def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None):
     """The compiled kernel module to use, or None for the numpy steppers (every formulation,
-    "Q4" included, runs on both)."""
+    "Q4" included, runs on both; a system with a ``nonlinear_potential``, a Python object, on
+    the numpy steppers only)."""
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
-    if backend == "numpy":
+    general = sys is not None and sys.nonlinear_potential is not None
+    if backend == "numba" and general:
+        raise ValueError('backend "numba" cannot evaluate a nonlinear potential; use "numpy"')
+    if backend == "numpy" or general:
         return None
     if backend == "numba" and method != "midpoint":
         raise ValueError(f'backend "numba" supports method "midpoint" only, not {method!r}')
@@ -165,7 +169,7 @@ def integrate(
         method, solver = "adaptive", method
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {METHODS}")
-    kernel = _select_backend(backend, method)
+    kernel = _select_backend(backend, method, sys)
     start = time.perf_counter()
     if method == "adaptive":
         if solver not in ADAPTIVE_SOLVERS:

@@ -16,7 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from quadmodes.rom.dynamics import potential_hessian, potential_nonlinear_force
+from quadmodes.rom.dynamics import (
+    potential_hessian,
+    potential_nonlinear_energy,
+    potential_nonlinear_force,
+)
 from quadmodes.rom.system import ReducedSystem
 from quadmodes.rotations import cross_matrix, rotate, so3_left_jacobian
 
@@ -33,6 +37,12 @@ class MidpointStep:
     ``F1 + Λs½ + (n(s₀) + 4 n(s½) + n(s₁))/6`` with n = ∂V/∂s − Λs − F1. It is a discrete gradient,
     ``(s₁ − s₀)·F_V = V(s₁) − V(s₀)`` exactly, so the potential adds no energy error: the energy
     error is that of the kinetic terms, as for Q (bounded, O(Δt²), no drift).
+
+    A system with a ``nonlinear_potential`` N(s) (not a polynomial: e.g. the condensed energy
+    of a wrinkling membrane) uses the same Simpson average plus Gonzalez's correction along
+    Δs = s₁ − s₀, ``F̄ += [V_nl(s₁) − V_nl(s₀) − F̄·Δs] Δs/|Δs|²``, so that the discrete
+    gradient is exact again (``Δs·F̄ = V_nl(s₁) − V_nl(s₀)``); the chord Jacobian leaves the
+    correction out (it is O(Δt⁴) where N is smooth).
 
     The stepper protocol of :func:`~quadmodes.rom.fixed_step.run_fixed`: :meth:`begin`,
     :meth:`residual`, :meth:`advance`."""
@@ -51,7 +61,8 @@ class MidpointStep:
         self.zm = np.ones(n + 1)  # z at t½
         self.y_m = np.empty(2 * n)  # (s½, ṡ½)
         self.sys = sys
-        self.quartic = sys.quartic
+        self.quartic = sys.nonlinear  # Q4's tensors and/or a nonlinear potential
+        self.exact_gradient = sys.nonlinear_potential is not None
 
     def momenta(self, x, s):
         """𝕄(s) ν (3+N,): (h, p_s) at ν = x, s."""
@@ -70,6 +81,9 @@ class MidpointStep:
         self.p0 = mom0[3:]
         if self.quartic:
             self.n0 = potential_nonlinear_force(self.sys, s0)
+        if self.exact_gradient:
+            self.s0 = s0.copy()
+            self.v0 = potential_nonlinear_energy(self.sys, s0)
 
     def advance(self, x1):
         """(ν₁, s₁, rotation vector Δt ω½, dissipated energy Δt ṡ½ᵀCṡ½) of the converged step.
@@ -110,11 +124,24 @@ class MidpointStep:
         f = pm @ numid - self.LC @ ym - self.F1
         if self.quartic:  # average vector field of the cubic and quartic potential (Simpson)
             nl = potential_nonlinear_force
-            f -= (self.n0 + 4.0 * nl(self.sys, zm[1:]) + nl(self.sys, z1[1:])) / 6.0
+            fv = (self.n0 + 4.0 * nl(self.sys, zm[1:]) + nl(self.sys, z1[1:])) / 6.0
+            if self.exact_gradient:
+                fv = fv + self._gonzalez(fv, z1[1:])
+            f -= fv
         r[3:] -= self.p0 + dt * f
         if not jac:
             return r
         return r, self._jacobian(x, m1, numid, rh0, pm)
+
+    def _gonzalez(self, fv, s1):
+        """Correction (N,) making the averaged nonlinear force ``fv`` an exact discrete gradient
+        of the nonlinear potential between s₀ and ``s1``."""
+        ds = s1 - self.s0
+        dd = float(ds @ ds)
+        if dd <= 1e-300:
+            return np.zeros_like(fv)
+        dv = potential_nonlinear_energy(self.sys, s1) - self.v0
+        return ((dv - float(fv @ ds)) / dd) * ds
 
     def _jacobian(self, x, m1, numid, rh0, pm):
         """∂r/∂x (3+N, 3+N) from the intermediates of :meth:`residual` at the same x: 𝕄(s₁),

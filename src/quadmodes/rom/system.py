@@ -86,6 +86,11 @@ class ReducedSystem:
     None means zeros. reference_omega (3,) rad/s: the body angular velocity of that state (zeros
     for a model about the state at rest); the effective potential ``V − ½ωᵀJ̃(s)ω`` at it is
     what bounds the motion (:func:`quadmodes.rom.dynamics.potential_barrier`).
+    nonlinear_potential: None, or an object adding ``N(s)`` to the potential,
+    ``V = F1·s + ½ sᵀΛs (+ V3, V4) + N(s)``, with methods ``nonlinear_energy(s)`` (J),
+    ``nonlinear_force(s)`` = ∂N/∂s (N,) and ``nonlinear_hessian(s)`` = ∂²N/∂s² (N,N), N = O(|s|³)
+    (e.g. :class:`quadmodes.rom.condensed_potential.CondensedPotential`, the condensed energy of
+    a wrinkling membrane); integrated by the numpy steppers only.
     ``flat``: the :class:`FlatTensors` for fast matrix products.
     """
 
@@ -106,8 +111,10 @@ class ReducedSystem:
     V4: np.ndarray | None = None
     F1: np.ndarray | None = None
     reference_omega: np.ndarray | None = None
+    nonlinear_potential: object | None = None
     n_modes: int = field(init=False)
     quartic: bool = field(init=False)
+    nonlinear: bool = field(init=False)
     same_rows: bool = field(init=False, repr=False)
     flat: FlatTensors = field(init=False, repr=False)
 
@@ -116,6 +123,8 @@ class ReducedSystem:
         put = object.__setattr__
         put(self, "n_modes", n)
         put(self, "quartic", self.formulation == "Q4")
+        #: the potential has terms beyond ½ sᵀΛs (Q4's tensors or a nonlinear potential)
+        put(self, "nonlinear", self.quartic or self.nonlinear_potential is not None)
         put(self, "V3", np.zeros((n, n, n)) if self.V3 is None else np.asarray(self.V3, float))
         put(self, "V4", np.zeros((n,) * 4) if self.V4 is None else np.asarray(self.V4, float))
         put(self, "F1", np.zeros(n) if self.F1 is None else np.asarray(self.F1, float))
@@ -248,7 +257,16 @@ def with_damping(sys: ReducedSystem, C: np.ndarray) -> ReducedSystem:
     return ReducedSystem(
         sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam,
         np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4, sys.F1,
-        sys.reference_omega,
+        sys.reference_omega, sys.nonlinear_potential,
+    )  # fmt: skip
+
+
+def with_nonlinear_potential(sys: ReducedSystem, potential) -> ReducedSystem:
+    """``sys`` with ``potential`` added to its potential (see :class:`ReducedSystem`)."""
+    return ReducedSystem(
+        sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam, sys.C,
+        sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4, sys.F1, sys.reference_omega,
+        potential,
     )  # fmt: skip
 
 
