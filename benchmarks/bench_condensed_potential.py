@@ -198,11 +198,21 @@ def main() -> None:
         print("\nno basis tried puts W_B within 2 % of W_c at every held-out point")
 
     pot = results[max(results)]
+    warm_wb, _ = w_b(pot, test)
+    cold_wb = np.array([cold_energy(pot, s) for s in test])
+    print(f"\nlargest basis: W_B from a cold start (η = 0) / along the ray "
+          f"- 1: max {np.nanmax(np.abs(cold_wb / warm_wb - 1)):.2e}")  # fmt: skip
     worst = int(np.nanargmax(amp_test))
     warm, cold, its = evaluation_cost(pot, test[worst])
     print(f"\none energy + gradient at {amp_test[worst]:.2f} in, q = {pot.basis.shape[1]}: "
           f"warm {1e3 * warm:.1f} ms ({its:.0f} Newton it), cold {1e3 * cold:.1f} ms; "
           f"Hessian adds {1e3 * hessian_cost(pot, test[worst]):.1f} ms")  # fmt: skip
+
+
+def cold_energy(pot, s) -> float:
+    pot.clear()
+    m = pot.minimum(s)
+    return m.value if m.converged else np.nan
 
 
 def hessian_cost(pot, s) -> float:
