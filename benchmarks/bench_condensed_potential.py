@@ -175,7 +175,7 @@ def main() -> None:
     print("\nPOD eigenvalues (kg m²), relative:", np.array2string(lam[:12] / lam[0], precision=2))
     n_max = int(np.sum(lam > 1e-12 * lam[0]))
     print(f"\n{'POD p':>5} {'q':>4} {'test W_B/W_c: median':>21} {'max':>8} {'train max':>10} "
-          f"{'Newton it':>9}")  # fmt: skip
+          f"{'Newton it':>9} {'E+grad warm ms':>14}")  # fmt: skip
     needed, results = None, {}
     for tag in args.pod.split(","):
         p = n_max if tag == "all" else min(int(tag), n_max)
@@ -187,8 +187,9 @@ def main() -> None:
         wb_train, _ = w_b(pot, train)
         err = wb / wc - 1.0
         results[p] = pot
+        warm = evaluation_cost(pot, test[int(np.argmax(amp_test))], repeats=3)[0]
         print(f"{p:5d} {b.shape[1]:4d} {1 + np.nanmedian(err):21.4f} {1 + np.nanmax(np.abs(err)):8.4f} "
-              f"{np.nanmax(wb_train / wc_train):10.4f} {np.median(its):9.0f}")  # fmt: skip
+              f"{np.nanmax(wb_train / wc_train):10.4f} {np.median(its):9.0f} {1e3 * warm:14.1f}")  # fmt: skip
         if needed is None and np.nanmax(np.abs(err)) <= 0.02:
             needed = (p, b.shape[1])
     if needed:
@@ -198,11 +199,27 @@ def main() -> None:
         print("\nno basis tried puts W_B within 2 % of W_c at every held-out point")
 
     pot = results[max(results)]
+    lam_model = np.asarray(model.Lam, float)
+    h0 = pot.hessian0
+    print(f"\nH0 (W_B's Hessian at 0) against the model's Λ: |H0 − Λ| / |Λ| = "
+          f"{np.linalg.norm(h0 - lam_model) / np.linalg.norm(lam_model):.2e}; "
+          f"sqrt(diag H0)/2π = {np.array2string(np.sqrt(np.diag(h0)) / 2 / np.pi, precision=3)} Hz, "
+          f"sqrt(diag Λ)/2π = {np.array2string(np.sqrt(np.diag(lam_model)) / 2 / np.pi, precision=3)} Hz")  # fmt: skip
+    warm_wb, _ = w_b(pot, test)
+    cold_wb = np.array([cold_energy(pot, s) for s in test])
+    print(f"\nlargest basis: W_B from a cold start (η = 0) / along the ray "
+          f"- 1: max {np.nanmax(np.abs(cold_wb / warm_wb - 1)):.2e}")  # fmt: skip
     worst = int(np.nanargmax(amp_test))
     warm, cold, its = evaluation_cost(pot, test[worst])
     print(f"\none energy + gradient at {amp_test[worst]:.2f} in, q = {pot.basis.shape[1]}: "
           f"warm {1e3 * warm:.1f} ms ({its:.0f} Newton it), cold {1e3 * cold:.1f} ms; "
           f"Hessian adds {1e3 * hessian_cost(pot, test[worst]):.1f} ms")  # fmt: skip
+
+
+def cold_energy(pot, s) -> float:
+    pot.clear()
+    m = pot.minimum(s)
+    return m.value if m.converged else np.nan
 
 
 def hessian_cost(pot, s) -> float:

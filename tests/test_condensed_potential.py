@@ -182,3 +182,27 @@ def test_nonlinear_parts_vanish_to_second_order(name, request):
     assert 3.4 < f1 / f2 < 4.6
     assert 1.7 < h1 / h2 < 2.3
     assert e1 < 0.05 * w1
+
+
+def test_pod_of_known_snapshots(svk):
+    """Snapshots ``V diag(σ) Q`` (V M-orthonormal, ⊥_M [Φ Ψ G⊥], Q orthonormal rows) have POD
+    eigenvalues σ²; the truncation keeps the fewest modes whose discarded share is ≤ tol, at
+    most max_vectors, all of them for tol = 0; their span is that of V."""
+    _, _, _, ctx, _, _, _ = svk
+    rng = np.random.default_rng(7)
+    v = rng.standard_normal((ctx.g_perp.shape[0], 3))
+    v = cp._m_project_out(ctx.mass, np.hstack([ctx.basis, ctx.g_perp]), v)
+    v = me.m_orthonormal(ctx.mass, v)
+    sigma = np.array([1.0, 0.1, 0.01])
+    q = np.linalg.qr(rng.standard_normal((12, 3)))[0].T  # (3, 12) orthonormal rows
+    snaps = (v @ np.diag(sigma) @ q).T
+    n_q = ctx.g_perp.shape[1]
+    b, lam, captured = cp.pod_basis(ctx, snaps, tol=0.0)
+    np.testing.assert_allclose(lam[:3], sigma**2, rtol=1e-8)
+    assert b.shape[1] == n_q + 3 and captured == pytest.approx(1.0)
+    pod = b[:, n_q:]
+    np.testing.assert_allclose(pod @ (pod.T @ (ctx.mass @ v)), v, atol=1e-8 * np.abs(v).max())
+    share = sigma[2] ** 2 / np.sum(sigma**2)  # discarded by keeping two
+    assert cp.pod_basis(ctx, snaps, tol=1.01 * share)[0].shape[1] == n_q + 2
+    assert cp.pod_basis(ctx, snaps, tol=0.99 * share)[0].shape[1] == n_q + 3
+    assert cp.pod_basis(ctx, snaps, tol=0.0, max_vectors=1)[0].shape[1] == n_q + 1

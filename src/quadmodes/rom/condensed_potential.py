@@ -157,7 +157,8 @@ def pod_basis(
     if total <= 0.0:
         return gp.copy(), lam, 1.0
     tail = total - np.cumsum(lam)  # discarded after keeping 1, 2, ...
-    p = int(np.argmax(tail <= tol * total)) + 1
+    enough = np.flatnonzero(tail <= tol * total)
+    p = int(enough[0]) + 1 if enough.size else len(lam)
     p = min(p, int(np.sum(lam > 1e-12 * lam[0])))
     if max_vectors is not None:
         p = min(p, int(max_vectors))
@@ -262,8 +263,9 @@ class CondensedPotential:
 
         Newton on η with the projected tangent ``BᵀKB`` (eigenvalues made positive where it
         is indefinite) and an Armijo energy line search; once the predicted decrease is below
-        FULL_STEP_RTOL·|W| (energy round-off territory) a step is halved until the gradient
-        norm falls instead. Stops at a predicted decrease ≤ DECREMENT_RTOL·|W|."""
+        FULL_STEP_RTOL·|W| (energy round-off territory), or if the line search fails, a step
+        is halved until the gradient norm falls instead. Stops at a predicted decrease ≤
+        DECREMENT_RTOL·|W| (converged), or when no step makes progress (not converged)."""
         s = np.asarray(s, float)
         last = self._last
         if last is not None and eta0 is None and np.array_equal(last.s, s):
@@ -285,18 +287,21 @@ class CondensedPotential:
                 break
             if it == self.max_iterations:
                 break
+            new = eta
             if decrement > max(FULL_STEP_RTOL * abs(value), 1e3 * me.ENERGY_ATOL):
-                eta, value = me._line_search(lambda e: self._energy(u_qm, e), eta, d, value, slope)
-            else:
-                eta = self._gradient_step(u_qm, eta, d, np.linalg.norm(grad))
-                value = self._energy(u_qm, eta)
+                new, _ = me._line_search(lambda e: self._energy(u_qm, e), eta, d, value, slope)
+            if new is eta:  # round-off territory, or the line search failed
+                new = self._gradient_step(u_qm, eta, d, np.linalg.norm(grad))
+            if new is eta:  # no step lowers the energy or the gradient: stop where we are
+                break
+            eta, value = new, self._energy(u_qm, new)
         converged = decrement <= max(DECREMENT_RTOL * abs(value), DECREMENT_ATOL)
         self._last = Minimum(s.copy(), eta, u, value, force, (k, low), it, decrement, converged)
         return self._last
 
     def _gradient_step(self, u_qm, eta, d, gnorm: float, halvings: int = 20) -> np.ndarray:
         """``η + t d`` for the first ``t = 1, ½, …`` at which ``|Bᵀ∇Π̃|`` is below ``gnorm``
-        (the full step if none is)."""
+        (``eta`` itself if none is)."""
         t = 1.0
         for _ in range(halvings):
             trial = eta + t * d
@@ -304,7 +309,7 @@ class CondensedPotential:
             if np.linalg.norm(self.basis.T @ force) < gnorm:
                 return trial
             t *= 0.5
-        return eta + d
+        return eta
 
     # -- the potential and its derivatives --------------------------------------------------
 
