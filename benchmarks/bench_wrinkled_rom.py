@@ -1,0 +1,157 @@
+"""Large amplitude on a wrinkling membrane: the reduced model with the condensed tension-field
+potential (Q kinetics, ``V = ½ sᵀΛs + W_B(s) − ½ sᵀH0 s``, :mod:`quadmodes.rom.condensed_potential`)
+and plain Q against the tension-field full order, at each initial bending amplitude: bending
+frequency (mean period of the first bending coordinate's upward zero crossings) and the
+modal-amplitude envelope error.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_wrinkled_rom.py \
+        [--case benchmarks/cases/paper-0.5hz-coarse-tf.toml] [--amplitudes 0.5,1] [--window "1 s"] \
+        [--full-dt "0.5 ms"] [--train "0.125,0.25,0.5,0.75,1,1.25"] [--directions 4] [--pod 30]
+
+The snapshot basis is trained once per case (W_c minimisers of the FE model at the training
+amplitudes, in, along ``--directions`` random directions and ± each bending mode); the full-order
+series are kept in ``--store`` so a rerun with another basis only integrates the reduced models.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_large_amplitude import crossing_frequency, variant  # noqa: E402
+
+from quadmodes.analysis import compare as cmp  # noqa: E402
+from quadmodes.case import load_run_case  # noqa: E402
+from quadmodes.case.units import parse_quantity  # noqa: E402
+from quadmodes.fullorder import full_order_for_run  # noqa: E402
+from quadmodes.rom import augmented_basis as aug  # noqa: E402
+from quadmodes.rom import condensed_potential as cpot  # noqa: E402
+from quadmodes.rom import manifold_energy as me  # noqa: E402
+from quadmodes.rom import system as rsys  # noqa: E402
+from quadmodes.runs import simulate  # noqa: E402
+from quadmodes.runs.deformation_check import deformation_structure  # noqa: E402
+
+FIELDS = ("t", "amplitude", "cone_angle", "spin_rate", "H_norm", "E", "E_d")
+
+
+def full_series(run, dt: float, store: Path) -> tuple[cmp.Series, np.ndarray]:
+    """Full-order :class:`Series` and modal coordinates (k, N) of ``run``, from ``store`` if
+    computed before."""
+    path = store / f"{run.name}-{run.integration.duration:g}s-{dt:g}.npz"
+    if not path.exists():
+        sol = full_order_for_run(run, dt=dt)
+        s = cmp.series_from_full_order(sol)
+        store.mkdir(parents=True, exist_ok=True)
+        np.savez(path, modal=np.asarray(sol.modal_coordinates), wall=s.wall_s,
+                 complete=s.complete, **{f: getattr(s, f) for f in FIELDS})  # fmt: skip
+    d = np.load(path)
+    series = cmp.Series("full", *(d[f] for f in FIELDS), wall_s=float(d["wall"]),
+                        complete=bool(d["complete"]))  # fmt: skip
+    return series, d["modal"]
+
+
+def trained_potential(setup, amplitudes_in, directions: int, pod: int | None):
+    """The :class:`~quadmodes.rom.condensed_potential.CondensedPotential` of a prepared run,
+    trained at ``amplitudes_in``; returns it with its report and the training wall time."""
+    start = time.perf_counter()
+    ctx = me.energy_context(deformation_structure(setup), setup.model.X, setup.model)
+    train = cpot.training_points(setup.model, 0.0254 * np.asarray(amplitudes_in), directions)
+    basis, report = cpot.snapshot_basis(ctx, train, max_vectors=pod)
+    return cpot.CondensedPotential(ctx, basis), report, time.perf_counter() - start
+
+
+def augmented_setup(setup, pot, pod: int, cutoff_hz: float):
+    """The prepared run with the first ``pod`` POD vectors of the condensed minimisers as
+    dynamic coordinates (they carry the end bodies' mass) and the rest of the snapshot basis
+    condensed (:mod:`quadmodes.rom.augmented_basis`); the initial q from the condensed
+    minimiser at s0."""
+    ctx = pot.ctx
+    ys = [r.unknowns for r in pot_report["snapshots"] if r.converged]
+    dyn, captured = aug.pod_of_minimisers(ctx, np.array(ys), max_vectors=pod)
+    ctx_aug = aug.augmented_context(ctx, dyn)
+    rest = aug.split_basis(ctx.mass, pot.basis, dyn)
+    cond = cpot.CondensedPotential(ctx_aug, rest)
+    zeta = float(np.max(setup.model.damping_ratio))
+    model = aug.augmented_model(setup.model, ctx.structure, dyn, cond.hessian0, zeta, cutoff_hz)
+    system = rsys.with_nonlinear_potential(rsys.reduced_system(model, "Q"), cond)
+    n, p = setup.model.n_modes, dyn.shape[1]
+    s0 = setup.initial.y0[7 : 7 + n]
+    y_c = me.condensed_energy_along_ray(ctx, s0).unknowns
+    q0 = dyn.T @ (ctx.mass @ y_c)
+    y0 = np.concatenate([setup.initial.y0[:7], s0, q0, np.zeros(n + p)])
+    init = dataclasses.replace(setup.initial, y0=y0)
+    w2 = np.linalg.eigvals(np.linalg.solve(model.mu, model.Lam)).real
+    print(f"<!-- {p} dynamic snapshot coordinates (M-share {captured:.4f}) + {rest.shape[1]} "
+          f"condensed; taut condensed pencil (Hz): "
+          f"{np.round(np.sort(np.sqrt(np.abs(w2))) / (2 * np.pi), 1).tolist()} -->", flush=True)
+    return simulate.RunSetup(setup.run, setup.model_case, model, system, init)
+
+
+def relative_residual(ctx, y, approx) -> float:
+    d = y - approx
+    return float(np.sqrt((d @ (ctx.mass @ d)) / max(y @ (ctx.mass @ y), 1e-300)))
+
+
+pot_report: dict = {}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", default="benchmarks/cases/paper-0.5hz-coarse-tf.toml")
+    ap.add_argument("--amplitudes", default="0.5,1", help="initial bending, in")
+    ap.add_argument("--window", default="1 s")
+    ap.add_argument("--full-dt", default="0.5 ms")
+    ap.add_argument("--train", default="0.125,0.25,0.5,0.75,1,1.25", help="amplitudes, in")
+    ap.add_argument("--directions", type=int, default=4)
+    ap.add_argument("--pod", type=int, default=30, help="largest number of POD vectors")
+    ap.add_argument("--store", default="out/wrinkled-rom")
+    ap.add_argument("--models", default="Q,Q+snapshots")
+    ap.add_argument("--aug-pod", type=int, default=3, help="dynamic snapshot coordinates")
+    ap.add_argument("--cutoff", type=float, default=115.0, help="damping cutoff, Hz")
+    args = ap.parse_args()
+    window = parse_quantity(args.window, "time", "--window")
+    full_dt = parse_quantity(args.full_dt, "time", "--full-dt")
+    train = [float(a) for a in args.train.split(",")]
+    pot = None
+    print("| bending (in) | model | bending frequency (Hz) | vs full | envelope error | wall (s) |")
+    print("|---|---|---|---|---|---|")
+    for amp in (float(a) for a in args.amplitudes.split(",")):
+        run = cmp.window_run(variant(load_run_case(args.case), amp, "spinning", 5), window, "Q")
+        full, modal = full_series(run, full_dt, Path(args.store))
+        setup = simulate.prepare(run)
+        k = setup.initial.bending_modes[0]
+        f_full = crossing_frequency(full.t, modal[:, k])
+        print(f"| {amp:g} | full order (tension field) | {f_full:.4f} | — | — | {full.wall_s:.0f} |")
+        if pot is None:
+            pot, report, wall = trained_potential(setup, train, args.directions, args.pod)
+            pot_report["snapshots"] = report.snapshots
+            print(f"<!-- basis: {report.n_quadratic} G⊥ + {report.n_pod} POD vectors "
+                  f"(captured {report.captured:.6f}), {len(report.snapshots)} snapshots, "
+                  f"trained in {wall:.0f} s -->", flush=True)  # fmt: skip
+        period = 1.0 / float(np.min(setup.model.frequencies_hz))
+        variants = {"Q": lambda st=setup: st,
+                    "Q+condensed": lambda st=setup, pt=pot: simulate.RunSetup(
+                        st.run, st.model_case, st.model,
+                        rsys.with_nonlinear_potential(st.system, pt), st.initial),
+                    "Q+snapshots": lambda st=setup, pt=pot: augmented_setup(
+                        st, pt, args.aug_pod, args.cutoff)}  # fmt: skip
+        for name in args.models.split(","):
+            r = simulate.execute(variants[name]())
+            s = r.solution.y[:, 7 + k]
+            f = crossing_frequency(r.solution.t, s)
+            n = setup.model.n_modes
+            series = dataclasses.replace(cmp.series_from_run(name, r), amplitude=np.linalg.norm(
+                r.solution.y[:, 7 : 7 + n], axis=1))  # the retained modes only, as the full order
+            err = cmp.errors(series, full, period)["envelope_error"]
+            print(f"| {amp:g} | {name} | {f:.4f} | {100 * (f / f_full - 1):+.2f} % | {err:.4f} "
+                  f"| {r.wall_s:.1f} |", flush=True)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
