@@ -14,10 +14,10 @@ training points, M-orthogonal to the retained and rigid modes (so the mean-axis 
 reduced model is kept). The kinetic integrals are those of the quadratic modes
 (:func:`quadmodes.rom.reduced.reduce`) with ``B`` as further linear shapes whose quadratic modes
 are zero; the potential is the exact FE total potential ``Π̃(x(z))`` (strain energy with the
-tension-field law, pressure, ties), split as ``½ zᵀH0 z`` (``Λ`` of the model) plus the
-nonlinear part a :class:`~quadmodes.rom.system.ReducedSystem` takes as its
-``nonlinear_potential`` (:class:`ExactPotential`). Bounded below wherever Π is; a Galerkin
-model of the FE structure on the chart, so every conservation law of the midpoint holds.
+tension-field law, pressure, ties), condensed over the remaining snapshot directions
+(:func:`augmented_context` with :class:`~quadmodes.rom.condensed_potential.CondensedPotential`;
+with every snapshot direction dynamic the coordinates reach 68 kHz at the taut state and the
+midpoint's Newton fails, so only the leading POD vectors, which carry the mass, are dynamic).
 Damping: modal, ζ on every mode of ``(H0, μ)`` below a cutoff, as the full order's
 independent damping does on the FE modes.
 """
@@ -30,7 +30,6 @@ import numpy as np
 import scipy.linalg as sla
 
 from quadmodes.rom import manifold_energy as me
-from quadmodes.rom.condensed_potential import manifold_jacobian
 from quadmodes.rom.manifold_energy import EnergyContext
 from quadmodes.rom.reduced import ReducedModel, cross_form, inertia_form, mass_product
 
@@ -53,79 +52,6 @@ def pod_of_minimisers(ctx: EnergyContext, snapshots: np.ndarray, tol: float = 1e
     return me.m_orthonormal(mass, modes), float(lam[:p].sum() / lam.sum())
 
 
-class ExactPotential:
-    """``N(z) = Π̃(x(z)) − ½ zᵀH0 z`` (J) on the augmented chart ``z = (s, q)`` of ``ctx`` (the
-    reduced model's quadratic modes) and ``basis`` B ``(m, p)``; ``H0`` ``(N+p, N+p)`` the
-    Hessian of ``Π̃(x(z))`` at z = 0 (:meth:`hessian`).
-
-    Cache (the only state): the FE evaluation (energy, force, tangent) at the last z, which
-    energy, force and Hessian at the same z share."""
-
-    def __init__(self, ctx: EnergyContext, basis: np.ndarray):
-        self.ctx, self.basis = ctx, np.asarray(basis, float)
-        self.n = ctx.phi.shape[0]
-        self._z = None
-        self._h0 = None
-        self.h0 = self.hessian(np.zeros(self.n + self.basis.shape[1]))
-        self._h0 = self.h0
-
-    def _at(self, z: np.ndarray) -> dict:
-        z = np.asarray(z, float)
-        if self._z is None or not np.array_equal(z, self._z["z"]):
-            s, q = z[: self.n], z[self.n :]
-            u = me.manifold_displacement(self.ctx, s) + self.basis @ q
-            self._z = {"z": z.copy(), "u": u, "s": s}
-        return self._z
-
-    def energy(self, z: np.ndarray) -> float:
-        """``Π̃(x(z))`` (J)."""
-        c = self._at(z)
-        if "e" not in c:
-            c["e"] = me.total_potential(self.ctx, c["u"])
-        return c["e"]
-
-    def _force(self, c: dict) -> np.ndarray:
-        if "f" not in c:
-            c["f"] = me.potential_force(self.ctx, c["u"])
-        return c["f"]
-
-    def _jacobian(self, c: dict) -> np.ndarray:
-        """``∂x/∂z`` ``(m, N+p)``."""
-        if "j" not in c:
-            c["j"] = np.hstack([manifold_jacobian(self.ctx, c["s"]), self.basis])
-        return c["j"]
-
-    def gradient(self, z: np.ndarray) -> np.ndarray:
-        """``∂Π̃/∂z = (∂x/∂z)ᵀ ∇Π̃`` (N+p,)."""
-        c = self._at(z)
-        return self._jacobian(c).T @ self._force(c)
-
-    def hessian(self, z: np.ndarray) -> np.ndarray:
-        """``∂²Π̃/∂z²`` (N+p, N+p): ``JᵀK̂J`` plus ``∇Π̃·(g^{kl} + g^{lk})`` in the s block (K̂
-        the tangent with its rank-one terms; one-sided where a tension-field element changes
-        state)."""
-        c = self._at(z)
-        jac = self._jacobian(c)
-        k, low = me._tangent(self.ctx, c["u"])
-        h = jac.T @ (k @ jac)
-        for coef, v in low:
-            jv = jac.T @ v
-            h += coef * np.outer(jv, jv)
-        g2 = self.ctx.g + np.swapaxes(self.ctx.g, 0, 1)
-        h[: self.n, : self.n] += np.einsum("kli,i->kl", g2, self._force(c))
-        return 0.5 * (h + h.T)
-
-    def nonlinear_energy(self, z: np.ndarray) -> float:
-        z = np.asarray(z, float)
-        return self.energy(z) - 0.5 * float(z @ self.h0 @ z)
-
-    def nonlinear_force(self, z: np.ndarray) -> np.ndarray:
-        return self.gradient(z) - self.h0 @ np.asarray(z, float)
-
-    def nonlinear_hessian(self, z: np.ndarray) -> np.ndarray:
-        return self.hessian(z) - self.h0
-
-
 def modal_damping(stiffness: np.ndarray, mass: np.ndarray, zeta: float, cutoff_hz: float):
     """``C = μ V diag(2ζω) Vᵀ μ`` (1/s) on the eigenpairs ``(ω², V)`` of ``(stiffness, mass)``
     with ω/2π below ``cutoff_hz`` (V μ-normalised), and the frequencies (Hz) of the pencil."""
@@ -140,7 +66,7 @@ def augmented_model(model: ReducedModel, structure, basis: np.ndarray, lam: np.n
                     zeta: float, cutoff_hz: float) -> ReducedModel:  # fmt: skip
     """``model`` with the columns of ``basis`` ``(m, p)`` as further coordinates: kinetic
     integrals of the shapes ``[Φ; B]`` with quadratic modes ``[[g, 0], [0, 0]]``, ``Λ = lam``
-    ``(N+p, N+p)`` (e.g. :attr:`ExactPotential.h0`), modal damping ``zeta`` below
+    ``(N+p, N+p)`` (e.g. the condensed potential's ``hessian0``), modal damping ``zeta`` below
     ``cutoff_hz`` (:func:`modal_damping`); F1 padded with zeros, no Q4 tensors."""
     n, p = model.n_modes, basis.shape[1]
     nodes = model.X.shape[0]
