@@ -1,5 +1,7 @@
 """Shared fixtures: small finite-element models reduced to a handful of modes (fast)."""
 
+import os
+
 import pytest
 
 from quadmodes.case import case_from_toml
@@ -35,6 +37,22 @@ height = "0.5 in"
 attach_radius = "1.5 in"
 offset = "0.25 in"
 """
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _private_model_cache(tmp_path_factory):
+    """Keep the suite out of the per-user model cache.
+
+    A test that does not choose a cache folder would otherwise read and write the user's own cache,
+    where a concurrent run (or a stale artifact from another version) can change what it sees.
+    """
+    before = os.environ.get("QUADMODES_CACHE")
+    os.environ["QUADMODES_CACHE"] = str(tmp_path_factory.mktemp("model-cache"))
+    yield
+    if before is None:
+        os.environ.pop("QUADMODES_CACHE", None)
+    else:
+        os.environ["QUADMODES_CACHE"] = before
 
 
 @pytest.fixture(scope="session")
