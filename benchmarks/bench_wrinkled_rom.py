@@ -1,8 +1,14 @@
 """Large amplitude on a wrinkling membrane: the reduced model with the condensed tension-field
 potential (Q kinetics, ``V = ½ sᵀΛs + W_B(s) − ½ sᵀH0 s``, :mod:`quadmodes.rom.condensed_potential`)
 and plain Q against the tension-field full order, at each initial bending amplitude: bending
-frequency (mean period of the first bending coordinate's upward zero crossings) and the
-modal-amplitude envelope error.
+frequency (upward zero crossings of the first bending coordinate, over the first three periods
+and over the window) and the modal-amplitude envelope error.
+
+Models (``--models``): Q; Q+condensed (the snapshot basis condensed, massless); Q+snapshots
+(``--aug-pod`` leading POD vectors of the minimisers as dynamic coordinates, the rest
+condensed); Q+trajectory-POD, an oracle: the dynamic coordinates from the POD of the full
+order's own displacements (an upper bound on what a projection model with this potential can
+do; it needs the full order it is compared with, so it is a diagnostic, not a model).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_wrinkled_rom.py \
         [--case benchmarks/cases/paper-0.5hz-coarse-tf.toml] [--amplitudes 0.5,1] [--window "1 s"] \
@@ -25,12 +31,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_large_amplitude import crossing_frequency, variant  # noqa: E402
+from bench_wrinkling_participation import body_displacements  # noqa: E402
 
 from quadmodes.analysis import compare as cmp  # noqa: E402
 from quadmodes.case import load_run_case  # noqa: E402
 from quadmodes.case.units import parse_quantity  # noqa: E402
 from quadmodes.fullorder import full_order_for_run  # noqa: E402
 from quadmodes.fullorder.integrator import FullOrderNewtonError  # noqa: E402
+from quadmodes.fullorder.runs import setup_for_run  # noqa: E402
 from quadmodes.rom import augmented_basis as aug  # noqa: E402
 from quadmodes.rom import condensed_potential as cpot  # noqa: E402
 from quadmodes.rom import manifold_energy as me  # noqa: E402
@@ -71,14 +79,42 @@ def trained_potential(setup, amplitudes_in, directions: int, pod: int | None):
     return cpot.CondensedPotential(ctx, basis), report, time.perf_counter() - start
 
 
-def augmented_setup(setup, pot, pod: int, cutoff_hz: float):
-    """The prepared run with the first ``pod`` POD vectors of the condensed minimisers as
-    dynamic coordinates (they carry the end bodies' mass) and the rest of the snapshot basis
-    condensed (:mod:`quadmodes.rom.augmented_basis`); the initial q from the condensed
-    minimiser at s0."""
-    ctx = pot.ctx
+def full_displacements(run, dt: float, store: Path) -> np.ndarray:
+    """Body-frame displacements ``(k, 3n)`` m of the full order of ``run`` at its samples (the
+    transient run again, recording positions; kept in ``store``)."""
+    path = store / f"{run.name}-{run.integration.duration:g}s-{dt:g}-displacements.npy"
+    if not path.exists():
+        st = setup_for_run(run)
+        xs: list[np.ndarray] = []
+        full_order_for_run(run, dt=dt, setup=st, on_sample=lambda t, x: xs.append(x.copy()))
+        u = body_displacements(st, np.array(xs))
+        store.mkdir(parents=True, exist_ok=True)
+        np.save(path, u.reshape(len(u), -1))
+    return np.load(path)
+
+
+def snapshot_coordinates(pot, pod: int) -> tuple[np.ndarray, float]:
+    """The first ``pod`` POD vectors of the condensed minimisers (they carry the end bodies'
+    mass) and their share of the snapshots' M-norm."""
     ys = [r.unknowns for r in pot_report["snapshots"] if r.converged]
-    dyn, captured = aug.pod_of_minimisers(ctx, np.array(ys), max_vectors=pod)
+    return aug.pod_of_minimisers(pot.ctx, np.array(ys), max_vectors=pod)
+
+
+def trajectory_coordinates(pot, u: np.ndarray, modal: np.ndarray, pod: int):
+    """An oracle, not a model: the first ``pod`` POD vectors of the full order's own
+    displacements ``u`` ``(k, 3n)`` outside the chart (``u − Φs − Σ ss g`` at its modal
+    coordinates ``modal`` ``(k, N)``, then [Φ Ψ] projected out) — the best linear dynamic basis
+    a projection model could have for this transient."""
+    ctx = pot.ctx
+    rest = u - modal @ ctx.phi - np.einsum("km,kn,mnj->kj", modal, modal, ctx.g)
+    return aug.pod_of_minimisers(ctx, rest, tol=1e-12, max_vectors=pod)
+
+
+def augmented_setup(setup, pot, dyn: np.ndarray, captured: float, cutoff_hz: float):
+    """The prepared run with the columns of ``dyn`` ``(m, p)`` as dynamic coordinates and the
+    rest of the snapshot basis condensed (:mod:`quadmodes.rom.augmented_basis`); the initial q
+    from the condensed minimiser at s0. ``captured``: the M-share of ``dyn`` (reported)."""
+    ctx = pot.ctx
     ctx_aug = aug.augmented_context(ctx, dyn)
     rest = aug.split_basis(ctx.mass, pot.basis, dyn)
     cond = cpot.CondensedPotential(ctx_aug, rest)
@@ -92,7 +128,7 @@ def augmented_setup(setup, pot, pod: int, cutoff_hz: float):
     y0 = np.concatenate([setup.initial.y0[:7], s0, q0, np.zeros(n + p)])
     init = dataclasses.replace(setup.initial, y0=y0)
     w2 = np.linalg.eigvals(np.linalg.solve(model.mu, model.Lam)).real
-    print(f"<!-- {p} dynamic snapshot coordinates (M-share {captured:.4f}) + {rest.shape[1]} "
+    print(f"<!-- {p} dynamic coordinates (M-share {captured:.4f}) + {rest.shape[1]} "
           f"condensed; taut condensed pencil (Hz): "
           f"{np.round(np.sort(np.sqrt(np.abs(w2))) / (2 * np.pi), 1).tolist()} -->", flush=True)
     return simulate.RunSetup(setup.run, setup.model_case, model, system, init)
@@ -102,14 +138,8 @@ def with_relaxed_extra_modes(setup, run_seed):
     """``setup`` (N > 5 modes) started where the full order of ``run_seed`` starts: the modal
     coordinates beyond the seed's five are those of the full order's relaxed initial deformation
     (M-projection of its body-frame displacement on the further modes), not zero."""
-    import quadmodes.fullorder.kinematics as kin
-    from quadmodes.fullorder.runs import setup_for_run
-
     st = setup_for_run(run_seed)
-    tr = st.structure.translational
-    body = kin.make_body(st.structure.mass_scalar, tr, setup.model.X, None, False)
-    c = kin.centre(body, st.x0)
-    u0 = (st.x0 - np.outer(tr, c)) @ kin.best_fit_rotation(body, st.x0, c) - setup.model.X
+    u0 = body_displacements(st, st.x0[None])[0]
     n, n_seed = setup.model.n_modes, st.model.n_modes
     mphi = np.stack([st.structure.mass_scalar @ p for p in np.asarray(setup.model.Phi)])
     y0 = np.array(setup.initial.y0, float)
@@ -135,8 +165,10 @@ def main() -> None:
     ap.add_argument("--directions", type=int, default=4)
     ap.add_argument("--pod", type=int, default=30, help="largest number of POD vectors")
     ap.add_argument("--store", default="out/wrinkled-rom")
-    ap.add_argument("--models", default="Q,Q+snapshots")
-    ap.add_argument("--aug-pod", type=int, default=3, help="dynamic snapshot coordinates")
+    ap.add_argument("--models", default="Q,Q+snapshots",
+                    help="of Q, Q+condensed, Q+snapshots, Q+trajectory-POD (an oracle)")
+    ap.add_argument("--aug-pod", type=int, default=3,
+                    help="dynamic coordinates of Q+snapshots / Q+trajectory-POD")
     ap.add_argument("--cutoff", type=float, default=115.0, help="damping cutoff, Hz")
     ap.add_argument("--modes", type=int, default=5, help="retained modes of the reduced models "
                     "(the full order's modal coordinates stay the seed's five)")  # fmt: skip
@@ -178,7 +210,11 @@ def main() -> None:
                         st.run, st.model_case, st.model,
                         rsys.with_nonlinear_potential(st.system, pt), st.initial),
                     "Q+snapshots": lambda st=setup, pt=pot: augmented_setup(
-                        st, pt, args.aug_pod, args.cutoff)}  # fmt: skip
+                        st, pt, *snapshot_coordinates(pt, args.aug_pod), args.cutoff),
+                    "Q+trajectory-POD": lambda st=setup, pt=pot, r=run, md=modal: augmented_setup(
+                        st, pt, *trajectory_coordinates(
+                            pt, full_displacements(r, full_dt, Path(args.store)), md,
+                            args.aug_pod), args.cutoff)}  # fmt: skip
         for name in args.models.split(","):
             r = simulate.execute(variants[name]())
             s = r.solution.y[:, 7 + k]
