@@ -93,10 +93,10 @@ def full_displacements(run, dt: float, store: Path) -> np.ndarray:
     return np.load(path)
 
 
-def snapshot_coordinates(pot, pod: int) -> tuple[np.ndarray, float]:
-    """The first ``pod`` POD vectors of the condensed minimisers (they carry the end bodies'
-    mass) and their share of the snapshots' M-norm."""
-    ys = [r.unknowns for r in pot_report["snapshots"] if r.converged]
+def snapshot_coordinates(pot, snapshots, pod: int) -> tuple[np.ndarray, float]:
+    """The first ``pod`` POD vectors of the condensed minimisers ``snapshots`` (the training
+    report's; they carry the end bodies' mass) and their share of the snapshots' M-norm."""
+    ys = [r.unknowns for r in snapshots if r.converged]
     return aug.pod_of_minimisers(pot.ctx, np.array(ys), max_vectors=pod)
 
 
@@ -152,9 +152,6 @@ def relative_residual(ctx, y, approx) -> float:
     return float(np.sqrt((d @ (ctx.mass @ d)) / max(y @ (ctx.mass @ y), 1e-300)))
 
 
-pot_report: dict = {}
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", default="benchmarks/cases/paper-0.5hz-coarse-tf.toml")
@@ -200,7 +197,6 @@ def main() -> None:
               f"| {full.wall_s:.0f} |")  # fmt: skip
         if pot is None:
             pot, report, wall = trained_potential(setup, train, args.directions, args.pod)
-            pot_report["snapshots"] = report.snapshots
             print(f"<!-- basis: {report.n_quadratic} G⊥ + {report.n_pod} POD vectors "
                   f"(captured {report.captured:.6f}), {len(report.snapshots)} snapshots, "
                   f"trained in {wall:.0f} s -->", flush=True)  # fmt: skip
@@ -209,8 +205,9 @@ def main() -> None:
                     "Q+condensed": lambda st=setup, pt=pot: simulate.RunSetup(
                         st.run, st.model_case, st.model,
                         rsys.with_nonlinear_potential(st.system, pt), st.initial),
-                    "Q+snapshots": lambda st=setup, pt=pot: augmented_setup(
-                        st, pt, *snapshot_coordinates(pt, args.aug_pod), args.cutoff),
+                    "Q+snapshots": lambda st=setup, pt=pot, rp=report: augmented_setup(
+                        st, pt, *snapshot_coordinates(pt, rp.snapshots, args.aug_pod),
+                        args.cutoff),
                     "Q+trajectory-POD": lambda st=setup, pt=pot, r=run, md=modal: augmented_setup(
                         st, pt, *trajectory_coordinates(
                             pt, full_displacements(r, full_dt, Path(args.store)), md,
