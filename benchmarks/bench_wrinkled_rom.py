@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_large_amplitude import crossing_frequency, variant  # noqa: E402
-from bench_wrinkling_participation import body_displacements  # noqa: E402
+from bench_large_amplitude import EARLY_PERIODS, crossing_frequency, variant  # noqa: E402
+from bench_wrinkling_participation import body_displacements, recorded_full_order  # noqa: E402
 
 from quadmodes.analysis import compare as cmp  # noqa: E402
 from quadmodes.case import load_run_case  # noqa: E402
@@ -46,10 +46,6 @@ from quadmodes.rom import system as rsys  # noqa: E402
 from quadmodes.runs import simulate  # noqa: E402
 from quadmodes.runs.deformation_check import deformation_structure  # noqa: E402
 
-#: Periods of the large-amplitude part of the transient over which the early frequency is taken
-#: (at 0.5 in on the coarse tension-field mesh the bending amplitude falls below a tenth of its
-#: initial value within about three periods).
-EARLY_PERIODS = 3
 FIELDS = ("t", "amplitude", "cone_angle", "spin_rate", "H_norm", "E", "E_d")
 
 
@@ -84,12 +80,8 @@ def full_displacements(run, dt: float, store: Path) -> np.ndarray:
     transient run again, recording positions; kept in ``store``)."""
     path = store / f"{run.name}-{run.integration.duration:g}s-{dt:g}-displacements.npy"
     if not path.exists():
-        st = setup_for_run(run)
-        xs: list[np.ndarray] = []
-        full_order_for_run(run, dt=dt, setup=st, on_sample=lambda t, x: xs.append(x.copy()))
-        u = body_displacements(st, np.array(xs))
         store.mkdir(parents=True, exist_ok=True)
-        np.save(path, u.reshape(len(u), -1))
+        np.save(path, recorded_full_order(run, dt)[2])
     return np.load(path)
 
 
@@ -147,11 +139,6 @@ def with_relaxed_extra_modes(setup, run_seed):
     return dataclasses.replace(setup, initial=dataclasses.replace(setup.initial, y0=y0))
 
 
-def relative_residual(ctx, y, approx) -> float:
-    d = y - approx
-    return float(np.sqrt((d @ (ctx.mass @ d)) / max(y @ (ctx.mass @ y), 1e-300)))
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", default="benchmarks/cases/paper-0.5hz-coarse-tf.toml")
@@ -177,8 +164,8 @@ def main() -> None:
     print("| bending (in) | model | bending frequency, first 3 periods (Hz) | vs full "
           "| over the window (Hz) | vs full | envelope error | wall (s) |")
     print("|---|---|---|---|---|---|---|---|")
+    case = load_run_case(args.case)
     for amp in (float(a) for a in args.amplitudes.split(",")):
-        case = load_run_case(args.case)
         run = cmp.window_run(variant(case, amp, "spinning", 5), window, "Q")
         try:
             full, modal = full_series(run, full_dt, Path(args.store))
@@ -221,7 +208,7 @@ def main() -> None:
             series = dataclasses.replace(cmp.series_from_run(name, r), amplitude=np.linalg.norm(
                 r.solution.y[:, 7 : 7 + modal.shape[1]], axis=1))  # the full order's modes
             err = cmp.errors(series, full, period)["envelope_error"]
-            np.savez(Path(args.store) / f"{run.name}-{name}-{setup.model.n_modes}modes.npz",
+            np.savez(Path(args.store) / f"{run.name}-{name}-{n}modes.npz",
                      t=r.solution.t, s=r.solution.y[:, 7 : 7 + n])  # fmt: skip
             if not r.complete:  # an early stop is a result too, but not a frequency over 1 s
                 name = f"{name} (stopped at t = {r.solution.t[-1]:.3f} s)"

@@ -11,7 +11,7 @@ Prints (markdown) the share of the time-averaged kinetic energy ``⟨q̇_j²⟩`
 the inflated reference), the shares by frequency band, and the bending coordinate's frequency
 and amplitude per period (upward zero crossings about zero). A dense eigensolution: meant for
 the coarse meshes (758 nodes: seconds; the transient about a minute). Figures in
-docs/validation.md ("Large amplitude").
+docs/full-order.md ("Session 10").
 """
 
 from __future__ import annotations
@@ -49,6 +49,15 @@ def body_displacements(st, positions: np.ndarray) -> np.ndarray:
     return out
 
 
+def recorded_full_order(run, dt: float):
+    """``(sol, st, u)``: the full order of ``run`` at step ``dt`` (s), its setup and its
+    body-frame displacements ``(k, 3n)`` m at the samples (:func:`body_displacements`)."""
+    st = setup_for_run(run)
+    samples: list[np.ndarray] = []
+    sol = full_order_for_run(run, dt=dt, setup=st, on_sample=lambda t, x: samples.append(x.copy()))
+    return sol, st, body_displacements(st, np.array(samples)).reshape(len(samples), -1)
+
+
 def fe_modes(st) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(f, V, M)``: signed frequencies (Hz), M-orthonormal modes ``(m, m)`` and mass of the
     FE model at the reference (dense)."""
@@ -69,11 +78,8 @@ def main() -> None:
     window = parse_quantity(args.window, "time", "--window")
     dt = parse_quantity(args.full_dt, "time", "--full-dt")
     run = cmp.window_run(variant(load_run_case(args.case), args.amplitude, "spinning", 5), window)
-    st = setup_for_run(run)
-    samples: list[np.ndarray] = []
-    sol = full_order_for_run(run, dt=dt, setup=st, on_sample=lambda t, x: samples.append(x.copy()))
+    sol, st, u = recorded_full_order(run, dt)
     t = np.asarray(sol.t)
-    u = body_displacements(st, np.array(samples)).reshape(len(t), -1)
     f, v, mass = fe_modes(st)
     q = u @ (mass @ v)
     e_u, e_k = np.mean(q**2, axis=0), np.mean(np.gradient(q, t, axis=0) ** 2, axis=0)
