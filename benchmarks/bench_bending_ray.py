@@ -20,6 +20,7 @@ import time
 import numpy as np
 from bench_potentials import compressed_fraction, modal_scale, one_ray, run_case_with_modes
 
+from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.structure import pipeline
@@ -42,7 +43,7 @@ def main() -> None:
     radii = 2 * INCH * np.arange(1, args.steps + 1) / args.steps
     minimisers: list = []
     t0 = time.perf_counter()
-    e, info = one_ray(ctx, model, me.quartic_system(model), scale, np.eye(5)[kb], radii,
+    e, info = one_ray(ctx, model, cand.quartic_system(model), scale, np.eye(5)[kb], radii,
                       minimisers)  # fmt: skip
     print(f"{args.case}, mode {kb} ({model.labels[kb]}), {time.perf_counter() - t0:.0f} s")
     print("| r (in) | Q (J) | Q4 (J) | W_red (J) | W_c (J) | W_c/Q | W_c converged | compressed |")

@@ -13,10 +13,10 @@ For a run case (default ``paper-41hz-coarse``) and its model with ``--modes`` mo
    --bending)``, in increasing order (continuation: W_c starts from the best of the
    quadratic-manifold point, the W_red point, the previous minimiser and its linear
    extrapolation);
-3. Q, Q4, QE, W_red and W_c (:mod:`quadmodes.rom.manifold_energy`) at every point; relative
-   errors ``(V − W_c)/W_c`` by amplitude band (0, r41], (r41, 2 r41], (2 r41, r_max]; the Q4
-   barrier (``rom.dynamics.potential_barrier``, and per sampled ray the first maximum of V_Q4
-   along it) in the same units; negative values; the ordering W_c ≤ W_red ≤ QE.
+3. Q, Q4, QE, W_red (:mod:`quadmodes.experimental.candidate_potentials`) and W_c at every point;
+   relative errors ``(V − W_c)/W_c`` by amplitude band (0, r41], (r41, 2 r41], (2 r41, r_max];
+   the Q4 barrier (``rom.dynamics.potential_barrier``, and per sampled ray the first maximum of
+   V_Q4 along it) in the same units; negative values; the ordering W_c ≤ W_red ≤ QE.
 
 Usage::
 
@@ -34,6 +34,7 @@ import tomllib
 import numpy as np
 
 from quadmodes.case import load_run_case, run_case_from_dict
+from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs import simulate as sim
@@ -75,18 +76,18 @@ def one_ray(ctx, model, q4, scale, d, radii, minimisers=None):
     ys, rs, eta = [], [], None
     for j, r in enumerate(radii):
         s = r * d / scale
-        wr = me.condensed_quadratic_mode_energy(ctx, s, eta)
+        wr = cand.condensed_quadratic_mode_energy(ctx, s, eta)
         eta = wr.unknowns
         cands = [ctx.g_perp @ wr.unknowns] + ys[-1:]
         if len(ys) >= 2:
             cands.append(ys[-1] + (r - rs[-1]) * (ys[-1] - ys[-2]) / (rs[-1] - rs[-2]))
-        wc = me.condensed_energy(ctx, s, me.best_start(ctx, s, cands))
+        wc = me.condensed_energy(ctx, s, cand.best_start(ctx, s, cands))
         ys.append(wc.unknowns)
         rs.append(r)
         out[j] = [
-            me.quadratic_potential(model, s),
-            me.quartic_potential(q4, s),
-            me.manifold_energy(ctx, s),
+            cand.quadratic_potential(model, s),
+            cand.quartic_potential(q4, s),
+            cand.manifold_energy(ctx, s),
             wr.value,
             wc.value,
         ]
@@ -239,7 +240,7 @@ def main() -> None:
     if args.from_npz:
         z = np.load(args.from_npz)
         finish(args, model, float(z["r41"]), float(z["radii"][-1]), z["radii"], z["energies"],
-               z["info"], float("nan"), me.quartic_system(model), scale, z["dirs"], final=True)
+               z["info"], float("nan"), cand.quartic_system(model), scale, z["dirs"], final=True)
         return
     if args.r41 is None:
         r41, wall = run_amplitude(run, model, scale)
@@ -255,7 +256,7 @@ def main() -> None:
     if args.chart == "projected":
         model = projected_chart(structure, model)
     ctx = me.energy_context(structure, model.X, model)
-    q4 = me.quartic_system(model)
+    q4 = cand.quartic_system(model)
     if args.named:
         named_rays(ctx, model, q4, scale, radii, structure)
         return
