@@ -11,7 +11,7 @@ condensed); Q+trajectory-POD, an oracle: the dynamic coordinates from the POD of
 order's own displacements (an upper bound on what a projection model with this potential can
 do; it needs the full order it is compared with, so it is a diagnostic, not a model).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_wrinkled_rom.py \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_wrinkled_rom \
         [--case benchmarks/cases/paper-0.5hz-coarse-tf.toml] [--amplitudes 0.5,1] [--window "1 s"] \
         [--full-dt "0.5 ms"] [--train "0.125,0.25,0.5,0.75,1,1.25"] [--directions 4] [--pod 30]
 
@@ -24,28 +24,30 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_large_amplitude import EARLY_PERIODS, crossing_frequency, variant  # noqa: E402
-from bench_wrinkling_participation import body_displacements, recorded_full_order  # noqa: E402
-
-from quadmodes.analysis import compare as cmp  # noqa: E402
-from quadmodes.case import load_run_case  # noqa: E402
-from quadmodes.case.units import parse_quantity  # noqa: E402
-from quadmodes.experimental import augmented_basis as aug  # noqa: E402
-from quadmodes.experimental import condensed_potential as cpot  # noqa: E402
-from quadmodes.fullorder import full_order_for_run  # noqa: E402
-from quadmodes.fullorder.integrator import FullOrderNewtonError  # noqa: E402
-from quadmodes.fullorder.runs import setup_for_run  # noqa: E402
-from quadmodes.rom import manifold_energy as me  # noqa: E402
-from quadmodes.rom import system as rsys  # noqa: E402
-from quadmodes.runs import simulate  # noqa: E402
-from quadmodes.runs.deformation_check import deformation_structure  # noqa: E402
+from benchmarks.common import (
+    EARLY_PERIODS,
+    body_displacements,
+    crossing_frequency,
+    recorded_full_order,
+    variant,
+)
+from quadmodes.analysis import compare as cmp
+from quadmodes.case import load_run_case
+from quadmodes.case.units import parse_quantity
+from quadmodes.experimental import augmented_basis as aug
+from quadmodes.experimental import condensed_potential as cpot
+from quadmodes.fullorder import full_order_for_run
+from quadmodes.fullorder.integrator import FullOrderNewtonError
+from quadmodes.fullorder.runs import setup_for_run
+from quadmodes.rom import manifold_energy as me
+from quadmodes.rom import system as rsys
+from quadmodes.runs import simulate
+from quadmodes.runs.deformation_check import deformation_structure
 
 FIELDS = ("t", "amplitude", "cone_angle", "spin_rate", "H_norm", "E", "E_d")
 

@@ -10,7 +10,7 @@ also the FE model's statically condensed energy W_c along the +bending ray over 
 St Venant–Kirchhoff membrane and for the tension-field (wrinkling) membrane of the same model
 (continuation from the smaller amplitude; each point a bordered Newton on the whole model).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_slack_onset.py \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_slack_onset \\
         [--models paper-membrane,paper-membrane-rim,paper-membrane-coarse] [--modes 5] \\
         [--backbone "0.015625,0.0625,0.25,0.5,1,2"]
 

@@ -18,18 +18,18 @@ with ``wrinkling = "tension-field"``, 5 modes about the 0.5 Hz relative equilibr
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_condensed_potential.py
-    python benchmarks/bench_condensed_potential.py --train-dirs 2 --test-dirs 2   # quicker
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_condensed_potential
+    python -m benchmarks.studies.bench_condensed_potential --train-dirs 2 --test-dirs 2   # quicker
 """
 
 from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import CASES
 from quadmodes.case import load_run_case
 from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.experimental import condensed_potential as cp
@@ -41,7 +41,7 @@ from quadmodes.runs import simulate as sim
 from quadmodes.runs.deformation_check import deformation_structure
 
 INCH = 0.0254
-CASE = Path(__file__).parent / "cases" / "paper-0.5hz-coarse-tf.toml"
+CASE = CASES / "paper-0.5hz-coarse-tf.toml"
 
 
 def floats(text: str) -> list[float]:
