@@ -145,3 +145,21 @@ def test_exemptions_are_short_reasoned_and_still_needed(table):
         assert len(why.split()) >= 5, f"{key}: say why it is exempt"
         module = key if table is LONG_MODULES else key.rpartition(".")[0]
         assert module in MODULES, f"{key}: no such module (remove the entry)"
+
+
+def test_product_does_not_import_experimental():
+    """Research prototypes stay in their own room: no module of quadmodes outside
+    quadmodes.experimental imports it (function-level imports included); tests and
+    benchmarks/studies may."""
+    room = "quadmodes.experimental"
+
+    def inside(module: str) -> bool:
+        return module == room or module.startswith(f"{room}.")
+
+    assert room in MODULES, "quadmodes.experimental is gone: remove this test"
+    offenders = {
+        name: sorted(t for t in _imports(name, path) if inside(t))
+        for name, path in MODULES.items()
+        if not inside(name)
+    }
+    assert {k: v for k, v in offenders.items() if v} == {}

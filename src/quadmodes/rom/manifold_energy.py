@@ -1,17 +1,17 @@
-"""Candidate reduced potentials against the FE model's own statically condensed energy.
+"""The FE model's own statically condensed energy W_c about a reduced model's chart.
 
-Evidence for the choice of a bounded reduced potential (issue 9, static gate). For a reduced
-model (Φ, g^{mn}, Λ, V3, V4) built about the inflated equilibrium ``x0`` of a structure, at modal
-coordinates ``s`` (N,) (√kg·m) this module evaluates (all in J, all minus the value at ``x0``):
+For a reduced model (Φ, g^{mn}, Λ) built about the inflated equilibrium ``x0`` of a structure,
+at modal coordinates ``s`` (N,) (√kg·m) this module evaluates (in J, minus the value at ``x0``)
 
-* ``V_Q(s) = ½ sᵀΛs`` and ``V_Q4(s)`` (the project's Q4, from :mod:`quadmodes.rom.dynamics`);
-* ``QE(s) = Π(x_QM(s))``, ``x_QM(s) = x0 + Φs + Σ_mn s_m s_n g^{mn}`` (no ½): the exact FE
-  total potential on the quadratic-mode manifold;
-* ``W_red(s) = min_η Π(x_QM(s) + G⊥η)``, G⊥ an M-orthonormal basis of the quadratic modes
-  M-orthogonalised against the retained and rigid modes (Newton on η, ``G⊥ᵀ K G⊥``);
-* ``W_c(s) = min_y Π(x_QM(s) + y)`` over all ``y`` with ``Φᵀ M y = 0`` and ``Ψᵀ M y = 0``
-  (rigid motions about the centre of mass of ``x0``): the statically condensed energy of the FE
-  model (bordered Newton with an energy line search).
+* ``W_c(s) = min_y Π(x_QM(s) + y)``, ``x_QM(s) = x0 + Φs + Σ_mn s_m s_n g^{mn}`` (no ½), over
+  all ``y`` with ``Φᵀ M y = 0`` and ``Ψᵀ M y = 0`` (rigid motions about the centre of mass of
+  ``x0``): the statically condensed energy of the FE model (bordered Newton with an energy line
+  search), and its minimiser ``y``: what the product uses it for is the full order's relaxed
+  initial deformation of a large bending amplitude and the deformation check.
+
+The candidate reduced potentials compared with it (Q, Q4, the exact manifold energy QE, W_red
+condensed on the quadratic modes G⊥ of :attr:`EnergyContext.g_perp`) are research code, in
+:mod:`quadmodes.experimental.candidate_potentials` (docs/potentials.md).
 
 Π is the total potential of the structure, :func:`quadmodes.fe.model.strain_energy` (strain
 energy of every element set plus the pressure potential: ``−p V`` at constant pressure, the
@@ -22,11 +22,8 @@ x0)``) so that every energy starts at second order.
 **Chart.** The modal coordinate is the reduced model's own: ``s`` of ``x_QM(s)``. The quadratic
 modes have components along the retained modes (``Φᵀ M g^{mn} = −Φᵀ B(u^m, u^n)/ω²``, large for
 the bending → axial coupling), so the M-projection of ``x_QM(s) − x0`` on Φ is ``σ(s) = s +
-ΦᵀM Σ s s g``, not ``s``. Since ``x_QM(s) + G⊥η = x0 + Φσ + Σ ss g⊥ + G⊥η``, the energies above
-are the minima at the *projected* coordinate σ(s) written in the chart s: ``W_c(s) =
-min_{ΦᵀMy=0, ΨᵀMy=0} Π(x0 + Φσ(s) + y)`` and likewise for W_red. In this chart the feasible
-sets are nested (QM point ⊂ W_red set ⊂ W_c set), so ``W_c ≤ W_red ≤ QE``, and ``W_c − QE =
-O(|s|⁶)``: Q4 (the fourth-order Taylor polynomial of QE) is then also that of W_c.
+ΦᵀM Σ s s g``, not ``s``. W_c is the minimum at the *projected* coordinate σ(s) written in the
+chart s: ``W_c(s) = min_{ΦᵀMy=0, ΨᵀMy=0} Π(x0 + Φσ(s) + y)``.
 """
 
 from __future__ import annotations
@@ -45,8 +42,6 @@ from quadmodes.fe.model import (
     tangent_low_rank,
     tangent_stiffness,
 )
-from quadmodes.rom import dynamics as dyn
-from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.structure.bordered import bordered_solver
 
@@ -125,29 +120,6 @@ def energy_context(structure: Structure, x0: np.ndarray, model: ReducedModel) ->
 
 
 # ---------------------------------------------------------------------------------------------
-# Potentials of the reduced model
-# ---------------------------------------------------------------------------------------------
-
-
-def quadratic_potential(model: ReducedModel, s: np.ndarray) -> float:
-    """``V_Q = ½ sᵀΛs`` (J) at ``s`` (N,) (formulation Q)."""
-    return float(0.5 * s @ model.Lam @ s)
-
-
-def quartic_system(model: ReducedModel) -> rsys.ReducedSystem:
-    """The formulation-"Q4" :class:`~quadmodes.rom.system.ReducedSystem` of ``model``."""
-    return rsys.reduced_system(model, "Q4")
-
-
-def quartic_potential(system: rsys.ReducedSystem, s: np.ndarray) -> float:
-    """``V_Q4(s)`` (J) of the Q4 system at ``s`` (N,), by :func:`rom.dynamics.potential_energy`."""
-    y = np.zeros(7 + 2 * system.n_modes)
-    y[0] = 1.0
-    y[7 : 7 + system.n_modes] = s
-    return float(dyn.potential_energy(system, y))
-
-
-# ---------------------------------------------------------------------------------------------
 # Exact FE energies
 # ---------------------------------------------------------------------------------------------
 
@@ -166,11 +138,6 @@ def total_potential(ctx: EnergyContext, u: np.ndarray) -> float:
 def potential_force(ctx: EnergyContext, u: np.ndarray) -> np.ndarray:
     """``∇Π̃(x0 + u) = f(x0 + u) − f(x0)`` ``(m,)`` (N)."""
     return internal_force(ctx.structure, ctx.x0 + u.reshape(-1, 3)).ravel() - ctx.f0
-
-
-def manifold_energy(ctx: EnergyContext, s: np.ndarray) -> float:
-    """``QE(s) = Π̃(x_QM(s))`` (J): the exact total potential on the quadratic manifold."""
-    return total_potential(ctx, manifold_displacement(ctx, s))
 
 
 @dataclass(frozen=True)
@@ -209,45 +176,6 @@ def _tangent(ctx: EnergyContext, u: np.ndarray):
     return tangent_stiffness(ctx.structure, x), tangent_low_rank(ctx.structure, x)
 
 
-def _spd_solve(h: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """``h⁻¹ rhs`` for a symmetric ``h``, with eigenvalues below 1e-8·max raised to it (a
-    descent direction also where the projected tangent is indefinite)."""
-    lam, vec = np.linalg.eigh(0.5 * (h + h.T))
-    floor = 1e-8 * np.abs(lam).max()
-    return vec @ ((vec.T @ rhs) / np.maximum(np.abs(lam), floor))
-
-
-def condensed_quadratic_mode_energy(
-    ctx: EnergyContext, s: np.ndarray, eta0: np.ndarray | None = None, max_iterations: int = 40
-) -> Condensed:
-    """``W_red(s) = min_η Π̃(x_QM(s) + G⊥η)`` (J) by Newton on η (q,) with the projected
-    tangent ``G⊥ᵀKG⊥`` (eigenvalues made positive if it is indefinite) and an energy line
-    search, from ``eta0`` (default 0: the quadratic-manifold point)."""
-    u_qm = manifold_displacement(ctx, s)
-    gp = ctx.g_perp
-    eta = np.zeros(gp.shape[1]) if eta0 is None else np.asarray(eta0, float).copy()
-
-    def energy(e):
-        return total_potential(ctx, u_qm + gp @ e)
-
-    value = energy(eta)
-    decrement = np.inf
-    for it in range(1, max_iterations + 1):
-        u = u_qm + gp @ eta
-        grad = gp.T @ potential_force(ctx, u)
-        k, low = _tangent(ctx, u)
-        h = gp.T @ (k @ gp)
-        for c, v in low:
-            h += c * np.outer(gp.T @ v, gp.T @ v)
-        d = -_spd_solve(h, grad)
-        slope = float(grad @ d)
-        decrement = 0.5 * abs(slope)
-        if _converged(decrement, value):
-            return Condensed(value, eta, it - 1, decrement, True)
-        eta, value = _line_search(energy, eta, d, value, slope)
-    return Condensed(value, eta, max_iterations, decrement, _converged(decrement, value))
-
-
 def _descent_solver(ctx: EnergyContext, u: np.ndarray, r: np.ndarray, mu: float, tries: int = 8):
     """Factorised ``[[K + μM, C], [Cᵀ, 0]]`` (free DOFs, ``C = M[Φ Ψ]``) at ``x0 + u`` with the
     smallest μ of ``mu, 1e-3·scale, 10×, …`` (μ = 0 first if ``mu`` is 0) whose Newton step
@@ -265,15 +193,6 @@ def _descent_solver(ctx: EnergyContext, u: np.ndarray, r: np.ndarray, mu: float,
             break
         mu = 1e-3 * ctx.shift_scale if mu == 0.0 else 10.0 * mu
     return solve, mu, d
-
-
-def best_start(ctx: EnergyContext, s: np.ndarray, candidates) -> np.ndarray:
-    """The feasible start ``y`` ``(m,)`` of lowest ``Π̃(x_QM(s) + y)`` among ``candidates``
-    (the quadratic-manifold point y = 0 is always one)."""
-    u_qm = manifold_displacement(ctx, s)
-    starts = [np.zeros_like(u_qm)] + [np.asarray(c, float) for c in candidates if c is not None]
-    values = [total_potential(ctx, u_qm + y) for y in starts]
-    return starts[int(np.argmin(values))]
 
 
 def condensed_energy(
@@ -294,7 +213,7 @@ def condensed_energy(
     The minimum found is the one reached from the start (the energy is not convex where the
     membrane goes into compression).
     ``y0`` must be feasible (e.g. the minimiser at a smaller amplitude on the same ray, or
-    ``G⊥η`` of :func:`condensed_quadratic_mode_energy`; see :func:`best_start`); default 0, the
+    ``G⊥η`` of W_red; see :mod:`quadmodes.experimental.candidate_potentials`); default 0, the
     quadratic-manifold point."""
     free = ctx.free
     u_qm = manifold_displacement(ctx, s)

@@ -6,7 +6,7 @@ all of its time in Python and numpy call overhead: one step of the N = 5 system 
 floating-point operations on arrays of 8 and 64 numbers. This module runs the *whole* fixed-step
 loop (predictor, analytic Jacobian, chord Newton, the ω projection, dissipated energy, sampling
 and failure detection) in one compiled call: ≈1.2–1.5e5 steps/s for N = 5, 20–30× the numpy backend
-(benchmarks/bench_rom.py, docs/performance.md).
+(benchmarks/performance/bench_rom.py, docs/performance.md).
 
 It solves exactly the same step equations with the same convergence test (see the docstring of
 :mod:`quadmodes.rom.integrators`)::

@@ -89,8 +89,8 @@ class ReducedSystem:
     nonlinear_potential: None, or an object adding ``N(s)`` to the potential,
     ``V = F1·s + ½ sᵀΛs (+ V3, V4) + N(s)``, with methods ``nonlinear_energy(s)`` (J),
     ``nonlinear_force(s)`` = ∂N/∂s (N,) and ``nonlinear_hessian(s)`` = ∂²N/∂s² (N,N), N = O(|s|³)
-    (e.g. :class:`quadmodes.rom.condensed_potential.CondensedPotential`, the condensed energy of
-    a wrinkling membrane); integrated by the numpy steppers only.
+    (e.g. :class:`quadmodes.experimental.condensed_potential.CondensedPotential`, the condensed
+    energy of a wrinkling membrane); integrated by the numpy steppers only.
     ``flat``: the :class:`FlatTensors` for fast matrix products.
     """
 

@@ -1,8 +1,9 @@
 """Large amplitude on a wrinkling membrane: the reduced model with the condensed tension-field
-potential (Q kinetics, ``V = ½ sᵀΛs + W_B(s) − ½ sᵀH0 s``, :mod:`quadmodes.rom.condensed_potential`)
-and plain Q against the tension-field full order, at each initial bending amplitude: bending
-frequency (upward zero crossings of the first bending coordinate, over the first three periods
-and over the window) and the modal-amplitude envelope error.
+potential (Q kinetics, ``V = ½ sᵀΛs + W_B(s) − ½ sᵀH0 s``,
+:mod:`quadmodes.experimental.condensed_potential`) and plain Q against the tension-field full
+order, at each initial bending amplitude: bending frequency (upward zero crossings of the first
+bending coordinate, over the first three periods and over the window) and the modal-amplitude
+envelope error.
 
 Models (``--models``): Q; Q+condensed (the snapshot basis condensed, massless); Q+snapshots
 (``--aug-pod`` leading POD vectors of the minimisers as dynamic coordinates, the rest
@@ -10,7 +11,7 @@ condensed); Q+trajectory-POD, an oracle: the dynamic coordinates from the POD of
 order's own displacements (an upper bound on what a projection model with this potential can
 do; it needs the full order it is compared with, so it is a diagnostic, not a model).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_wrinkled_rom.py \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_wrinkled_rom \
         [--case benchmarks/cases/paper-0.5hz-coarse-tf.toml] [--amplitudes 0.5,1] [--window "1 s"] \
         [--full-dt "0.5 ms"] [--train "0.125,0.25,0.5,0.75,1,1.25"] [--directions 4] [--pod 30]
 
@@ -23,28 +24,30 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_large_amplitude import EARLY_PERIODS, crossing_frequency, variant  # noqa: E402
-from bench_wrinkling_participation import body_displacements, recorded_full_order  # noqa: E402
-
-from quadmodes.analysis import compare as cmp  # noqa: E402
-from quadmodes.case import load_run_case  # noqa: E402
-from quadmodes.case.units import parse_quantity  # noqa: E402
-from quadmodes.fullorder import full_order_for_run  # noqa: E402
-from quadmodes.fullorder.integrator import FullOrderNewtonError  # noqa: E402
-from quadmodes.fullorder.runs import setup_for_run  # noqa: E402
-from quadmodes.rom import augmented_basis as aug  # noqa: E402
-from quadmodes.rom import condensed_potential as cpot  # noqa: E402
-from quadmodes.rom import manifold_energy as me  # noqa: E402
-from quadmodes.rom import system as rsys  # noqa: E402
-from quadmodes.runs import simulate  # noqa: E402
-from quadmodes.runs.deformation_check import deformation_structure  # noqa: E402
+from benchmarks.common import (
+    EARLY_PERIODS,
+    body_displacements,
+    crossing_frequency,
+    recorded_full_order,
+    variant,
+)
+from quadmodes.analysis import compare as cmp
+from quadmodes.case import load_run_case
+from quadmodes.case.units import parse_quantity
+from quadmodes.experimental import augmented_basis as aug
+from quadmodes.experimental import condensed_potential as cpot
+from quadmodes.fullorder import full_order_for_run
+from quadmodes.fullorder.integrator import FullOrderNewtonError
+from quadmodes.fullorder.runs import setup_for_run
+from quadmodes.rom import manifold_energy as me
+from quadmodes.rom import system as rsys
+from quadmodes.runs import simulate
+from quadmodes.runs.deformation_check import deformation_structure
 
 FIELDS = ("t", "amplitude", "cone_angle", "spin_rate", "H_norm", "E", "E_d")
 
@@ -66,8 +69,8 @@ def full_series(run, dt: float, store: Path) -> tuple[cmp.Series, np.ndarray]:
 
 
 def trained_potential(setup, amplitudes_in, directions: int, pod: int | None):
-    """The :class:`~quadmodes.rom.condensed_potential.CondensedPotential` of a prepared run,
-    trained at ``amplitudes_in``; returns it with its report and the training wall time."""
+    """The :class:`~quadmodes.experimental.condensed_potential.CondensedPotential` of a prepared
+    run, trained at ``amplitudes_in``; returns it with its report and the training wall time."""
     start = time.perf_counter()
     ctx = me.energy_context(deformation_structure(setup), setup.model.X, setup.model)
     train = cpot.training_points(setup.model, 0.0254 * np.asarray(amplitudes_in), directions)
@@ -104,8 +107,9 @@ def trajectory_coordinates(pot, u: np.ndarray, modal: np.ndarray, pod: int):
 
 def augmented_setup(setup, pot, dyn: np.ndarray, captured: float, cutoff_hz: float):
     """The prepared run with the columns of ``dyn`` ``(m, p)`` as dynamic coordinates and the
-    rest of the snapshot basis condensed (:mod:`quadmodes.rom.augmented_basis`); the initial q
-    from the condensed minimiser at s0. ``captured``: the M-share of ``dyn`` (reported)."""
+    rest of the snapshot basis condensed (:mod:`quadmodes.experimental.augmented_basis`); the
+    initial q from the condensed minimiser at s0. ``captured``: the M-share of ``dyn``
+    (reported)."""
     ctx = pot.ctx
     ctx_aug = aug.augmented_context(ctx, dyn)
     rest = aug.split_basis(ctx.mass, pot.basis, dyn)

@@ -10,8 +10,8 @@ mean dissipated power P and cone-growth rate θ̇ (straight-line fits of E_d and
 second half of the window, past the start-up), and their ratios to the largest cutoff's run; ``--half-dt`` adds the default cutoff at half
 the step (the reference's convergence in Δt). Nothing is asserted. Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_reference_damping.py --window 0.5
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_reference_damping.py --window 0.02  # timing
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_reference_damping --window 0.5
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_reference_damping --window 0.02  # timing
 """
 
 from __future__ import annotations

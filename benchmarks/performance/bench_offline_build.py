@@ -13,9 +13,9 @@ counts the SuperLU factorisations of each stage and their time (a wrapper around
 core (``MKL_NUM_THREADS=1`` unless set). ``--keep DIR`` keeps each build's state, frequencies
 and times.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_offline_build.py --old /tmp/qm-old/src \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_offline_build --old /tmp/qm-old/src \\
         --edges "0.39 in" --repeat 2
-    OPENBLAS_NUM_THREADS=1 nice -n 5 python benchmarks/bench_offline_build.py \\
+    OPENBLAS_NUM_THREADS=1 nice -n 5 python -m benchmarks.performance.bench_offline_build \\
         --old /tmp/qm-old/src --edges "0.195 in"
 
 Prints one table per mesh: stage times (best of ``--repeat``, old and new alternating), their
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-NEW_SRC = Path(__file__).resolve().parents[1] / "src"
+NEW_SRC = Path(__file__).resolve().parents[2] / "src"
 STAGES = ("mesh", "inflation", "modes", "labels")
 
 

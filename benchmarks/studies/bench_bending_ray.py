@@ -7,7 +7,7 @@ fraction of membrane elements in compression at the W_c minimiser. Used for the 
 amplitude study in docs/full-order.md (with the built-in ``paper-0.5hz`` and with its model
 switched to ``[material] wrinkling = "tension-field"``).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_bending_ray.py [RUN_CASE] [--steps 16]
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_bending_ray [RUN_CASE] [--steps 16]
 
 Several minutes on the default mesh (each W_c is a bordered Newton on the whole model).
 """
@@ -18,8 +18,9 @@ import argparse
 import time
 
 import numpy as np
-from bench_potentials import compressed_fraction, modal_scale, one_ray, run_case_with_modes
 
+from benchmarks.common import compressed_fraction, modal_scale, one_ray, run_case_with_modes
+from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.structure import pipeline
@@ -42,7 +43,7 @@ def main() -> None:
     radii = 2 * INCH * np.arange(1, args.steps + 1) / args.steps
     minimisers: list = []
     t0 = time.perf_counter()
-    e, info = one_ray(ctx, model, me.quartic_system(model), scale, np.eye(5)[kb], radii,
+    e, info = one_ray(ctx, model, cand.quartic_system(model), scale, np.eye(5)[kb], radii,
                       minimisers)  # fmt: skip
     print(f"{args.case}, mode {kb} ({model.labels[kb]}), {time.perf_counter() - t0:.0f} s")
     print("| r (in) | Q (J) | Q4 (J) | W_red (J) | W_c (J) | W_c/Q | W_c converged | compressed |")

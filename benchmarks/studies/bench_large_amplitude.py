@@ -5,7 +5,7 @@ and the modal-amplitude envelope error of each reduced formulation (issue 9, "La
 amplitude"). Each amplitude runs one full-order transient (independent damping, its own step)
 and every formulation against it.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_large_amplitude.py \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_large_amplitude \
         [--case paper-0.5hz] [--amplitudes 0.5,1,2] [--window "1 s"] [--full-dt "0.5 ms"] \
         [--reference spinning] [--modes 5] [--formulations Q,Q4]
 
@@ -19,47 +19,12 @@ import argparse
 
 import numpy as np
 
+from benchmarks.common import EARLY_PERIODS, crossing_frequency, variant
 from quadmodes.analysis import compare as cmp
 from quadmodes.case import load_run_case
 from quadmodes.case.units import parse_quantity
 from quadmodes.fullorder import full_order_for_run
 from quadmodes.runs import simulate
-
-#: Periods of the large-amplitude part of a decaying transient over which the early frequency is
-#: taken (at 0.5 in on the coarse tension-field mesh the bending amplitude falls below a tenth of
-#: its initial value within about three periods).
-EARLY_PERIODS = 3
-
-
-def upward_crossings(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Times (s) of the upward zero crossings of ``y(t)`` (linear interpolation between samples).
-
-    About zero, the coordinate's value at the relative equilibrium, not about the signal's mean:
-    a wrinkling transient leaves a mean offset of the order of the late amplitude, and crossings
-    of ``y - mean`` stop once the decaying signal no longer reaches it (before session 10 the
-    0.5 in tension-field figure, 31.94 Hz, so averaged only over 0–0.55 s)."""
-    i = np.flatnonzero((y[:-1] < 0.0) & (y[1:] >= 0.0))
-    return t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i])
-
-
-def crossing_frequency(t: np.ndarray, y: np.ndarray, periods: int | None = None) -> float:
-    """Frequency (Hz) from the mean spacing of the upward zero crossings of ``y(t)``
-    (:func:`upward_crossings`), over the first ``periods`` periods only if given (the
-    large-amplitude part of a decaying transient); NaN with fewer than two crossings."""
-    tc = upward_crossings(np.asarray(t, float), np.asarray(y, float))
-    if periods is not None:
-        tc = tc[: periods + 1]
-    if len(tc) < 2:
-        return float("nan")
-    return float((len(tc) - 1) / (tc[-1] - tc[0]))
-
-
-def variant(run, amplitude_in: float, reference: str, modes):
-    """``run`` with the initial bending amplitude (in) and the reduced-model choice."""
-    red = run.reduced.model_copy(update={"reference": reference, "modes": modes})
-    ini = run.initial.model_copy(update={"bending_amplitude": amplitude_in * 0.0254})
-    return run.model_copy(update={"reduced": red, "initial": ini,
-                                  "name": f"{run.name}-{amplitude_in:g}in"})  # fmt: skip
 
 
 def main() -> None:

@@ -4,8 +4,8 @@ secular cone-growth rate and mean dissipated power over the quasi-steady part (t
 ``quadmodes compare``) as ratios to the full-order values passed on the command line (from
 ``quadmodes compare paper-41hz-coarse --window "4 s" --full-dt "0.25 ms"``).
 
-    python benchmarks/whatif_projected_chart.py --modes 5 --full-cone 0.010648 --full-power 0.010795
-    python benchmarks/whatif_projected_chart.py --modes 11 --full-cone 0.010515 --full-power 0.010516
+    python -m benchmarks.studies.whatif_projected_chart --modes 5 --full-cone 0.010648 --full-power 0.010795
+    python -m benchmarks.studies.whatif_projected_chart --modes 11 --full-cone 0.010515 --full-power 0.010516
 
 The projected chart is made by swapping ``rom.reduced.quadratic_modes`` for the length of one
 ``reduce`` call; nothing in the package changes.

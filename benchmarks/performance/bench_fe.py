@@ -12,10 +12,10 @@ Two parts:
 
 Usage::
 
-    python benchmarks/bench_fe.py                        # kernels + 5k, 20k, 80k
-    python benchmarks/bench_fe.py --sizes 5k,20k --markdown /tmp/bench.md
-    python benchmarks/bench_fe.py --skip-kernels --sizes 80k
-    python benchmarks/bench_fe.py --skip-kernels --one-step --sizes 5k,20k,80k
+    python -m benchmarks.performance.bench_fe                        # kernels + 5k, 20k, 80k
+    python -m benchmarks.performance.bench_fe --sizes 5k,20k --markdown /tmp/bench.md
+    python -m benchmarks.performance.bench_fe --skip-kernels --sizes 80k
+    python -m benchmarks.performance.bench_fe --skip-kernels --one-step --sizes 5k,20k,80k
 
 Threads are left at their defaults (``OPENBLAS_NUM_THREADS`` etc. are not touched); the script
 prints ``os.cpu_count()`` and the numpy BLAS configuration. Nothing here asserts on timings.

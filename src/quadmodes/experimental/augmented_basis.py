@@ -1,11 +1,12 @@
 """A reduced model of the wrinkling structure: the quadratic-mode chart augmented with snapshot
 coordinates that carry mass, and the exact FE potential on it.
 
-Condensing the wrinkled hinge as massless unknowns (:mod:`quadmodes.rom.condensed_potential`)
-is not enough on the paper membrane: the condensed displacement ``y`` at 0.5–1 in of bending
-moves the heavy front end body, ``‖y‖²_M / ‖s‖² ≈ 0.18–0.20`` (measured on
-paper-membrane-coarse-tf), so a fifth of the kinetic energy of the motion would be left out.
-Here the snapshot directions are generalised coordinates of their own::
+Condensing the wrinkled hinge as massless unknowns
+(:mod:`quadmodes.experimental.condensed_potential`) is not enough on the paper membrane: the
+condensed displacement ``y`` at 0.5–1 in of bending moves the heavy front end body, ``‖y‖²_M /
+‖s‖² ≈ 0.18–0.20`` (measured on paper-membrane-coarse-tf), so a fifth of the kinetic energy of
+the motion would be left out. Here the snapshot directions are generalised coordinates of their
+own::
 
     x(s, q) = x0 + Φs + Σ_mn s_m s_n g^{mn} + B q,      z = (s, q)  (N + p)
 
@@ -15,11 +16,12 @@ reduced model is kept). The kinetic integrals are those of the quadratic modes
 (:func:`quadmodes.rom.reduced.reduce`) with ``B`` as further linear shapes whose quadratic modes
 are zero; the potential is the exact FE total potential ``Π̃(x(z))`` (strain energy with the
 tension-field law, pressure, ties), condensed over the remaining snapshot directions
-(:func:`augmented_context` with :class:`~quadmodes.rom.condensed_potential.CondensedPotential`;
-with every snapshot direction dynamic the coordinates reach 68 kHz at the taut state and the
-midpoint's Newton fails, so only the leading POD vectors, which carry the mass, are dynamic).
-Damping: modal, ζ on every mode of ``(H0, μ)`` below a cutoff, as the full order's
-independent damping does on the FE modes.
+(:func:`augmented_context` with
+:class:`~quadmodes.experimental.condensed_potential.CondensedPotential`; with every snapshot
+direction dynamic the coordinates reach 68 kHz at the taut state and the midpoint's Newton
+fails, so only the leading POD vectors, which carry the mass, are dynamic). Damping: modal, ζ on
+every mode of ``(H0, μ)`` below a cutoff, as the full order's independent damping does on the FE
+modes.
 """
 
 from __future__ import annotations

@@ -13,27 +13,27 @@ For a run case (default ``paper-41hz-coarse``) and its model with ``--modes`` mo
    --bending)``, in increasing order (continuation: W_c starts from the best of the
    quadratic-manifold point, the W_red point, the previous minimiser and its linear
    extrapolation);
-3. Q, Q4, QE, W_red and W_c (:mod:`quadmodes.rom.manifold_energy`) at every point; relative
-   errors ``(V − W_c)/W_c`` by amplitude band (0, r41], (r41, 2 r41], (2 r41, r_max]; the Q4
-   barrier (``rom.dynamics.potential_barrier``, and per sampled ray the first maximum of V_Q4
-   along it) in the same units; negative values; the ordering W_c ≤ W_red ≤ QE.
+3. Q, Q4, QE, W_red (:mod:`quadmodes.experimental.candidate_potentials`) and W_c at every point;
+   relative errors ``(V − W_c)/W_c`` by amplitude band (0, r41], (r41, 2 r41], (2 r41, r_max];
+   the Q4 barrier (``rom.dynamics.potential_barrier``, and per sampled ray the first maximum of
+   V_Q4 along it) in the same units; negative values; the ordering W_c ≤ W_red ≤ QE.
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_potentials.py --rays 100 \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_potentials --rays 100 \\
         --markdown /tmp/gate.md --figure docs/figures/potentials-gate-coarse-N5.png
-    python benchmarks/bench_potentials.py --rays 1 --amplitudes 12        # time one ray
+    python -m benchmarks.studies.bench_potentials --rays 1 --amplitudes 12        # time one ray
 """
 
 from __future__ import annotations
 
 import argparse
 import time
-import tomllib
 
 import numpy as np
 
-from quadmodes.case import load_run_case, run_case_from_dict
+from benchmarks.common import compressed_fraction, modal_scale, one_ray, run_case_with_modes
+from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs import simulate as sim
@@ -44,56 +44,12 @@ NAMES = ("Q", "Q4", "QE", "W_red")
 INCH = 0.0254
 
 
-def run_case_with_modes(name: str, modes: int, duration: str):
-    """The run case ``name`` with ``reduced.modes = modes``, formulation Q4, ``duration``."""
-    run = sim.apply_overrides(load_run_case(name), duration=duration, formulation="Q4")
-    data = tomllib.loads(run.to_toml())
-    data["reduced"]["modes"] = int(modes)
-    return run_case_from_dict(data, source="bench_potentials")
-
-
-def modal_scale(model) -> np.ndarray:
-    """``D`` (N,): largest nodal displacement (m) per unit modal coordinate of each mode."""
-    t = np.asarray(model.translational, bool)
-    return np.array([np.max(np.linalg.norm(p[t], axis=1)) for p in model.Phi])
-
-
 def run_amplitude(run, model, scale) -> tuple[float, float]:
     """``(max_t |D s(t)|, wall s)`` of the run (its own model)."""
     t0 = time.perf_counter()
     result = sim.simulate(run, model)
     s = result.solution.y[:, 7 : 7 + model.n_modes]
     return float(np.max(np.linalg.norm(s * scale, axis=1))), time.perf_counter() - t0
-
-
-def one_ray(ctx, model, q4, scale, d, radii, minimisers=None):
-    """Energies ``(len(radii), 5)`` [Q, Q4, QE, W_red, W_c] (J) along ``s = r D⁻¹ d``, and
-    ``(len(radii), 2)`` [W_c converged, Newton iterations]; the W_c minimisers y are appended
-    to the list ``minimisers`` if given."""
-    out = np.zeros((len(radii), 5))
-    info = np.zeros((len(radii), 2))
-    ys, rs, eta = [], [], None
-    for j, r in enumerate(radii):
-        s = r * d / scale
-        wr = me.condensed_quadratic_mode_energy(ctx, s, eta)
-        eta = wr.unknowns
-        cands = [ctx.g_perp @ wr.unknowns] + ys[-1:]
-        if len(ys) >= 2:
-            cands.append(ys[-1] + (r - rs[-1]) * (ys[-1] - ys[-2]) / (rs[-1] - rs[-2]))
-        wc = me.condensed_energy(ctx, s, me.best_start(ctx, s, cands))
-        ys.append(wc.unknowns)
-        rs.append(r)
-        out[j] = [
-            me.quadratic_potential(model, s),
-            me.quartic_potential(q4, s),
-            me.manifold_energy(ctx, s),
-            wr.value,
-            wc.value,
-        ]
-        info[j] = [wc.converged and wr.converged, wc.iterations]
-    if minimisers is not None:
-        minimisers.extend(ys)
-    return out, info
 
 
 def ray_barriers(model, scale, dirs) -> np.ndarray:
@@ -172,15 +128,6 @@ def projected_chart(structure, model):
     return replace(model, G=g_perp, V3=v3, V4=v4)
 
 
-def compressed_fraction(structure, x) -> float:
-    """Fraction of membrane elements whose minor principal stress resultant is ≤ 0 at ``x``."""
-    from quadmodes.fe.membrane import MembraneSet
-
-    mem = [e for e in structure.elements if isinstance(e, MembraneSet)]
-    minor = np.concatenate([e.principal_stress_resultants(x)[:, 0] for e in mem])
-    return float(np.mean(minor <= 0.0))
-
-
 def named_rays(ctx, model, q4, scale, radii, structure) -> None:
     """Energies along ``±e_k`` (each mode alone, both signs) at every 3rd amplitude, with the
     compressed membrane fraction at the quadratic-manifold point and at the W_c minimiser."""
@@ -239,7 +186,7 @@ def main() -> None:
     if args.from_npz:
         z = np.load(args.from_npz)
         finish(args, model, float(z["r41"]), float(z["radii"][-1]), z["radii"], z["energies"],
-               z["info"], float("nan"), me.quartic_system(model), scale, z["dirs"], final=True)
+               z["info"], float("nan"), cand.quartic_system(model), scale, z["dirs"], final=True)
         return
     if args.r41 is None:
         r41, wall = run_amplitude(run, model, scale)
@@ -255,7 +202,7 @@ def main() -> None:
     if args.chart == "projected":
         model = projected_chart(structure, model)
     ctx = me.energy_context(structure, model.X, model)
-    q4 = me.quartic_system(model)
+    q4 = cand.quartic_system(model)
     if args.named:
         named_rays(ctx, model, q4, scale, radii, structure)
         return

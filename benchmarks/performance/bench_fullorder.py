@@ -14,8 +14,8 @@ the default ``paper-membrane``), this measures
 and prints the speed-up of the reduced integration over the full order and the break-even
 window including the precomputation. Nothing here asserts on timings. Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_fullorder.py
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_fullorder.py --edges 2,1 --probe 20
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_fullorder
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_fullorder --edges 2,1 --probe 20
 """
 
 from __future__ import annotations

@@ -1,18 +1,19 @@
-"""The condensed potential on a snapshot-augmented basis (rom.condensed_potential) on the small
-capsule, N = 5: its gradient and Hessian are those of its energy (central differences; SVK,
+"""The condensed potential on a snapshot-augmented basis (experimental.condensed_potential) on the
+small capsule, N = 5: its gradient and Hessian are those of its energy (central differences; SVK,
 tension-field where elements wrinkle, gas law), it lies between the condensed energies of the
-nested feasible sets (W_c ≤ W_B ≤ W_red), it is W_c at a training point, its Hessian at 0 is
-Λ, and its nonlinear parts vanish to second order."""
+nested feasible sets (W_c ≤ W_B ≤ W_red), it is W_c at a training point, its Hessian at 0 is Λ,
+and its nonlinear parts vanish to second order."""
 
 import numpy as np
 import pytest
 from conftest import SMALL_CAPSULE
 
 from quadmodes.case import case_from_toml
+from quadmodes.experimental import candidate_potentials as cand
+from quadmodes.experimental import condensed_potential as cp
 from quadmodes.fe import wrinkling as wr
 from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import with_tension_field
-from quadmodes.rom import condensed_potential as cp
 from quadmodes.rom import manifold_energy as me
 from quadmodes.rom.reduced import reduce
 from quadmodes.structure.pipeline import build_modal_model
@@ -133,7 +134,7 @@ def test_condensed_potential_lies_between_the_nested_minima(name, request):
             s = r * direction(model.n_modes, seed) / scale
             pot.clear()
             wb = pot.minimum(s)
-            wred = me.condensed_quadratic_mode_energy(ctx, s)
+            wred = cand.condensed_quadratic_mode_energy(ctx, s)
             wc = me.condensed_energy_along_ray(ctx, s)
             assert wb.converged and wred.converged and wc.converged
             tol = 1e-9 * wred.value

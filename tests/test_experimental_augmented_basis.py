@@ -1,6 +1,6 @@
-"""Snapshot coordinates with mass (quadmodes.rom.augmented_basis): the linear algebra it rests on
-and the kinetic integrals of an augmented chart against those of a model that retains the same
-shape as an ordinary mode."""
+"""Snapshot coordinates with mass (quadmodes.experimental.augmented_basis): the linear algebra it
+rests on and the kinetic integrals of an augmented chart against those of a model that retains
+the same shape as an ordinary mode."""
 
 from types import SimpleNamespace
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from quadmodes.rom.augmented_basis import (
+from quadmodes.experimental.augmented_basis import (
     augmented_model,
     modal_damping,
     pod_of_minimisers,

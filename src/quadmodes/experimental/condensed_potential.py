@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.rom import manifold_energy as me
 from quadmodes.rom.manifold_energy import EnergyContext
 from quadmodes.rom.reduced import ReducedModel
@@ -98,7 +99,7 @@ def condensed_snapshots(ctx: EnergyContext, training_s: np.ndarray, progress=Non
         c = _same_ray(prev[0], s) if prev is not None and prev[1].converged else 0.0
         if c:
             y = prev[1].unknowns
-            start = me.best_start(ctx, s, [y, y / c**2])
+            start = cand.best_start(ctx, s, [y, y / c**2])
             result = me.condensed_energy(ctx, s, start)
         if result is None or not result.converged:
             result = me.condensed_energy_along_ray(ctx, s)
@@ -280,7 +281,7 @@ class CondensedPotential:
             force = me.potential_force(ctx, u)
             grad = b.T @ force
             k, low = me._tangent(ctx, u)
-            d = -me._spd_solve(_projected(k, low, b, b), grad)
+            d = -cand._spd_solve(_projected(k, low, b, b), grad)
             slope = float(grad @ d)
             decrement = 0.5 * abs(slope)
             if decrement <= max(DECREMENT_RTOL * abs(value), DECREMENT_ATOL):

@@ -10,7 +10,7 @@ also the FE model's statically condensed energy W_c along the +bending ray over 
 St Venant–Kirchhoff membrane and for the tension-field (wrinkling) membrane of the same model
 (continuation from the smaller amplitude; each point a bordered Newton on the whole model).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_slack_onset.py \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_slack_onset \\
         [--models paper-membrane,paper-membrane-rim,paper-membrane-coarse] [--modes 5] \\
         [--backbone "0.015625,0.0625,0.25,0.5,1,2"]
 
@@ -27,6 +27,7 @@ import tomllib
 import numpy as np
 
 from quadmodes.case import case_from_dict, load_case
+from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs.model_cache import reduced_model_for
@@ -89,10 +90,10 @@ def backbone(name: str, modes: int, radii_in: list[float], wrinkling: bool) -> l
     for r in radii_in:
         s = r * INCH * np.eye(model.n_modes)[kb] / scale
         t0 = time.perf_counter()
-        wc = me.condensed_energy(ctx, s, me.best_start(ctx, s, [y]))
+        wc = me.condensed_energy(ctx, s, cand.best_start(ctx, s, [y]))
         if not wc.converged:
             wc = me.condensed_energy_along_ray(ctx, s)
-        q = me.quadratic_potential(model, s)
+        q = cand.quadratic_potential(model, s)
         rows.append(f"| {name} | {'tension field' if wrinkling else 'SVK'} | {r:g} | {q:.5g} | "
                     f"{wc.value:.5g} | {wc.value / q:.4f} | {'yes' if wc.converged else 'no'} | "
                     f"{time.perf_counter() - t0:.0f} |")  # fmt: skip

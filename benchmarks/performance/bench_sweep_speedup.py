@@ -11,8 +11,8 @@ imports, the compiled integrator) before any clock starts; then the three runs (
 that a change of the machine's load hits all three alike. The best round of each is reported
 (and the median).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_sweep_speedup.py              # 64 points, 5 s runs
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_sweep_speedup.py --points 8 --duration "0.2 s"
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_sweep_speedup              # 64 points, 5 s runs
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_sweep_speedup --points 8 --duration "0.2 s"
 
 Before timing it prints how long the whole benchmark should take (from the warm-up point).
 The speed-up is bounded by the cores that are free: on a loaded machine it is below 2 (the load

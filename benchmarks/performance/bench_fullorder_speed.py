@@ -14,10 +14,10 @@ factorisations per step, and how far the results differ: the |H| drift, the ener
 the balance E + E_d relative to the kinetic energy, and the modal envelope (max |s_k| over the
 window) relative to the largest. Nothing here asserts on timings. Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_fullorder_speed.py --old /tmp/qm-old/src
-    python benchmarks/bench_fullorder_speed.py --old /tmp/qm-old/src --cases paper-41hz \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_fullorder_speed --old /tmp/qm-old/src
+    python -m benchmarks.performance.bench_fullorder_speed --old /tmp/qm-old/src --cases paper-41hz \\
         --window 0.05 --repeat 1
-    python benchmarks/bench_fullorder_speed.py --old /tmp/qm-old/src --offline "1 in,0.39 in"
+    python -m benchmarks.performance.bench_fullorder_speed --old /tmp/qm-old/src --offline "1 in,0.39 in"
 
 ``--offline`` times the offline build instead (mesh + structure, inflation, 10 modes of
 ``paper-membrane`` at the given mesh edges), old and new, with the differences of the inflated
@@ -39,7 +39,7 @@ import numpy as np
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-NEW_SRC = Path(__file__).resolve().parents[1] / "src"
+NEW_SRC = Path(__file__).resolve().parents[2] / "src"
 SERIES = ("t", "H_norm", "H_discrete", "E", "E_d", "T", "modal_coordinates")
 
 

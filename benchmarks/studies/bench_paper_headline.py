@@ -3,7 +3,7 @@ angle, spin rate and dissipated energy at the end of ``paper-41hz`` (120 s) and
 ``paper-0.5hz`` (4 s), so that a reader sees how much the choice of formulation, reference
 state and basis matters (docs/paper-cases.md).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_paper_headline.py [--cases paper-41hz,paper-0.5hz]
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_paper_headline [--cases paper-41hz,paper-0.5hz]
 
 Variants: the case as shipped (the default), and the baselines: Q, Q4, P, L about the state at
 rest with the seed's 5 modes, Q about the state at rest with 8 modes, and rigid.

@@ -2,7 +2,7 @@
 large initial bending, projected on every FE mode of the inflated state, and the bending
 coordinate's frequency cycle by cycle.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_wrinkling_participation.py \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_wrinkling_participation \
         [--case benchmarks/cases/paper-0.5hz-coarse-tf.toml] [--amplitude 0.5] [--window "1 s"] \
         [--full-dt "0.5 ms"] [--top 12]
 
@@ -17,45 +17,17 @@ docs/full-order.md ("Session 10").
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 import scipy.linalg as sla
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_large_amplitude import upward_crossings, variant  # noqa: E402
-
-import quadmodes.fullorder.kinematics as kin  # noqa: E402
-from quadmodes.analysis import compare as cmp  # noqa: E402
-from quadmodes.case import load_run_case  # noqa: E402
-from quadmodes.case.units import parse_quantity  # noqa: E402
-from quadmodes.fe.model import mass_matrix, tangent_stiffness  # noqa: E402
-from quadmodes.fullorder.runs import full_order_for_run, setup_for_run  # noqa: E402
+from benchmarks.common import recorded_full_order, upward_crossings, variant
+from quadmodes.analysis import compare as cmp
+from quadmodes.case import load_run_case
+from quadmodes.case.units import parse_quantity
+from quadmodes.fe.model import mass_matrix, tangent_stiffness
 
 BANDS_HZ = (1.0, 40.0, 80.0, 150.0, 400.0, np.inf)
-
-
-def body_displacements(st, positions: np.ndarray) -> np.ndarray:
-    """Mean-axes body-frame displacements ``(k, n, 3)`` m of sampled positions ``(k, n, 3)``
-    relative to the reference about the centre of mass."""
-    tr = st.structure.translational
-    x_ref = np.asarray(st.model.X, float)
-    body = kin.make_body(st.structure.mass_scalar, tr, x_ref, None, False)
-    out = np.empty_like(positions)
-    for i, x in enumerate(positions):  # diagnostics on ~10^3 samples, not a hot path
-        c = kin.centre(body, x)
-        out[i] = (x - np.outer(tr, c)) @ kin.best_fit_rotation(body, x, c) - x_ref
-    return out
-
-
-def recorded_full_order(run, dt: float):
-    """``(sol, st, u)``: the full order of ``run`` at step ``dt`` (s), its setup and its
-    body-frame displacements ``(k, 3n)`` m at the samples (:func:`body_displacements`)."""
-    st = setup_for_run(run)
-    samples: list[np.ndarray] = []
-    sol = full_order_for_run(run, dt=dt, setup=st, on_sample=lambda t, x: samples.append(x.copy()))
-    return sol, st, body_displacements(st, np.array(samples)).reshape(len(samples), -1)
 
 
 def fe_modes(st) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

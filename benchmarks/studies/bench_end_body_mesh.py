@@ -11,11 +11,11 @@ the finest mesh (pair means).
 
 Usage::
 
-    nice -n 5 python benchmarks/bench_end_body_mesh.py --quick          # coarse meshes, ~1 min
-    nice -n 5 python benchmarks/bench_end_body_mesh.py                  # factors 1, 1.41, 2, 2.83
-    nice -n 5 python benchmarks/bench_end_body_mesh.py --factors 1,2,4  # ~65k nodes at f = 4
-    python benchmarks/bench_end_body_mesh.py --case paper-membrane-rim --rim-grading 8
-    python benchmarks/bench_end_body_mesh.py --table run1.txt run2.txt   # tables of saved rows
+    nice -n 5 python -m benchmarks.studies.bench_end_body_mesh --quick          # coarse meshes, ~1 min
+    nice -n 5 python -m benchmarks.studies.bench_end_body_mesh                  # factors 1, 1.41, 2, 2.83
+    nice -n 5 python -m benchmarks.studies.bench_end_body_mesh --factors 1,2,4  # ~65k nodes at f = 4
+    python -m benchmarks.studies.bench_end_body_mesh --case paper-membrane-rim --rim-grading 8
+    python -m benchmarks.studies.bench_end_body_mesh --table run1.txt run2.txt   # tables of saved rows
 
 Each row is also printed as one JSON line (frequencies in Hz, time in s), so the outputs of
 several runs (say, the f = 4 mesh alone) can be joined into one table with ``--table``.

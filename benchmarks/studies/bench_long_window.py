@@ -5,13 +5,13 @@ cone-growth rate, the mean dissipated power and the spin-rate change, each reduc
 Run the comparisons (one full-order transient per spin rate; 10-12 min each on the coarse
 model at 0.25 ms over 4 s, about 45 min on the default mesh over 2 s):
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_long_window.py run \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_long_window run \
         --case paper-41hz-coarse --spins 41,20 --window "4 s" --full-dt "0.25 ms" \
         [--modes 8] [--reference spinning] [--formulations Q,Q4] --out out/long-window
 
 or print the table of comparisons already made (``comparison.json`` of ``quadmodes compare``):
 
-    python benchmarks/bench_long_window.py table out/long-window/*/comparison.json
+    python -m benchmarks.studies.bench_long_window table out/long-window/*/comparison.json
 
 Targets (issue 9): envelope within 3 %, each ratio within 5 % of 1.
 """

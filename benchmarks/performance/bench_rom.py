@@ -19,9 +19,9 @@ Three parts:
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_rom.py          # everything (120 s run)
-    python benchmarks/bench_rom.py --duration "10 s"               # shorter paper-41hz run
-    python benchmarks/bench_rom.py --skip-run --window 2
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.performance.bench_rom          # everything (120 s run)
+    python -m benchmarks.performance.bench_rom --duration "10 s"               # shorter paper-41hz run
+    python -m benchmarks.performance.bench_rom --skip-run --window 2
 
 Needs numba (``pip install "quadmodes[jit]"``) for the numba rows; without it they are skipped.
 Nothing here asserts on timings.

@@ -1,6 +1,6 @@
-"""The condensed potential W_B on a snapshot-augmented basis (rom.condensed_potential) against
-the FE model's statically condensed energy W_c, on the tension-field (wrinkling) coarse membrane
-(a plain script, not a test).
+"""The condensed potential W_B on a snapshot-augmented basis (experimental.condensed_potential)
+against the FE model's statically condensed energy W_c, on the tension-field (wrinkling) coarse
+membrane (a plain script, not a test).
 
 For a run case (default ``benchmarks/cases/paper-0.5hz-coarse-tf.toml``: paper-membrane-coarse
 with ``wrinkling = "tension-field"``, 5 modes about the 0.5 Hz relative equilibrium):
@@ -18,29 +18,30 @@ with ``wrinkling = "tension-field"``, 5 modes about the 0.5 Hz relative equilibr
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_condensed_potential.py
-    python benchmarks/bench_condensed_potential.py --train-dirs 2 --test-dirs 2   # quicker
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_condensed_potential
+    python -m benchmarks.studies.bench_condensed_potential --train-dirs 2 --test-dirs 2   # quicker
 """
 
 from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import CASES
 from quadmodes.case import load_run_case
+from quadmodes.experimental import candidate_potentials as cand
+from quadmodes.experimental import condensed_potential as cp
 from quadmodes.fe import wrinkling as wr
 from quadmodes.fe.membrane import MembraneSet, green_strain
-from quadmodes.rom import condensed_potential as cp
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs import simulate as sim
 from quadmodes.runs.deformation_check import deformation_structure
 
 INCH = 0.0254
-CASE = Path(__file__).parent / "cases" / "paper-0.5hz-coarse-tf.toml"
+CASE = CASES / "paper-0.5hz-coarse-tf.toml"
 
 
 def floats(text: str) -> list[float]:
@@ -156,14 +157,14 @@ def main() -> None:
         k = int(np.flatnonzero(s)[0])
         sign = "-" if s[k] < 0 else "+"
         amp = abs(s[k]) * cp.modal_scale(model)[k] / INCH
-        wr_j = me.condensed_quadratic_mode_energy(ctx, s).value
+        wr_j = cand.condensed_quadratic_mode_energy(ctx, s).value
         print(f"{amp:7.3f} {sign}{k:3d} {wc_train[j]:11.5g} {wr_j / wc_train[j]:10.4f} "
               f"{reduced_q(ctx, system, s) / wc_train[j]:8.4f}")  # fmt: skip
 
     amp_test = np.linalg.norm(test * cp.modal_scale(model), axis=1) / INCH
     x_c = [model.X + (me.manifold_displacement(ctx, s) + r.unknowns).reshape(-1, 3)
            for s, r in zip(test, ref, strict=True)]  # fmt: skip
-    wred = np.array([me.condensed_quadratic_mode_energy(ctx, s).value for s in test])
+    wred = np.array([cand.condensed_quadratic_mode_energy(ctx, s).value for s in test])
     q = np.array([reduced_q(ctx, system, s) for s in test])
     print("\nheld-out test points (W_c minimiser's share of membrane elements not taut):")
     print(f"{'amp in':>7} {'not taut':>9} {'W_c J':>11} {'W_red/W_c':>10} {'Q/W_c':>8}")

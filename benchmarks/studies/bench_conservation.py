@@ -3,7 +3,7 @@ undamped, from the run case's initial state, 10⁵ midpoint steps on the compile
 2×10⁴ on the numpy stepper; prints the largest relative energy error, its trend (mean of the
 last tenth minus mean of the first tenth) and the largest relative |H| error, for Q and Q4.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_conservation.py [--case paper-41hz-coarse]
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_conservation [--case paper-41hz-coarse]
 """
 
 from __future__ import annotations
