@@ -51,7 +51,7 @@ from quadmodes.analysis import secular
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
-from quadmodes.runs.metrics import peak_envelope
+from quadmodes.signals import peak_envelope
 
 #: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")

@@ -45,7 +45,7 @@ AXIS_HELP = (
 
 def _axis_request(axis: str | None):
     """The parsed ``--axis`` (None: the command's default)."""
-    from quadmodes.analysis.spin_axis import parse_axis
+    from quadmodes.rom.spin_axis import parse_axis
 
     return parse_axis(axis, "--axis")
 

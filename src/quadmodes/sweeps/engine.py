@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.case import Case, RunCase
 from quadmodes.io.atomic import write_text
 from quadmodes.runs.model_cache import cache_dir, fingerprint_files

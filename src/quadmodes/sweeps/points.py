@@ -58,7 +58,7 @@ def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int
 def spin_axis_request(run: RunCase):
     """The spin-axis request of the point's linearisations (its roots, critical speeds and
     full-order markers): the run's ``initial.spin_axis``; None is the default axis of
-    :func:`quadmodes.analysis.spin_axis.resolve_axis` (the symmetry axis of a free body)."""
+    :func:`quadmodes.rom.spin_axis.resolve_axis` (the symmetry axis of a free body)."""
     return run.initial.spin_axis
 
 
