@@ -34,10 +34,10 @@ import tomllib
 import numpy as np
 
 from quadmodes.case import load_run_case, run_case_from_dict
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs import simulate as sim
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.structure import pipeline
 
 NAMES = ("Q", "Q4", "QE", "W_red")

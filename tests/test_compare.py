@@ -178,12 +178,12 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     assert q["dissipated_power_ratio"] == pytest.approx(1.0, rel=1e-12)
     assert q["dissipated_power_W"] > 0 and payload["formulations"]["rigid"]["dissipated_power_W"] == 0
     qs = payload["quasi_steady"]
-    from quadmodes.runs import model_cache
+    from quadmodes.models import build as model_build
     from quadmodes.runs.mode_choice import resolve_modes
 
     run, _ = resolve_modes(load_run_case("paper-41hz-coarse"))
     n = run.reduced.modes
-    m = model_cache.reduced_model_for(run.model_case(), n, spin=run.reference_spin)
+    m = model_build.reduced_model_for(run.model_case(), n, spin=run.reference_spin)
     tau = 1 / np.min(2 * np.pi * m.frequencies_hz[:n] * m.damping_ratio[:n])
     assert qs["decay_time_s"] == pytest.approx(tau, rel=1e-12)
     assert qs["start_s"] == pytest.approx(min(max(0.1, secular.K_DECAY * tau), 0.15))

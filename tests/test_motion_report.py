@@ -18,8 +18,8 @@ from typer.testing import CliRunner
 
 from quadmodes.case import load_case, load_run_case
 from quadmodes.cli.app import app
+from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact
-from quadmodes.runs import model_cache
 from quadmodes.runs import results as res
 
 RUN_TOML = """

@@ -253,8 +253,9 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     """Reduced runs of ``run`` per formulation: ``({name: RunResult}, reduce_wall_s)``.
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
+    from quadmodes.models.build import reduced_model_for
     from quadmodes.rom import integrators
-    from quadmodes.runs import model_cache, simulate
+    from quadmodes.runs import simulate
     from quadmodes.runs.mode_choice import resolve_modes
 
     run, _ = resolve_modes(run, progress=progress)  # reduced.modes = "auto" → N
@@ -262,7 +263,7 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     if kernel is not None:  # load the compiled kernel before any timing
         kernel.warm_up()
     start = time.perf_counter()
-    model = model_cache.reduced_model_for(
+    model = reduced_model_for(
         run.model_case(), run.reduced.modes, progress, spin=run.reference_spin
     )
     reduce_wall = time.perf_counter() - start

@@ -324,7 +324,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
     ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.fullorder import setup_for_run
-    from quadmodes.runs.model_cache import caching_disabled
+    from quadmodes.models.cache import caching_disabled
 
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
     with one_line_errors(RuntimeError), caching_disabled(no_cache):

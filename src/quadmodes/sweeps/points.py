@@ -19,11 +19,11 @@ import numpy as np
 from quadmodes.analysis import secular
 from quadmodes.analysis.campbell import campbell
 from quadmodes.case import RunCase
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate as sim
 from quadmodes.runs.mode_choice import resolve_modes
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.sweeps.energy_sink import energy_sink
 from quadmodes.sweeps.overrides import PointCase
 
