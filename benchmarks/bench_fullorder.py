@@ -28,8 +28,8 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+from quadmodes.analysis.full_order_runs import estimate_for_run  # noqa: E402
 from quadmodes.case import case_to_toml, load_case, load_run_case  # noqa: E402
-from quadmodes.fullorder import estimate_for_run  # noqa: E402
 from quadmodes.models import build as model_build  # noqa: E402
 from quadmodes.runs import simulate  # noqa: E402
 

@@ -20,9 +20,9 @@ import argparse
 import numpy as np
 
 from quadmodes.analysis import compare as cmp
+from quadmodes.analysis.full_order_runs import full_order_for_run
 from quadmodes.case import load_run_case
 from quadmodes.case.units import parse_quantity
-from quadmodes.fullorder import full_order_for_run
 from quadmodes.runs import simulate
 
 #: Periods of the large-amplitude part of a decaying transient over which the early frequency is

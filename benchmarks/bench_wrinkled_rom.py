@@ -34,11 +34,10 @@ from bench_large_amplitude import EARLY_PERIODS, crossing_frequency, variant  # 
 from bench_wrinkling_participation import body_displacements, recorded_full_order  # noqa: E402
 
 from quadmodes.analysis import compare as cmp  # noqa: E402
+from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run  # noqa: E402
 from quadmodes.case import load_run_case  # noqa: E402
 from quadmodes.case.units import parse_quantity  # noqa: E402
-from quadmodes.fullorder import full_order_for_run  # noqa: E402
 from quadmodes.fullorder.integrator import FullOrderNewtonError  # noqa: E402
-from quadmodes.fullorder.runs import setup_for_run  # noqa: E402
 from quadmodes.rom import augmented_basis as aug  # noqa: E402
 from quadmodes.rom import condensed_potential as cpot  # noqa: E402
 from quadmodes.rom import manifold_energy as me  # noqa: E402

@@ -28,10 +28,10 @@ from bench_large_amplitude import upward_crossings, variant  # noqa: E402
 
 import quadmodes.fullorder.kinematics as kin  # noqa: E402
 from quadmodes.analysis import compare as cmp  # noqa: E402
+from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run  # noqa: E402
 from quadmodes.case import load_run_case  # noqa: E402
 from quadmodes.case.units import parse_quantity  # noqa: E402
 from quadmodes.fe.model import mass_matrix, tangent_stiffness  # noqa: E402
-from quadmodes.fullorder.runs import full_order_for_run, setup_for_run  # noqa: E402
 
 BANDS_HZ = (1.0, 40.0, 80.0, 150.0, 400.0, np.inf)
 

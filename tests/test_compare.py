@@ -160,13 +160,12 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     dissipated-power ratio against itself is 1, the quasi-steady start follows the rule."""
     import xarray as xr
 
-    from quadmodes import fullorder
-    from quadmodes.analysis import secular
+    from quadmodes.analysis import full_order_runs, secular
     from quadmodes.case.units import ureg
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
-    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
-    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
     args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid,Q", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args, env={"COLUMNS": "200"})
@@ -214,14 +213,14 @@ def test_comparison_names_the_independent_reference_damping(short_comparison, tm
 def test_compare_interrupted_exits_130_and_keeps_no_partial_output(runner, tmp_path, monkeypatch):
     """Ctrl-C in the full-order run: exit status 130 (not the one-line-error status 2), the
     message says how to resume, and no output folder is left."""
-    from quadmodes import fullorder
+    from quadmodes.analysis import full_order_runs
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
-    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
-    monkeypatch.setattr(fullorder, "full_order_for_run", interrupted)
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", interrupted)
     out = tmp_path / "cmp"
     args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args)

@@ -288,7 +288,7 @@ def compare(
     """Compare ``formulations`` of run case ``run`` with the full order over ``[0, window]`` s.
 
     ``full_order(run, dt) -> FullOrderSolution`` runs the reference (default:
-    :func:`quadmodes.fullorder.full_order_for_run` with the run's initial state);
+    :func:`quadmodes.analysis.full_order_runs.full_order_for_run` with the run's initial state);
     ``full_order_dt`` its step (default: the run's step)."""
     unknown = [f for f in formulations if f not in AVAILABLE]
     if unknown:
@@ -303,7 +303,7 @@ def compare(
     dt_full = float(full_order_dt or run.integration.dt)
     roms, reduce_wall = run_reduced(run, formulations, progress)
     if full_order is None:
-        from quadmodes.fullorder import full_order_for_run
+        from quadmodes.analysis.full_order_runs import full_order_for_run
 
         def full_order(r, dt):
             return full_order_for_run(r, dt=dt, progress=progress)

@@ -169,7 +169,7 @@ def check_paper_fast_spin() -> list[Row]:
 
 def check_full_order_kane() -> list[Row]:
     """Full-order (ANCF, hub-driven, inertial frame) Kane spin-up peaks: checks references §3."""
-    from quadmodes.fullorder import kane_full_order
+    from quadmodes.analysis.full_order_runs import kane_full_order
     from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
     rows = []

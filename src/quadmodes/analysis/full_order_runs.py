@@ -1,5 +1,11 @@
 """Full-order runs of run cases (as ``quadmodes run`` sets them up), the hub-driven Kane spin-up,
-and the wall-time estimate printed before a long run."""
+and the wall-time estimate printed before a long run.
+
+The glue between a run case and the full order: it sets the run up as the reduced path does
+(:func:`quadmodes.runs.simulate.prepare`: modes, reduced model, initial state) and integrates it
+with :func:`quadmodes.fullorder.integrate_full_order`. It sits above both; the full-order core
+(:mod:`quadmodes.fullorder`) imports nothing from :mod:`quadmodes.runs`, the two stand side by
+side on :mod:`quadmodes.models`."""
 
 from __future__ import annotations
 
