@@ -43,8 +43,8 @@ T = TypeVar("T")
 
 #: Source files (relative to the package) whose code builds a reduced model: a change in any
 #: of them changes every cache key (:func:`code_fingerprint`).
-MODEL_CODE = ("fe", "structure", "mesh", "linalg", "rom/reduced.py", "rom/artifact.py",
-              "models/build.py", "models/cache.py")  # fmt: skip
+MODEL_CODE = ("fe", "structure", "mesh", "linalg", "rom/reduced.py", "rom/spinning_reduction.py",
+              "rom/artifact.py", "models/build.py", "models/cache.py")  # fmt: skip
 
 #: False inside :func:`caching_disabled` (``--no-cache``): nothing is read from or saved to
 #: the cache.
