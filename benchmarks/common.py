@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 import quadmodes.fullorder.kinematics as kin
+from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run
 from quadmodes.case import load_run_case, run_case_from_dict
 from quadmodes.experimental import candidate_potentials as cand
-from quadmodes.fullorder.runs import full_order_for_run, setup_for_run
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs import simulate as sim
 

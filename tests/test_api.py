@@ -21,8 +21,8 @@ import quadmodes as qm
 from quadmodes import api
 from quadmodes.case import CaseError, case_from_toml, load_case, run_case_from_toml
 from quadmodes.io.cf import unit_problems
+from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact
-from quadmodes.runs import model_cache
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

@@ -21,9 +21,10 @@ from typer.testing import CliRunner
 from quadmodes.case import load_case
 from quadmodes.cli.app import app
 from quadmodes.io.locking import file_lock, lock_path
+from quadmodes.models import build as model_build
+from quadmodes.models import cache as model_cache
+from quadmodes.models.cache_entries import cache_entries
 from quadmodes.rom import artifact
-from quadmodes.runs import model_cache
-from quadmodes.runs.cache_entries import cache_entries
 
 CASE, N_MODES = "kane-beam", 2
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -85,13 +86,13 @@ _WAITER = textwrap.dedent(
     """
     import json, sys
     from quadmodes.case import load_case
-    from quadmodes.runs import model_cache
+    from quadmodes.models import build as model_build
 
     def progress(stage, fraction):
         print(stage, flush=True)
 
     info = {}
-    model_cache.reduced_model_for(load_case("kane-beam"), 2, progress, info=info)
+    model_build.reduced_model_for(load_case("kane-beam"), 2, progress, info=info)
     print(json.dumps(info), flush=True)
     """
 )
@@ -102,7 +103,7 @@ def test_a_process_waiting_for_the_lock_uses_the_model_built_meanwhile(cache):
     waits; the model saved meanwhile is what it uses (no second build)."""
     case = load_case(CASE)
     path = model_cache.cache_path(case, N_MODES)
-    model = model_cache.build_reduced_model(case, N_MODES)
+    model = model_build.build_reduced_model(case, N_MODES)
     with file_lock(path) as locked:
         assert locked
         proc = subprocess.Popen([sys.executable, "-c", _WAITER], stdout=subprocess.PIPE,
@@ -122,18 +123,18 @@ def test_a_changed_code_hash_or_version_rebuilds(cache, monkeypatch):
     states = []
     for _ in range(2):
         info: dict = {}
-        model_cache.reduced_model_for(case, N_MODES, info=info)
+        model_build.reduced_model_for(case, N_MODES, info=info)
         states.append(info["cache"])
     assert states == ["miss", "hit"]
     first = model_cache.cache_path(case, N_MODES)
 
     monkeypatch.setattr(model_cache, "code_fingerprint", lambda: "0" * 64)
     info = {}
-    model_cache.reduced_model_for(case, N_MODES, info=info)
+    model_build.reduced_model_for(case, N_MODES, info=info)
     assert info["cache"] == "miss" and Path(info["path"]) != first
     monkeypatch.setattr(model_cache, "__version__", "99.0.0")
     info = {}
-    model_cache.reduced_model_for(case, N_MODES, info=info)
+    model_build.reduced_model_for(case, N_MODES, info=info)
     assert info["cache"] == "miss"
     assert len({first, *(_model_files(cache))}) == 3  # three keys, three files
 
@@ -183,7 +184,7 @@ def test_lock_degrades_where_the_lock_file_cannot_be_made(tmp_path):
 
 def test_cache_list_and_clear(cache):
     runner = CliRunner()
-    model_cache.reduced_model_for(load_case(CASE), N_MODES)
+    model_build.reduced_model_for(load_case(CASE), N_MODES)
     (cache / "notes.txt").write_text("mine")  # not a cache entry: never listed nor removed
 
     listed = runner.invoke(app, ["cache", "list", "--json"])

@@ -10,9 +10,10 @@ from scipy.integrate import solve_ivp
 from quadmodes.analysis.campbell import campbell
 from quadmodes.analysis.campbell_output import campbell_main, plot_campbell, write_campbell
 from quadmodes.analysis.reduced_linearisation import relative_equilibrium
+from quadmodes.models.beam import kane_model
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import system as rsys
-from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE, kane_model
+from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE
 
 OMEGA_1 = 3.516 * np.sqrt(7e10 * 2e-7 / (3000 * 4e-4 * 10.0**4))  # 3.798 rad/s
 

@@ -406,7 +406,7 @@ def test_cache_key_follows_the_mesh_file_contents(tmp_path):
     same key."""
     from quadmodes.case import load_case as load
     from quadmodes.fullorder.damping import damping_key
-    from quadmodes.runs import model_cache
+    from quadmodes.models import cache as model_cache
 
     surface = sphere_surface(0.127, 0.0508)
     write_surface(tmp_path / "body.vtu", surface)

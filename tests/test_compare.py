@@ -160,13 +160,12 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     dissipated-power ratio against itself is 1, the quasi-steady start follows the rule."""
     import xarray as xr
 
-    from quadmodes import fullorder
-    from quadmodes.analysis import secular
+    from quadmodes.analysis import full_order_runs, secular
     from quadmodes.case.units import ureg
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
-    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
-    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
     args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid,Q", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args, env={"COLUMNS": "200"})
@@ -178,12 +177,12 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     assert q["dissipated_power_ratio"] == pytest.approx(1.0, rel=1e-12)
     assert q["dissipated_power_W"] > 0 and payload["formulations"]["rigid"]["dissipated_power_W"] == 0
     qs = payload["quasi_steady"]
-    from quadmodes.runs import model_cache
+    from quadmodes.models import build as model_build
     from quadmodes.runs.mode_choice import resolve_modes
 
     run, _ = resolve_modes(load_run_case("paper-41hz-coarse"))
     n = run.reduced.modes
-    m = model_cache.reduced_model_for(run.model_case(), n, spin=run.reference_spin)
+    m = model_build.reduced_model_for(run.model_case(), n, spin=run.reference_spin)
     tau = 1 / np.min(2 * np.pi * m.frequencies_hz[:n] * m.damping_ratio[:n])
     assert qs["decay_time_s"] == pytest.approx(tau, rel=1e-12)
     assert qs["start_s"] == pytest.approx(min(max(0.1, secular.K_DECAY * tau), 0.15))
@@ -214,14 +213,14 @@ def test_comparison_names_the_independent_reference_damping(short_comparison, tm
 def test_compare_interrupted_exits_130_and_keeps_no_partial_output(runner, tmp_path, monkeypatch):
     """Ctrl-C in the full-order run: exit status 130 (not the one-line-error status 2), the
     message says how to resume, and no output folder is left."""
-    from quadmodes import fullorder
+    from quadmodes.analysis import full_order_runs
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
-    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
-    monkeypatch.setattr(fullorder, "full_order_for_run", interrupted)
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", interrupted)
     out = tmp_path / "cmp"
     args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args)

@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from quadmodes.analysis.full_order_runs import kane_full_order
 from quadmodes.fe.model import centre_of_mass
 from quadmodes.fullorder import (
     FullOrderNewtonError,
     initial_state_from_reduced,
     integrate_full_order,
-    kane_full_order,
 )
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import integrators
@@ -190,7 +190,7 @@ def test_kane_spinup_full_order_peaks(omega_s):
 
 
 def test_full_order_for_run_case_and_estimate():
-    from quadmodes.fullorder import estimate_for_run, full_order_for_run
+    from quadmodes.analysis.full_order_runs import estimate_for_run, full_order_for_run
 
     # the run's initial state (41 Hz, 6° cone, no deformation) on the coarse model, 4 steps
     sol = full_order_for_run("paper-41hz-coarse", window=2e-3, save_every=1)

@@ -300,11 +300,11 @@ def test_compare_interrupted_resumes_to_the_uninterrupted_numbers(workdir, monke
 
 
 def _fake_full_order(monkeypatch, solution) -> None:
-    from quadmodes import fullorder
+    from quadmodes.analysis import full_order_runs
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
-    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
-    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: solution)
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda r, dt, **k: solution)
 
 
 @pytest.mark.parametrize(
@@ -342,11 +342,11 @@ def test_compare_restart_discards_the_checkpoint(tmp_path, monkeypatch):
 def test_compare_draws_after_the_data_and_a_no_plots_rerun_removes_figures(tmp_path, monkeypatch):
     from test_compare import _reduced_as_reference
 
-    from quadmodes import fullorder
+    from quadmodes.analysis import full_order_runs
 
-    monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
-    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
-    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
     args = ["compare", "paper-41hz-coarse", "--window", "0.05 s", "--formulations", "Q", "-o", str(out)]
     assert _cli(*args).exit_code == 0

@@ -1,6 +1,7 @@
-"""Package layout: no import cycles between modules of quadmodes (function-level imports
-included: a lazy import that hides a cycle is still a cycle), no oversized module or function
-unless listed below with its reason."""
+"""Package layout: the subpackages form the layers of :data:`LAYERS` (a module imports only from
+its own part or from lower layers), no import cycles between modules of quadmodes
+(function-level imports included: a lazy import that hides a cycle is still a cycle), no
+oversized module or function unless listed below with its reason."""
 
 import ast
 from pathlib import Path
@@ -12,6 +13,30 @@ PACKAGE = SRC / "quadmodes"
 
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
+
+#: The layers of the package, low to high: the top-level modules and subpackages of quadmodes
+#: ("quadmodes" is the lazy public API of ``quadmodes/__init__.py``). A module may import from
+#: its own part and from lower layers only; the parts within one layer are independent (neither
+#: imports the other: the full order and the runs stand side by side on the model room).
+#: ``experimental`` (research prototypes) may import anything, nothing in the product imports it.
+#: docs/architecture.md draws these layers.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("_version",),
+    ("rotations", "signals", "linalg", "case"),
+    ("io",),
+    ("mesh",),
+    ("fe",),
+    ("structure",),
+    ("rom",),
+    ("models",),
+    ("fullorder", "runs"),
+    ("analysis",),
+    ("sweeps", "validation"),
+    ("api",),
+    ("cli",),
+    ("quadmodes", "__main__"),
+    ("experimental",),
+)
 
 # module (dotted) -> why it may exceed MAX_MODULE_LINES
 LONG_MODULES: dict[str, str] = {
@@ -110,6 +135,69 @@ def test_no_import_cycles():
 
 def test_cycle_finder_finds_a_cycle():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def _part(module: str) -> str:
+    """The layer part of a dotted module: its top-level module or subpackage under quadmodes
+    ("quadmodes" for the package's own ``__init__``)."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
+
+
+def _layer_violations(graph: dict[str, set[str]], layers) -> list[str]:
+    """One line per import of ``graph`` (module -> modules it imports) that goes up the
+    ``layers`` (low to high) or across to an independent part of the same layer. Parts that no
+    layer names are left to :func:`test_every_part_is_in_a_layer`."""
+    rank = {part: i for i, layer in enumerate(layers) for part in layer}
+    found = []
+    for module, targets in sorted(graph.items()):
+        a = _part(module)
+        for target in sorted(targets):
+            b = _part(target)
+            if a == b or a not in rank or b not in rank:
+                continue
+            if rank[b] > rank[a]:
+                found.append(f"{module} imports {target}: layer {a!r} is below {b!r} (LAYERS)")
+            elif rank[b] == rank[a]:
+                found.append(f"{module} imports {target}: {a!r} and {b!r} are independent "
+                             "parts of one layer (LAYERS)")  # fmt: skip
+    return found
+
+
+def test_layers():
+    graph = {name: _imports(name, path) for name, path in MODULES.items()}
+    found = _layer_violations(graph, LAYERS)
+    assert not found, "imports against the layers:\n" + "\n".join(found)
+
+
+def test_every_part_is_in_a_layer():
+    placed = {part for layer in LAYERS for part in layer}
+    assert sorted({_part(name) for name in MODULES} - placed) == []
+    assert len(placed) == sum(len(layer) for layer in LAYERS), "a part is named twice"
+
+
+def test_layer_checker_finds_inverted_and_sibling_imports():
+    layers = (("rom",), ("fullorder", "runs"), ("analysis",))
+    graph = {
+        "quadmodes.rom.reduced": {"quadmodes.rom.system", "quadmodes.runs.simulate"},  # up
+        "quadmodes.fullorder.damping": {"quadmodes.runs", "quadmodes.rom.reduced"},  # across
+        "quadmodes.analysis.compare": {"quadmodes.fullorder", "quadmodes.runs.simulate"},  # down
+    }
+    assert _layer_violations(graph, layers) == [
+        "quadmodes.fullorder.damping imports quadmodes.runs: 'fullorder' and 'runs' are "
+        "independent parts of one layer (LAYERS)",
+        "quadmodes.rom.reduced imports quadmodes.runs.simulate: layer 'rom' is below 'runs' "
+        "(LAYERS)",
+    ]
+
+
+def test_no_import_cycles_between_parts():
+    graph: dict[str, set[str]] = {}
+    for name, path in MODULES.items():
+        graph.setdefault(_part(name), set()).update(
+            _part(t) for t in _imports(name, path) if _part(t) != _part(name)
+        )
+    assert _cycles(graph) == []
 
 
 def test_module_sizes():

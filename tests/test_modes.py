@@ -19,7 +19,8 @@ from typer.testing import CliRunner
 from quadmodes.case import CaseError, load_case, run_case_from_toml
 from quadmodes.case.run_sections import DEFAULT_MODE_MARGIN
 from quadmodes.cli.app import app
-from quadmodes.runs import mode_choice, model_cache
+from quadmodes.models import build as model_build
+from quadmodes.runs import mode_choice
 from quadmodes.runs import results as res
 from quadmodes.structure import pipeline
 from quadmodes.structure.labels import label_modes
@@ -209,9 +210,9 @@ def test_a_larger_basis_reuses_the_inflated_state(tmp_path, monkeypatch, spectru
         return real(*args, **kwargs)
 
     monkeypatch.setattr(pipeline, "inflate", counting)
-    monkeypatch.setattr(model_cache, "_LAST_MODAL", [])
-    small = model_cache.reduced_model_for(case, 2)
-    larger = model_cache.reduced_model_for(case, 5)  # more modes than the case computes
+    monkeypatch.setattr(model_build, "_LAST_MODAL", [])
+    small = model_build.reduced_model_for(case, 2)
+    larger = model_build.reduced_model_for(case, 5)  # more modes than the case computes
     assert len(calls) == 1
     assert np.allclose(larger.frequencies_hz[:2], small.frequencies_hz, rtol=1e-8)
     assert np.allclose(larger.frequencies_hz, spectrum[0][:5], rtol=1e-8)

@@ -18,8 +18,8 @@ from typer.testing import CliRunner
 
 from quadmodes.case import load_case, load_run_case
 from quadmodes.cli.app import app
+from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact
-from quadmodes.runs import model_cache
 from quadmodes.runs import results as res
 
 RUN_TOML = """
@@ -182,7 +182,7 @@ def test_full_order_recorder_motion(workdir):
     """The full order's recorded nodal positions on a short window: the first frame is the
     initial state, the centre of mass stays, and the elastic part in the best-fit frame
     projects onto the full order's own modal coordinates (Φᵀ M_s u = s to first order)."""
-    from quadmodes.fullorder import full_order_for_run, setup_for_run
+    from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run
     from quadmodes.io.animation import FullOrderRecorder
     from quadmodes.runs import simulate
 

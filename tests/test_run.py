@@ -26,9 +26,11 @@ from quadmodes.case import (
     run_case_from_toml,
 )
 from quadmodes.cli.app import app
+from quadmodes.models import build as model_build
+from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact, integrators
-from quadmodes.runs import model_cache, simulate
 from quadmodes.runs import results as res
+from quadmodes.runs import simulate
 from quadmodes.structure import pipeline
 
 PAPER_RUNS = ["paper-0.5hz", "paper-41hz"]
@@ -187,7 +189,7 @@ def test_reduced_model_cache_is_hit_and_rebuilt_when_corrupt(tmp_path, monkeypat
     (tmp_path / "small.toml").write_text(SMALL_CAPSULE, encoding="utf-8")
     case = load_case(tmp_path / "small.toml")
     info: dict = {}
-    first = model_cache.reduced_model_for(case, 5, info=info)
+    first = model_build.reduced_model_for(case, 5, info=info)
     assert info["cache"] == "miss" and Path(info["path"]).is_file()
     assert first.n_modes == 5 and first.provenance["case"] == "small-capsule"
     assert first.provenance["content_key"] == model_cache.reduced_key(case, 5)
@@ -201,7 +203,7 @@ def test_reduced_model_cache_is_hit_and_rebuilt_when_corrupt(tmp_path, monkeypat
 
     monkeypatch.setattr(pipeline, "build_modal_model", no_fe)
     info = {}
-    second = model_cache.reduced_model_for(case, 5, info=info)
+    second = model_build.reduced_model_for(case, 5, info=info)
     assert info["cache"] == "hit"
     assert np.array_equal(second.G, first.G) and second.labels == first.labels
 
@@ -218,7 +220,7 @@ def test_reduced_model_cache_is_hit_and_rebuilt_when_corrupt(tmp_path, monkeypat
     Path(info["path"]).write_bytes(b"not a netcdf file")  # corrupt cache entry: rebuilt
     monkeypatch.setattr(pipeline, "build_modal_model", real_build)
     info = {}
-    third = model_cache.reduced_model_for(case, 5, info=info)
+    third = model_build.reduced_model_for(case, 5, info=info)
     assert info["cache"] == "rebuilt"
     assert np.allclose(third.frequencies_hz, first.frequencies_hz)
     assert artifact.load_reduced_model(info["path"]).n_modes == 5

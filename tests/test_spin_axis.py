@@ -9,16 +9,16 @@ import pytest
 from quadmodes.analysis import campbell_tracking as tr
 from quadmodes.analysis.campbell import campbell
 from quadmodes.analysis.reduced_linearisation import relative_equilibrium
-from quadmodes.analysis.spin_axis import (
+from quadmodes.models.beam import kane_model
+from quadmodes.rom import dynamics as dy
+from quadmodes.rom import system as rsys
+from quadmodes.rom.spin_axis import (
     axis_for_inertia,
     equilibrium_direction,
     named_principal_axis,
     parse_axis,
     principal_direction,
 )
-from quadmodes.rom import dynamics as dy
-from quadmodes.rom import system as rsys
-from quadmodes.runs.spinup import kane_model
 
 ROD = np.diag([1.0e-4, 2.0, 2.0])  # a free rod along x: diag(Jp, J, J), kg m²
 

@@ -12,8 +12,9 @@ from quadmodes.analysis.rotating_matching import rotation_and_modal_parts
 from quadmodes.analysis.rotating_modes import rotating_roots
 from quadmodes.fe.build import build_beam_structure
 from quadmodes.fe.model import centre_of_mass, inertia_tensor
-from quadmodes.runs.model_cache import build_reduced_model
-from quadmodes.runs.spinup import KANE_BEAM, KANE_REFERENCE_CHORDWISE
+from quadmodes.models.beam import KANE_BEAM
+from quadmodes.models.build import build_reduced_model
+from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE
 from quadmodes.structure.spinning import (
     centrifugal_force,
     relative_equilibrium,

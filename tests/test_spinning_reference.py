@@ -178,8 +178,8 @@ def test_full_order_initial_deformation_is_relaxed(small_modal_model, small_redu
     ([Φ Ψ]ᵀ M y = 0), lowers the total potential below the quadratic-manifold point's to the
     condensed minimum (zero force outside the constraints), and vanishes faster than s² as
     s → 0 (the manifold is exact to second order)."""
+    from quadmodes.analysis.full_order_runs import relaxed_deformation
     from quadmodes.fe.model import internal_force, mass_matrix, rigid_body_modes, strain_energy
-    from quadmodes.fullorder.runs import relaxed_deformation
 
     mm, m = small_modal_model, small_reduced_model
     st, x0 = mm.structure, mm.x

@@ -3,14 +3,9 @@
 import numpy as np
 import pytest
 
+from quadmodes.models.beam import kane_model
 from quadmodes.rom.rotating_frame import rotating_stiffness_is_positive
-from quadmodes.runs.spinup import (
-    KANE_REFERENCE_PEAKS,
-    kane_model,
-    kane_rate,
-    kane_spinup,
-    tip_displacement,
-)
+from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS, kane_rate, kane_spinup, tip_displacement
 
 # DOP853 tolerance used here: the peaks agree with rtol = 1e-10 to 5 digits
 FAST = {"rtol": 1e-8, "atol": 1e-10}

@@ -25,9 +25,9 @@ from typer.testing import CliRunner
 
 from quadmodes.case import load_case, load_run_case
 from quadmodes.cli.app import app
+from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact
 from quadmodes.rom import system as rsys
-from quadmodes.runs import model_cache
 from quadmodes.sweeps import energy_sink as es
 from quadmodes.sweeps.engine import plan_sweep
 from quadmodes.sweeps.params import SweepError, grid, parse_param

@@ -28,9 +28,10 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+from quadmodes.analysis.full_order_runs import estimate_for_run  # noqa: E402
 from quadmodes.case import case_to_toml, load_case, load_run_case  # noqa: E402
-from quadmodes.fullorder import estimate_for_run  # noqa: E402
-from quadmodes.runs import model_cache, simulate  # noqa: E402
+from quadmodes.models import build as model_build  # noqa: E402
+from quadmodes.runs import simulate  # noqa: E402
 
 
 def run_for_mesh(edge_in: float, folder: Path):
@@ -47,7 +48,7 @@ def run_for_mesh(edge_in: float, folder: Path):
 def measure(edge_in: float, full_dt: float, probe: int, folder: Path) -> dict:
     run = run_for_mesh(edge_in, folder)
     start = time.perf_counter()
-    model = model_cache.build_reduced_model(run.model_case(), run.reduced.modes)
+    model = model_build.build_reduced_model(run.model_case(), run.reduced.modes)
     reduce_s = time.perf_counter() - start
     one_second = run.model_copy(
         update={"integration": run.integration.model_copy(update={"duration": 1.0})}

@@ -115,7 +115,7 @@ def offline(old_src: Path, edges: str, n_modes: int, tmp: Path) -> None:
 def build_setup(case: str, folder: Path) -> Path:
     """Pickle the full-order setup of ``case`` (a run case name or .toml file, e.g.
     ``benchmarks/cases/paper-20hz.toml``; this tree) into ``folder`` (kept if there)."""
-    from quadmodes.fullorder.runs import setup_for_run
+    from quadmodes.analysis.full_order_runs import setup_for_run
 
     path = folder / f"{Path(case).stem if case.endswith('.toml') else case}.pkl"
     if path.is_file():

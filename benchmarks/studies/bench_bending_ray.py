@@ -21,8 +21,8 @@ import numpy as np
 
 from benchmarks.common import compressed_fraction, modal_scale, one_ray, run_case_with_modes
 from quadmodes.experimental import candidate_potentials as cand
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import manifold_energy as me
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.structure import pipeline
 
 INCH = 0.0254

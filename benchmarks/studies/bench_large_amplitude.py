@@ -21,9 +21,9 @@ import numpy as np
 
 from benchmarks.common import EARLY_PERIODS, crossing_frequency, variant
 from quadmodes.analysis import compare as cmp
+from quadmodes.analysis.full_order_runs import full_order_for_run
 from quadmodes.case import load_run_case
 from quadmodes.case.units import parse_quantity
-from quadmodes.fullorder import full_order_for_run
 from quadmodes.runs import simulate
 
 

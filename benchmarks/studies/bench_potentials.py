@@ -34,10 +34,10 @@ import numpy as np
 
 from benchmarks.common import compressed_fraction, modal_scale, one_ray, run_case_with_modes
 from quadmodes.experimental import candidate_potentials as cand
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.runs import simulate as sim
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.structure import pipeline
 
 NAMES = ("Q", "Q4", "QE", "W_red")

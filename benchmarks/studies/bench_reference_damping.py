@@ -1,7 +1,7 @@
 """Convergence of the full-order reference's independent damping in its cutoff frequency.
 
 On a run case (default ``paper-41hz-coarse``: 41 Hz spin, 6° cone) over a short window, the
-full-order transient (``quadmodes.fullorder.full_order_for_run``) with modal damping (ζ of the
+full-order transient (``quadmodes.analysis.full_order_runs.full_order_for_run``) with modal damping (ζ of the
 case) on every FE mode below the cutoff c, 1.5c, 2c (c the default,
 :func:`quadmodes.fullorder.damping.default_cutoff`: 3 × max(spin, highest retained mode)), and
 with the old retained-mode damping (the reduced model's 5 modes). For each it prints the number
@@ -25,7 +25,7 @@ import numpy as np
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from quadmodes.fullorder import full_order_for_run, setup_for_run  # noqa: E402
+from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run  # noqa: E402
 from quadmodes.fullorder.damping import default_cutoff  # noqa: E402
 
 

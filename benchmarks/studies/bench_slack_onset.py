@@ -29,8 +29,8 @@ import numpy as np
 from quadmodes.case import case_from_dict, load_case
 from quadmodes.experimental import candidate_potentials as cand
 from quadmodes.fe.membrane import MembraneSet
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import manifold_energy as me
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.structure import pipeline
 from quadmodes.structure.tension_margin import bonded_elements, element_slack_onset
 

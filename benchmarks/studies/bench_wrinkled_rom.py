@@ -37,13 +37,12 @@ from benchmarks.common import (
     variant,
 )
 from quadmodes.analysis import compare as cmp
+from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run
 from quadmodes.case import load_run_case
 from quadmodes.case.units import parse_quantity
 from quadmodes.experimental import augmented_basis as aug
 from quadmodes.experimental import condensed_potential as cpot
-from quadmodes.fullorder import full_order_for_run
 from quadmodes.fullorder.integrator import FullOrderNewtonError
-from quadmodes.fullorder.runs import setup_for_run
 from quadmodes.rom import manifold_energy as me
 from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate

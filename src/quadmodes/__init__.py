@@ -14,12 +14,13 @@ Quantities are accepted as strings ("0.3 psi"), pint quantities or SI floats; ca
 validated like case files. The names are loaded on first use (``import quadmodes`` stays
 light).
 
-Pipeline, one subpackage per stage (see docs/architecture.md):
+Pipeline, one subpackage per stage and layer (see docs/architecture.md):
 ``case`` (TOML, units) -> ``mesh`` -> ``fe`` (elements, structure) -> ``structure`` (prestress,
 modes, calibration) -> ``rom`` (quadratic modes, reduced model artifact, equations of motion,
-integrators, diagnostics) -> ``runs`` (run cases, results) -> ``io`` (files, pictures).
-On top: ``analysis`` (Campbell, rotating frame, comparison), ``api`` (this API), ``validation``,
-``cli``; beside: ``fullorder`` (the nonlinear finite-element reference).
+integrators, diagnostics) -> ``models`` (the reduced model of a case: build and cache) ->
+``runs`` (run cases, results), beside it ``fullorder`` (the nonlinear finite-element reference);
+files through ``io`` (below the models). On top: ``analysis`` (Campbell, rotating frame,
+comparison), ``sweeps``, ``validation``, ``api`` (this API), ``cli``.
 """
 
 import importlib

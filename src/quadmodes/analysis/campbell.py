@@ -11,7 +11,7 @@ roots by the span of their cluster, and a poor match is refused: the branch ends
 starts (:mod:`quadmodes.analysis.campbell_tracking`), so labels stay with their branch. Roots
 that are degenerate at one spin rate (e.g. y/z pairs at Ω = 0) have no unique eigenvectors:
 there the eigenvectors of the one-sided limit (spin rate nudged towards the next point) are used.
-The spin axis of a free body follows :mod:`quadmodes.analysis.spin_axis` (exactly the requested
+The spin axis of a free body follows :mod:`quadmodes.rom.spin_axis` (exactly the requested
 axis when it lies in an eigenspace of equal moments). Output (figure, dataset, CSV) and the CLI
 entry: :mod:`quadmodes.analysis.campbell_output`.
 """
@@ -25,9 +25,9 @@ from scipy.optimize import linear_sum_assignment
 
 from quadmodes.analysis import campbell_tracking as tr
 from quadmodes.analysis.reduced_linearisation import linearise
-from quadmodes.analysis.spin_axis import resolve_axis
 from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
+from quadmodes.rom.spin_axis import resolve_axis
 
 #: Two roots closer than this (relative to their magnitude) are degenerate.
 DEGENERATE_RTOL = 1e-7
@@ -318,8 +318,8 @@ def campbell(
 
     ``axis``: body-frame spin axis: a name ("x", "y", "z", "minor", "intermediate", "major"), an
     int principal index of J0 (0 minor … 2 major) or three numbers, by the rule of
-    :mod:`quadmodes.analysis.spin_axis` (``axis_option`` names it in errors); default
-    :func:`~quadmodes.analysis.spin_axis.default_axis`.
+    :mod:`quadmodes.rom.spin_axis` (``axis_option`` names it in errors); default
+    :func:`~quadmodes.rom.spin_axis.default_axis`.
     ``formulation``: "Q" (quadratic modes, spin stiffening), "P" or "L" (linear modes, no
     stiffening). ``damped``: include the modal damping C in the roots (growth then holds −ζω).
     Modes are tracked by MAC (:mod:`quadmodes.analysis.campbell_tracking`); where the match

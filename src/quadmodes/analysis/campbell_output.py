@@ -1,6 +1,7 @@
 """Campbell output: the figure, the xarray dataset with units, the CSV table and the files
 written by ``quadmodes campbell`` (all through :mod:`quadmodes.io.atomic`), and the CLI entry
-(:func:`campbell_main`: reduced model of a case, sweep, write)."""
+(:func:`campbell_main`: reduced model of a case from :mod:`quadmodes.models.build`, sweep,
+write)."""
 
 from __future__ import annotations
 
@@ -187,33 +188,14 @@ def write_campbell(result: CampbellResult, directory, stem: str = "campbell",
 
 def model_for_case(case, progress=None) -> ReducedModel:
     """Reduced model of a case (name, path or :class:`~quadmodes.case.Case`) with its modes and
-    damping ratio; degenerate y/z pairs of a straight beam are split into pure planes."""
+    damping ratio (:func:`quadmodes.models.build.case_modes_model`: degenerate y/z pairs of a
+    straight beam are split into pure planes)."""
     from quadmodes.case import Case, load_case
-    from quadmodes.rom.reduced import reduce
-    from quadmodes.structure.pipeline import build_modal_model
+    from quadmodes.models.build import case_modes_model
 
     if not isinstance(case, Case):
         case = load_case(case)
-    mm = build_modal_model(case, progress)
-    shapes, labels = mm.modes.shapes, list(mm.labels)
-    if case.kind == "beam":
-        from quadmodes.runs.spinup import split_planes
-
-        shapes, _, _ = split_planes(mm.structure, mm.modes.frequencies_hz, shapes)
-        from quadmodes.structure.labels import label_modes
-
-        labels = label_modes(mm.structure, mm.x, shapes)
-    zeta = case.damping_ratio
-    return reduce(
-        mm.structure,
-        mm.x,
-        mm.modes.frequencies_hz,
-        shapes,
-        labels,
-        zeta,
-        progress=progress,
-        provenance={"case": case.name},
-    )
+    return case_modes_model(case, progress)
 
 
 def campbell_main(

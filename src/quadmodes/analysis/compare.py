@@ -51,7 +51,7 @@ from quadmodes.analysis import secular
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
-from quadmodes.runs.metrics import peak_envelope
+from quadmodes.signals import peak_envelope
 
 #: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")
@@ -253,8 +253,9 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     """Reduced runs of ``run`` per formulation: ``({name: RunResult}, reduce_wall_s)``.
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
+    from quadmodes.models.build import reduced_model_for
     from quadmodes.rom import integrators
-    from quadmodes.runs import model_cache, simulate
+    from quadmodes.runs import simulate
     from quadmodes.runs.mode_choice import resolve_modes
 
     run, _ = resolve_modes(run, progress=progress)  # reduced.modes = "auto" → N
@@ -262,7 +263,7 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     if kernel is not None:  # load the compiled kernel before any timing
         kernel.warm_up()
     start = time.perf_counter()
-    model = model_cache.reduced_model_for(
+    model = reduced_model_for(
         run.model_case(), run.reduced.modes, progress, spin=run.reference_spin
     )
     reduce_wall = time.perf_counter() - start
@@ -287,7 +288,7 @@ def compare(
     """Compare ``formulations`` of run case ``run`` with the full order over ``[0, window]`` s.
 
     ``full_order(run, dt) -> FullOrderSolution`` runs the reference (default:
-    :func:`quadmodes.fullorder.full_order_for_run` with the run's initial state);
+    :func:`quadmodes.analysis.full_order_runs.full_order_for_run` with the run's initial state);
     ``full_order_dt`` its step (default: the run's step)."""
     unknown = [f for f in formulations if f not in AVAILABLE]
     if unknown:
@@ -302,7 +303,7 @@ def compare(
     dt_full = float(full_order_dt or run.integration.dt)
     roms, reduce_wall = run_reduced(run, formulations, progress)
     if full_order is None:
-        from quadmodes.fullorder import full_order_for_run
+        from quadmodes.analysis.full_order_runs import full_order_for_run
 
         def full_order(r, dt):
             return full_order_for_run(r, dt=dt, progress=progress)

@@ -13,7 +13,7 @@ diagram, :mod:`quadmodes.analysis.campbell`).
   equilibrium is ``ṡ = 0``, ``s = s*`` and ``ω = Ω e*``, where ``s*`` is the quasi-static
   centrifugal deformation, ``(Λ − ωᵀJ2ω) s* = ½ ωᵀJ1ω``, and ``e*`` the principal axis of the
   deformed inertia J̃(s*) for the requested axis (``ω × J̃(s*)ω = 0``; for equal moments the
-  requested axis itself, :mod:`quadmodes.analysis.spin_axis`), found by a fixed-point
+  requested axis itself, :mod:`quadmodes.rom.spin_axis`), found by a fixed-point
   iteration (:func:`relative_equilibrium`). The full body-frame Q equations of
   :mod:`quadmodes.rom.dynamics` (state ``z = (ω, s, ṡ)``, 3 + 2N values; the attitude q does not
   enter them) are linearised about it by central differences of
@@ -32,11 +32,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes.analysis.spin_axis import equilibrium_direction, in_degenerate_eigenspace
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
+from quadmodes.rom.spin_axis import equilibrium_direction, in_degenerate_eigenspace
 from quadmodes.rotations import unit_axis
 
 
@@ -77,7 +77,7 @@ def relative_equilibrium(
 
     Fixed point of ``(Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω`` (for "Q4" ``∂V/∂s − (ωᵀJ2ω) s = ½ ωᵀJ1ω``
     with the quartic manifold potential, solved by Newton) and ``ω = spin · e*``, e* the principal
-    axis of J̃(s) for ``axis`` by the rule of :mod:`quadmodes.analysis.spin_axis` (sign kept): the
+    axis of J̃(s) for ``axis`` by the rule of :mod:`quadmodes.rom.spin_axis` (sign kept): the
     eigenvector nearest it, or, when it lies in the eigenspace of equal moments, ``axis`` itself
     projected onto it, so round-off never turns a body of revolution or a rod off the axis asked
     for. Returns ``(ω (3,), s (N,), residual)`` where residual is

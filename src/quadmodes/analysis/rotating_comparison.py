@@ -25,8 +25,8 @@ from quadmodes.analysis.rotating_matching import (
     match_branches,
 )
 from quadmodes.analysis.rotating_modes import RotatingRoots, rotating_roots
-from quadmodes.analysis.spin_axis import resolve_axis
 from quadmodes.fe.model import centre_of_mass
+from quadmodes.rom.spin_axis import resolve_axis
 from quadmodes.structure.spinning import SpinningEquilibrium, relative_equilibrium
 
 Progress = Callable[[str, float], None]
@@ -354,7 +354,7 @@ def case_state(case):
 
 def _case_and_model(case, n_modes: int, model, timings: dict[str, float]):
     """``(Case, structure, x0, reduced model)`` of a free-body case (timed)."""
-    from quadmodes.runs.model_cache import reduced_model_for
+    from quadmodes.models.build import reduced_model_for
 
     with _timed(timings, "inflation"):
         case, structure, x0 = case_state(case)
@@ -384,9 +384,9 @@ def rotating_frequency_comparison(
 
     ``case``: name, TOML path or Case of a free membrane body. ``axis``: spin axis as in
     campbell (a name "x" … "major", a principal index of the reduced model's J0, 0 minor … 2
-    major, or three numbers; :mod:`quadmodes.analysis.spin_axis`, ``axis_option`` names it in
+    major, or three numbers; :mod:`quadmodes.rom.spin_axis`, ``axis_option`` names it in
     errors); the full order spins about the same body axis. ``model``:
-    a ReducedModel of this case (default ``model_cache.reduced_model_for(case, n_modes)``, cached).
+    a ReducedModel of this case (default ``models.build.reduced_model_for(case, n_modes)``, cached).
     Full-order roots are searched near every reduced root (``per_target`` per shift) and assigned
     to branches by the MAC of energy-weighted (δω, s, ṡ) vectors (:func:`match_branches`)."""
     timings: dict[str, float] = {}

@@ -86,7 +86,7 @@ def reduced_model(
     quadmodes.rom.reduced.ReducedModel
         ``frequencies_hz`` (N,) Hz, ``labels``, ``mass`` kg, ``J0`` (3, 3) kg m^2, ...
     """
-    from quadmodes.runs.model_cache import reduced_model_for
+    from quadmodes.models.build import reduced_model_for
 
     rate = si(spin, "angular_rate", "spin")
     return reduced_model_for(_model(case), int(n_modes), progress, use_cache=cache, spin=rate)

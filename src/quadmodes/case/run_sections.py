@@ -140,7 +140,7 @@ class RunInitial(Section):
     ``spin_axis`` (optional, default the minor axis): the body-frame axis to spin about instead,
     "x", "y", "z", "minor", "intermediate", "major" or three numbers; it must be a principal
     axis of the deformed inertia (for equal moments exactly the axis given,
-    :mod:`quadmodes.analysis.spin_axis`)."""
+    :mod:`quadmodes.rom.spin_axis`)."""
 
     spin_rate: quantity("angular_rate", "41 Hz", positive)
     cone_angle: quantity("angle", "6 deg", _cone, "deg") = 0.0

@@ -45,7 +45,7 @@ AXIS_HELP = (
 
 def _axis_request(axis: str | None):
     """The parsed ``--axis`` (None: the command's default)."""
-    from quadmodes.analysis.spin_axis import parse_axis
+    from quadmodes.rom.spin_axis import parse_axis
 
     return parse_axis(axis, "--axis")
 
@@ -261,7 +261,7 @@ def rotating_command(
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
-    from quadmodes.runs.model_cache import caching_disabled
+    from quadmodes.models.cache import caching_disabled
 
     with one_line_errors(), caching_disabled(no_cache):
         output = output_file_in(output, "rotating.md")

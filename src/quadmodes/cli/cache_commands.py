@@ -22,8 +22,8 @@ cache_app = typer.Typer(
 @cache_app.command("list")
 def cache_list(as_json: JsonFlag = False) -> None:
     """List the cache entries: case, kind, modes, size and age."""
-    from quadmodes.runs.cache_entries import cache_entries, format_age, format_size
-    from quadmodes.runs.model_cache import cache_dir
+    from quadmodes.models.cache import cache_dir
+    from quadmodes.models.cache_entries import cache_entries, format_age, format_size
 
     folder = cache_dir()
     entries = cache_entries(folder)
@@ -45,8 +45,8 @@ def cache_list(as_json: JsonFlag = False) -> None:
 def cache_clear(yes: flag("--yes", "remove without asking") = False) -> None:
     """Remove every cache entry and its lock file (only files the cache wrote; other files in
     the folder are kept)."""
-    from quadmodes.runs.cache_entries import cache_entries, clear_entries, format_size
-    from quadmodes.runs.model_cache import cache_dir
+    from quadmodes.models.cache import cache_dir
+    from quadmodes.models.cache_entries import cache_entries, clear_entries, format_size
 
     folder = cache_dir()
     entries = cache_entries(folder, locks=True)

@@ -120,7 +120,7 @@ def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
 def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: bool) -> None:
     """Print the full-order run's estimated wall time; a long run needs ``go_ahead``
     (--yes or --resume), else UserError."""
-    from quadmodes.fullorder import estimate_for_run
+    from quadmodes.analysis.full_order_runs import estimate_for_run
 
     run = plan.run
     est = estimate_for_run(run, dt=plan.full_dt_s, window=plan.window_s, setup=setup)
@@ -173,7 +173,7 @@ def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bo
     exits with status ``signals["exit"]`` (130, 143 after SIGTERM; see
     :func:`~quadmodes.cli.common.sigterm_as_interrupt`)."""
     from quadmodes.analysis import compare as cmp
-    from quadmodes.fullorder import full_order_for_run
+    from quadmodes.analysis.full_order_runs import full_order_for_run
 
     def full(r, dt):
         return _complete_or_raise(full_order_for_run(
@@ -323,8 +323,8 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
     """The body of :func:`compare_command`: returns (payload, plan, output folder);
     ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
     from quadmodes.analysis import compare as cmp
-    from quadmodes.fullorder import setup_for_run
-    from quadmodes.runs.model_cache import caching_disabled
+    from quadmodes.analysis.full_order_runs import setup_for_run
+    from quadmodes.models.cache import caching_disabled
 
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
     with one_line_errors(RuntimeError), caching_disabled(no_cache):

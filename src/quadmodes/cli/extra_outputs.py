@@ -62,8 +62,9 @@ def finish_run(result, target: Path, summary: dict, opts) -> dict:
     """``--animate`` files of a free-body run (a spin-up says it has none), then report.html;
     ``opts``: the run's options (``animation``: :class:`Animation` or None, ``signals``).
     Returns ``summary``."""
-    from quadmodes.io.animation import run_motion, write_animation
+    from quadmodes.io.animation import write_animation
     from quadmodes.io.run_report import write_run_report
+    from quadmodes.runs.run_motion import run_motion
 
     animation, signals = opts.animation, opts.signals
     if animation is not None and not hasattr(result, "system"):

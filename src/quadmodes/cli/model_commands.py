@@ -328,11 +328,13 @@ def reduce_command(
     calls and `run` skip the FE work.
     """
     from quadmodes.case import load_run_case
+    from quadmodes.models.build import DEFAULT_MODES, reduced_model_for
+    from quadmodes.models.cache import caching_disabled
     from quadmodes.rom import artifact
-    from quadmodes.runs import model_cache, simulate
+    from quadmodes.runs import simulate
 
     info: dict = {}
-    with one_line_errors(OSError), model_cache.caching_disabled(no_cache):
+    with one_line_errors(OSError), caching_disabled(no_cache):
         output_file = output_file_in(output_file, "reduced_model.nc")
         if simulate.is_run_case(case):
             run_case = load_run_case(case)
@@ -348,13 +350,12 @@ def reduce_command(
             spin = run_case.reference_spin  # a run about its spinning state
         else:
             model_case = load_model_case(case)
-            n_modes = modes if modes is not None else model_cache.DEFAULT_MODES
+            n_modes = modes if modes is not None else DEFAULT_MODES
             guard_model_size(model_case, yes)
             spin = 0.0
         guard_reduced_model(model_case, n_modes, yes, from_option=modes is not None)
         with progress_bars(not as_json) as progress:
-            model = model_cache.reduced_model_for(model_case, n_modes, progress, info=info,
-                                                  spin=spin)  # fmt: skip
+            model = reduced_model_for(model_case, n_modes, progress, info=info, spin=spin)
         if output_file is not None:
             write_file_in(output_file, lambda path: artifact.save_reduced_model(model, path))
     summary = _reduced_summary(model, model_case, info, output_file)

@@ -450,8 +450,8 @@ def run_command(
     Exit status 2 for bad input (nothing written), 1 if a run stopped early or diverged (partial
     results), 130 after Ctrl-C (143 after SIGTERM).
     """
+    from quadmodes.models.cache import caching_disabled
     from quadmodes.runs import simulate
-    from quadmodes.runs.model_cache import caching_disabled
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,

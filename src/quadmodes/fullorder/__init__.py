@@ -11,8 +11,9 @@ the run state), :mod:`~quadmodes.fullorder.step` (step force, damping force, pre
 residual), :mod:`~quadmodes.fullorder.damping` (the damping basis: independent or retained
 modes), :mod:`~quadmodes.fullorder.newton` (step Jacobian, reused factorisation,
 backtracking), :mod:`~quadmodes.fullorder.sampling` (the sampled series) and
-:mod:`~quadmodes.fullorder.checkpoint` (checkpoints, resume); and
-:mod:`~quadmodes.fullorder.runs` (run cases, Kane spin-up, wall-time estimate).
+:mod:`~quadmodes.fullorder.checkpoint` (checkpoints, resume). Run cases, the Kane spin-up and
+the wall-time estimate sit above, in :mod:`quadmodes.analysis.full_order_runs` (they set a run up
+as :mod:`quadmodes.runs` does; nothing here imports the runs).
 
 Choices (and why)
 -----------------
@@ -76,10 +77,10 @@ Choices (and why)
   the best-fit frame, corrected for the quadratic modes by a fixed point.
 * **Initial state from a reduced state** (:func:`initial_state_from_reduced`):
   ``x = p + R(X + Φs + ssG)``, ``v = R(ω × r + Φṡ + 2G(s, ṡ))``. For run cases
-  (:func:`full_order_for_run`) the quasi-static centrifugal stretch outside the retained modes
-  is added (``stretch=True``): the reduced state spins without it (at 41 Hz it is comparable to
-  the inflation strain), which would otherwise start the full order with a violent breathing
-  transient in modes the ROM does not have.
+  (:func:`~quadmodes.analysis.full_order_runs.full_order_for_run`) the quasi-static
+  centrifugal stretch outside the retained modes is added (``stretch=True``): the reduced state
+  spins without it (at 41 Hz it is comparable to the inflation strain), which would otherwise
+  start the full order with a violent breathing transient in modes the ROM does not have.
 """
 
 from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
@@ -90,27 +91,13 @@ from quadmodes.fullorder.kinematics import (
     kane_hub,
 )
 from quadmodes.fullorder.newton import FullOrderNewtonError
-from quadmodes.fullorder.runs import (
-    KaneFullOrder,
-    estimate_for_run,
-    estimate_wall_time,
-    full_order_for_run,
-    kane_full_order,
-    setup_for_run,
-)
 
 __all__ = [
     "FullOrderNewtonError",
     "FullOrderSolution",
     "HubDrive",
-    "KaneFullOrder",
     "centrifugal_stretch",
-    "estimate_for_run",
-    "estimate_wall_time",
-    "full_order_for_run",
     "initial_state_from_reduced",
     "integrate_full_order",
-    "kane_full_order",
     "kane_hub",
-    "setup_for_run",
 ]

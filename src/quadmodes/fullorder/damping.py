@@ -28,9 +28,9 @@ import xarray as xr
 from quadmodes.case import Case
 from quadmodes.fe.model import Structure
 from quadmodes.io.atomic import atomic_path
+from quadmodes.models import cache
 from quadmodes.rom import artifact
 from quadmodes.rom.reduced import ReducedModel
-from quadmodes.runs import model_cache
 from quadmodes.structure.damping import CUTOFF_FACTOR, default_cutoff, modes_below, pairs_whole
 
 #: Format version of the cached damping-mode files.
@@ -97,7 +97,7 @@ def retained_damping(model: ReducedModel) -> DampingModes:
 def damping_key(case: Case, cutoff_hz: float) -> str:
     """Content key of the damping modes of ``case`` below ``cutoff_hz`` (Hz)."""
     return artifact.content_key(
-        model_cache.model_inputs(case)
+        cache.model_inputs(case)
         + f"\n# damping.cutoff_hz = {float(cutoff_hz)!r}\n"
         + f"# damping.format_version = {DAMPING_FORMAT_VERSION}\n"
     )
@@ -105,9 +105,9 @@ def damping_key(case: Case, cutoff_hz: float) -> str:
 
 def damping_cache_path(case: Case, cutoff_hz: float) -> Path:
     """Cache file of the damping modes, beside the reduced models
-    (:func:`~quadmodes.runs.model_cache.cache_dir`)."""
+    (:func:`~quadmodes.models.cache.cache_dir`)."""
     tag = f"{float(cutoff_hz):.6g}".replace(".", "p")
-    return model_cache.cache_dir() / f"{case.name}-damping-{tag}Hz-{damping_key(case, cutoff_hz)}.nc"
+    return cache.cache_dir() / f"{case.name}-damping-{tag}Hz-{damping_key(case, cutoff_hz)}.nc"
 
 
 def save_damping_modes(path: Path, freqs, shapes, labels, cutoff_hz: float, key: str) -> None:
@@ -153,7 +153,7 @@ def independent_damping_for(
     if not (cutoff_hz > 0 and math.isfinite(cutoff_hz)):
         raise ValueError(f"damping cutoff: {cutoff_hz!r} Hz; give a positive frequency, e.g. 150 Hz")
     info = {} if info is None else info
-    use_cache = use_cache and model_cache.caching_enabled()  # --no-cache
+    use_cache = use_cache and cache.caching_enabled()  # --no-cache
     key, path = damping_key(case, cutoff_hz), damping_cache_path(case, cutoff_hz)
     info["path"], info["cache"] = str(path), "miss" if use_cache else "off"
     got = load_damping_modes(path, key, structure.n) if use_cache else None

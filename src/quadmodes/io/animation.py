@@ -1,6 +1,9 @@
-"""``--animate``: the motion of a run (reduced states) or of the full order of ``compare``
-(recorded nodal positions) as ``motion.xdmf`` + ``motion.h5`` (:mod:`quadmodes.io.motion`),
-and, when pyvista and an off-screen GL back end are available, a rendered ``motion.gif``.
+"""``--animate``: the motion of a run (reduced states, turned into a
+:class:`~quadmodes.io.motion.Motion` by :func:`quadmodes.runs.run_motion.run_motion`) or of the
+full order of ``compare`` (recorded nodal positions) as ``motion.xdmf`` + ``motion.h5``
+(:mod:`quadmodes.io.motion`), and, when pyvista and an off-screen GL back end are available, a
+rendered ``motion.gif``. Model objects are read by their arrays only (X, weights, mass, the
+structure's mass and cells); nothing here imports the model code.
 
 Free runs only (a hub-driven spin-up has its own outputs). SI units: m, s.
 """
@@ -13,50 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from quadmodes.io.motion import (
-    FRAMES,
-    Motion,
-    body_cells,
-    frame_indices,
-    position_rows,
-    reduced_motion,
-    write_motion_xdmf,
-)
+from quadmodes.io.motion import FRAMES, Motion, body_cells, position_rows, write_motion_xdmf
 
-__all__ = ["FullOrderRecorder", "render_motion", "run_motion", "write_animation"]
+__all__ = ["FullOrderRecorder", "render_motion", "write_animation"]
 
 MOTION_FILE = "motion.xdmf"
 MOVIE_FILE = "motion.gif"
-
-
-def _structure_cells(model_case) -> tuple[np.ndarray, np.ndarray]:
-    """Triangles and line cells of the finite-element structure of ``model_case`` (meshed
-    again: cheap next to the inflation, and the node order is that of the reduced model)."""
-    from quadmodes.structure.pipeline import structure_for_case
-
-    return body_cells(structure_for_case(model_case))
-
-
-def run_motion(result, frames: int = FRAMES, frame: str = "inertial") -> Motion:
-    """The :class:`~quadmodes.io.motion.Motion` of a free-body
-    :class:`~quadmodes.runs.simulate.RunResult`: at most ``frames`` of its samples, evenly
-    spread, the positions ``x = R(q)(X + Φs + Σ s_m s_n g^{mn})`` (centre of mass at the
-    origin) in the inertial or the body frame."""
-    from quadmodes.rom import system as rsys
-
-    sol, model = result.solution, result.model
-    q, _, s, _ = rsys.split_state(result.system, sol.y)
-    keep = frame_indices(len(sol.t), frames)
-    tri, lines = _check_cells(model.X.shape[0], *_structure_cells(result.model_case))
-    return reduced_motion(model, q[keep], s[keep], sol.t[keep], tri, lines, frame)
-
-
-def _check_cells(n: int, tri: np.ndarray, lines: np.ndarray):
-    """The cells, if they index the n vector DOFs of the model (else ValueError)."""
-    top = max(tri.max(initial=-1), lines.max(initial=-1))
-    if top >= n:
-        raise ValueError(f"the mesh has node {top} but the reduced model {n} vector DOFs")
-    return tri, lines
 
 
 class FullOrderRecorder:

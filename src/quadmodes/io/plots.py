@@ -26,7 +26,7 @@ import xarray as xr
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
 from quadmodes.io.figures import new_figure, save_png
-from quadmodes.runs.metrics import log_decrement, peak_envelope
+from quadmodes.signals import log_decrement, peak_envelope
 
 
 def _title(ds: xr.Dataset, what: str) -> str:

@@ -20,7 +20,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.io.atomic import write_text
 
 __all__ = [

@@ -1,2 +1,2 @@
-"""Runs of a case: reduced model from the cache, chunked integration, validity, Kane spin-up,
-and the results dataset."""
+"""Runs of a case: the reduced model from :mod:`quadmodes.models`, chunked integration,
+validity, Kane spin-up, and the results dataset."""

@@ -5,7 +5,7 @@ At the initial modal coordinates ``s0`` the reduced potential ``V(s0)`` is set b
 model's own statically condensed energy ``W_c(s0)`` — the total potential minimised over every
 degree of freedom outside the retained and rigid modes
 (:func:`quadmodes.rom.manifold_energy.condensed_energy`), which is what the full order starts
-from (:func:`quadmodes.fullorder.runs.relaxed_deformation`). Both are taken without the work
+from (:func:`quadmodes.analysis.full_order_runs.relaxed_deformation`). Both are taken without the work
 of the reference state's constant force ``f(x_ref)`` (zero about the state at rest; the
 centrifugal load about a spinning state), so they agree to second order by construction and
 their difference is the reduced potential's error at that amplitude.

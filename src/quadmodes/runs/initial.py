@@ -1,7 +1,7 @@
 """Initial state of a free-body run: a deformation in the first bending mode and the coning
 angular velocity about the minor principal axis of the deformed body, or about
 ``initial.spin_axis`` (a principal axis of the deformed inertia, exactly the axis given for equal
-moments: :mod:`quadmodes.analysis.spin_axis`)."""
+moments: :mod:`quadmodes.rom.spin_axis`)."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes.analysis.spin_axis import AXIS_TOL, axis_for_inertia
 from quadmodes.case import CaseError, RunCase
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
-from quadmodes.runs.model_cache import PAIR_TOLERANCE
+from quadmodes.rom.spin_axis import AXIS_TOL, axis_for_inertia
+from quadmodes.structure.labels import PAIR_TOLERANCE
 
 
 def bending_pair(labels, frequencies_hz) -> tuple[int, ...]:

@@ -12,7 +12,7 @@ The rule of ``"auto"``: every elastic mode whose non-spinning frequency is at mo
 ``mode_margin`` × the initial spin frequency (``reduced.mode_margin``, default 2.5: the centrifugal load, quadratic in ω, forces a coning
 body up to about twice the spin frequency), then the
 cut moved up until no degenerate pair is split (the pair test of
-:func:`quadmodes.runs.model_cache.splits_pair`), and never below the first bending pair
+:func:`quadmodes.models.build.splits_pair`), and never below the first bending pair
 (:func:`quadmodes.runs.initial.bending_pair`). About the spinning state (``reference =
 "spinning"``) the frequencies are those of the rotating-frame stiffness's own modes, the default
 margin is 3.2 and the cutoff is at least :data:`SPINNING_FLOOR` × the lowest of them.
@@ -25,7 +25,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from quadmodes.case import Case, CaseError, RunCase
-from quadmodes.runs import model_cache
+from quadmodes.models.build import Spectrum, mode_spectrum, splits_pair
 from quadmodes.runs.initial import bending_pair
 
 Progress = Callable[[str, float], None]
@@ -72,7 +72,7 @@ def pair_whole_counts(
     for n in range(int(above) + 1, len(freqs_hz)):
         if len(found) == count:
             break
-        if not model_cache.splits_pair(labels, freqs_hz, n):
+        if not splits_pair(labels, freqs_hz, n):
             found.append(n)
     return found
 
@@ -85,7 +85,7 @@ def next_counts(
     :data:`MAX_AUTO_MODES`); fewer only if the model has no more modes."""
     count = max(case.modes.count, int(n_modes) + steps + 1)
     while True:
-        spec = model_cache.mode_spectrum(case, count, progress)
+        spec = mode_spectrum(case, count, progress)
         found = pair_whole_counts(spec.labels, spec.frequencies_hz, n_modes, steps)
         if len(found) == steps or len(spec.frequencies_hz) < count or count > MAX_AUTO_MODES:
             return found
@@ -104,20 +104,20 @@ def auto_mode_count(
     pair = bending_pair(labels, freqs)
     if pair:
         n = max(n, max(pair) + 1)
-    while n < len(freqs) and model_cache.splits_pair(labels, freqs, n):
+    while n < len(freqs) and splits_pair(labels, freqs, n):
         n += 1
     return (n if n < len(freqs) else None), below
 
 
 def covering_spectrum(
     case: Case, cutoff_hz: float, progress: Progress | None = None, spin: float = 0.0
-) -> tuple[model_cache.Spectrum, int, int]:
+) -> tuple[Spectrum, int, int]:
     """Spectrum of ``case`` long enough for the ``"auto"`` rule at ``cutoff_hz`` and its
     ``(spectrum, N, below)``; the mode count doubles until a mode above the cut is known.
     Raises :class:`CaseError` (``reduced.modes``) beyond :data:`MAX_AUTO_MODES`."""
     count = case.modes.count
     while True:
-        spec = model_cache.mode_spectrum(case, count, progress, spin=spin)
+        spec = mode_spectrum(case, count, progress, spin=spin)
         n, below = auto_mode_count(spec.labels, spec.frequencies_hz, cutoff_hz)
         if n is not None:
             return spec, n, below
@@ -154,7 +154,7 @@ def resolve_modes(
     spin = run.reference_spin
     floor = ""
     if spin:  # about the spinning state: never below twice its lowest mode (see the module)
-        lowest = model_cache.mode_spectrum(case, case.modes.count, progress, spin=spin)
+        lowest = mode_spectrum(case, case.modes.count, progress, spin=spin)
         f_low = float(lowest.frequencies_hz[0]) if lowest.frequencies_hz else 0.0
         if SPINNING_FLOOR * f_low > cutoff:
             cutoff = SPINNING_FLOOR * f_low

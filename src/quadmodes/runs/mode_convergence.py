@@ -7,7 +7,7 @@ Stages::
 
 N₁ < N₂ are the next counts above N that keep every degenerate pair whole
 (:func:`quadmodes.runs.mode_choice.next_counts`). Each reduced model comes from the cache
-(:func:`quadmodes.runs.model_cache.reduced_model_for`); a new one reuses the modal model of the
+(:func:`quadmodes.models.build.reduced_model_for`); a new one reuses the modal model of the
 process (inflated state and modes) and pays only the reduction (``reduce_s`` of its row).
 """
 
@@ -20,8 +20,8 @@ from collections.abc import Callable
 import numpy as np
 
 from quadmodes.case import CaseError
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import system as rsys
-from quadmodes.runs import model_cache
 from quadmodes.runs.mode_choice import next_counts, with_modes
 
 Progress = Callable[[str, float], None]
@@ -158,7 +158,7 @@ def mode_convergence(
     rows = [_row(result, 0.0, None)]
     for n in next_counts(setup.model_case, int(run.reduced.modes), steps, progress):
         start = time.perf_counter()
-        model = model_cache.reduced_model_for(setup.model_case, n, progress, spin=run.reference_spin)
+        model = reduced_model_for(setup.model_case, n, progress, spin=run.reference_spin)
         reduce_s = time.perf_counter() - start
         sub = simulate.prepare(with_modes(run, n), model, model_case=setup.model_case)
         rows.append(_row(simulate.execute(sub, progress), reduce_s, rows[-1]))

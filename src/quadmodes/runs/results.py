@@ -8,7 +8,7 @@ case TOML, ``model_hash``, ``source`` and the package version), the method, step
 status and work counters and ``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
 from the dataset alone, so it can be recomputed from a saved file.
 
-The log decrement of the summary is :func:`quadmodes.runs.metrics.log_decrement`.
+The log decrement of the summary is :func:`quadmodes.signals.log_decrement`.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import xarray as xr
 
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
-from quadmodes.runs.metrics import log_decrement
+from quadmodes.signals import log_decrement
 
 FORMAT = "quadmodes-run-results"
 FORMAT_VERSION = 1

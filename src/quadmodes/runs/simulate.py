@@ -3,12 +3,12 @@ integrate it in chunks, refine its step, and run a hub-driven spin-up.
 
 Stages::
 
-    Case ──model_cache.reduced_model_for──▶ ReducedModel (cached)
+    Case ──models.build.reduced_model_for──▶ ReducedModel (cached)
     RunCase + ReducedModel ──prepare──▶ RunSetup ──execute──▶ RunResult (Solution + Diagnostics)
     RunSetup ──dt_convergence──▶ one row per step dt, dt/2, dt/4
     RunCase [spinup] ──simulate_spinup──▶ SpinupRun (:mod:`quadmodes.runs.spinup`)
 
-The pieces: :mod:`quadmodes.runs.model_cache` (the reduced model of a case),
+The pieces: :mod:`quadmodes.models.build` (the reduced model of a case),
 :mod:`quadmodes.runs.initial` (the initial state), :mod:`quadmodes.runs.validity` (the rotating
 stiffness and Q4 barrier checks) and :mod:`quadmodes.runs.chunked` (chunked integration with
 progress, checkpoints and early stops: an integrator failure or a non-finite state ends the run
@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from quadmodes.case import Case, CaseError, RunCase
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import Diagnostics, diagnostics
@@ -43,7 +44,6 @@ from quadmodes.runs.chunked import (
 from quadmodes.runs.deformation_check import with_deformation_check
 from quadmodes.runs.initial import InitialState, initial_state
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.runs.validity import Validity, initial_validity, rotating_validity
 from quadmodes.structure import pipeline
 
@@ -425,9 +425,9 @@ class SpinupRun:
 
 
 def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedModel:
-    """Reduced model of a spin-up: :func:`quadmodes.runs.spinup.kane_model` of the run's clamped beam
+    """Reduced model of a spin-up: :func:`quadmodes.models.beam.kane_model` of the run's clamped beam
     case with ``reduced.modes`` in-plane bending modes."""
-    from quadmodes.runs.spinup import kane_model
+    from quadmodes.models.beam import kane_model
 
     case = model_case if model_case is not None else run.model_case()
     if case.kind != "beam" or case.beam.support != "clamped":

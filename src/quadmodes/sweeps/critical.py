@@ -28,10 +28,10 @@ import numpy as np
 
 from quadmodes.analysis.campbell import campbell
 from quadmodes.analysis.reduced_linearisation import linearise
-from quadmodes.analysis.spin_axis import resolve_axis
 from quadmodes.rom import reduced as red
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
+from quadmodes.rom.spin_axis import resolve_axis
 
 #: Bisection steps of :func:`refine`: the bracket shrinks by 2^-STEPS.
 STEPS = 24

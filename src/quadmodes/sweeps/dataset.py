@@ -15,7 +15,7 @@ import math
 import numpy as np
 import xarray as xr
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.analysis.full_order_markers import marker_attrs, marker_variables
 from quadmodes.sweeps.engine import SweepOutcome, SweepPlan
 

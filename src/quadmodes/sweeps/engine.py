@@ -30,10 +30,10 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from quadmodes import __version__
+from quadmodes._version import __version__
 from quadmodes.case import Case, RunCase
 from quadmodes.io.atomic import write_text
-from quadmodes.runs.model_cache import cache_dir, fingerprint_files
+from quadmodes.models.cache import cache_dir, fingerprint_files
 from quadmodes.sweeps import critical as crit
 from quadmodes.sweeps.overrides import PointCase, apply_values
 from quadmodes.sweeps.params import SweepError, SweepParameter, grid
@@ -82,13 +82,14 @@ class SweepPlan:
 
 #: Source folders and files whose code computes a point: a change in any of them re-runs every point (the
 #: reduced models themselves stay cached by their own key).
-POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "runs", "analysis", "sweeps/points.py",
-              "sweeps/energy_sink.py", "sweeps/overrides.py", "sweeps/full_order.py")
+POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "models", "runs", "analysis", "signals.py",
+              "sweeps/points.py", "sweeps/energy_sink.py", "sweeps/overrides.py",
+              "sweeps/full_order.py")
 
 
 @functools.cache
 def point_code_fingerprint() -> str:
-    """:func:`quadmodes.runs.model_cache.fingerprint_files` of :data:`POINT_CODE`."""
+    """:func:`quadmodes.models.cache.fingerprint_files` of :data:`POINT_CODE`."""
     return fingerprint_files(Path(__file__).resolve().parents[1], POINT_CODE)
 
 

@@ -19,11 +19,11 @@ import numpy as np
 from quadmodes.analysis import secular
 from quadmodes.analysis.campbell import campbell
 from quadmodes.case import RunCase
+from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate as sim
 from quadmodes.runs.mode_choice import resolve_modes
-from quadmodes.runs.model_cache import reduced_model_for
 from quadmodes.sweeps.energy_sink import energy_sink
 from quadmodes.sweeps.overrides import PointCase
 
@@ -58,7 +58,7 @@ def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int
 def spin_axis_request(run: RunCase):
     """The spin-axis request of the point's linearisations (its roots, critical speeds and
     full-order markers): the run's ``initial.spin_axis``; None is the default axis of
-    :func:`quadmodes.analysis.spin_axis.resolve_axis` (the symmetry axis of a free body)."""
+    :func:`quadmodes.rom.spin_axis.resolve_axis` (the symmetry axis of a free body)."""
     return run.initial.spin_axis
 
 

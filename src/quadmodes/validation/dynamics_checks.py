@@ -66,7 +66,8 @@ def check_backward_euler() -> list[Row]:
 
 def check_kane_reduced() -> list[Row]:
     """Kane spin-up with formulation Q (20 ANCF elements, 4 in-plane modes): peaks and times."""
-    from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS, kane_model, kane_spinup
+    from quadmodes.models.beam import kane_model
+    from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS, kane_spinup
 
     model = kane_model(n_modes=4, n_elements=20)
     rows = []
@@ -89,7 +90,8 @@ def check_kane_reduced() -> list[Row]:
 def check_kane_campbell() -> list[Row]:
     """First chordwise rotating-frame frequency of the Kane beam at steady spin (Q)."""
     from quadmodes.analysis.campbell import campbell
-    from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE, kane_model
+    from quadmodes.models.beam import kane_model
+    from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE
 
     beam = kane_model(n_modes=4, out_of_plane=True)
     spins = sorted(KANE_REFERENCE_CHORDWISE)
@@ -167,7 +169,7 @@ def check_paper_fast_spin() -> list[Row]:
 
 def check_full_order_kane() -> list[Row]:
     """Full-order (ANCF, hub-driven, inertial frame) Kane spin-up peaks: checks references §3."""
-    from quadmodes.fullorder import kane_full_order
+    from quadmodes.analysis.full_order_runs import kane_full_order
     from quadmodes.runs.spinup import KANE_REFERENCE_PEAKS
 
     rows = []
@@ -255,8 +257,8 @@ def check_rotating_frame_spinning() -> list[Row]:
     20 and 41 Hz: every branch asserted within 1 % (issue 9)."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
     from quadmodes.case import load_run_case
+    from quadmodes.models.build import reduced_model_for
     from quadmodes.runs.mode_choice import resolve_modes
-    from quadmodes.runs.model_cache import reduced_model_for
     from quadmodes.runs.simulate import apply_overrides
 
     rows = []

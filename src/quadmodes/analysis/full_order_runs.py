@@ -1,5 +1,11 @@
 """Full-order runs of run cases (as ``quadmodes run`` sets them up), the hub-driven Kane spin-up,
-and the wall-time estimate printed before a long run."""
+and the wall-time estimate printed before a long run.
+
+The glue between a run case and the full order: it sets the run up as the reduced path does
+(:func:`quadmodes.runs.simulate.prepare`: modes, reduced model, initial state) and integrates it
+with :func:`quadmodes.fullorder.integrate_full_order`. It sits above both; the full-order core
+(:mod:`quadmodes.fullorder`) imports nothing from :mod:`quadmodes.runs`, the two stand side by
+side on :mod:`quadmodes.models`."""
 
 from __future__ import annotations
 
@@ -81,7 +87,7 @@ def with_damping(st: FullOrderSetup, damping="independent", cutoff_hz: float | N
     :func:`~quadmodes.fullorder.damping.default_cutoff` of the spin and the retained modes),
     with the case's damping ratio, from the cache (:func:`~quadmodes.fullorder.damping.
     independent_damping_for`); a note names the basis."""
-    from quadmodes.runs.model_cache import damping_ratio_of
+    from quadmodes.models.build import damping_ratio_of
 
     choice = damping_choice(damping)
     case = st.run.model_case()
@@ -339,7 +345,7 @@ def kane_full_order(
     step ``dt``; the beam of the built-in ``kane-beam`` case (``n_elements`` overrides its
     element count). Returns the in-plane tip peak (hub-frame y) — compare with
     :data:`quadmodes.runs.spinup.KANE_REFERENCE_PEAKS`."""
-    from quadmodes.runs.spinup import kane_model
+    from quadmodes.models.beam import kane_model
 
     case = load_case("kane-beam")
     if n_elements is not None:

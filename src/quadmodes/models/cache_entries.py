@@ -1,7 +1,7 @@
-"""The entries of the model cache (:func:`quadmodes.runs.model_cache.cache_dir`): listed and
+"""The entries of the model cache (:func:`quadmodes.models.cache.cache_dir`): listed and
 cleared by ``quadmodes cache list | clear``.
 
-An entry is a file written by :mod:`quadmodes.runs.model_cache` or
+An entry is a file written by :mod:`quadmodes.models.cache` or
 :mod:`quadmodes.fullorder.damping`, recognised by its name:
 
 - ``<case>-N<modes>-<key>.nc``: a reduced model with ``modes`` modes;

@@ -10,7 +10,9 @@ floor does not bias a decay; if fewer than three windows qualify, all windows ar
 ``δ = −slope·T`` per period: 2πζ for a free decay with modal damping ratio ζ, negative for
 growth.
 
-Pure functions on arrays (time in s, any amplitude unit); no file or plotting code.
+Pure functions on arrays (time in s, any amplitude unit); no file or plotting code. A leaf of
+the package (imports nothing of quadmodes), so the run results, the plots (:mod:`quadmodes.io`)
+and the comparison all use it.
 """
 
 from __future__ import annotations
