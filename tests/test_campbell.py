@@ -201,3 +201,55 @@ def test_campbell_main_from_case(tmp_path):
     assert paths["png"].exists() and paths["nc"].exists()
     b = [i for i, lab in enumerate(r.labels) if lab.startswith("bending y (0")][0]
     assert r.frequency[-1, b] == pytest.approx(KANE_REFERENCE_CHORDWISE[6.0], rel=0.01)
+
+
+# ----------------------------------------------------------------------------------------------
+# through a divergence
+
+
+@pytest.fixture(scope="module")
+def membrane_coarse():
+    """The coarse seed membrane about rest: its rotating stiffness is lost near 42 Hz."""
+    from quadmodes.analysis.campbell_output import model_for_case
+
+    return model_for_case("paper-membrane-coarse")
+
+
+@pytest.mark.parametrize("points", [3, 5, 10, 41])
+def test_campbell_through_a_divergence(membrane_coarse, points, tmp_path):
+    """0–45 Hz crosses the divergence: any number of points gives the same divergence spin
+    (where the smallest eigenvalue of Λ − ωᵀJ2ω is zero), every branch ends before it, the
+    branches after it start there, and the figure and dataset carry it."""
+    import xarray as xr
+
+    from quadmodes.rom import rotating_frame as rf
+    from quadmodes.rom import system as rsys
+
+    spins = np.linspace(0.0, 2 * np.pi * 45.0, points)
+    r = campbell(membrane_coarse, spins)
+    assert r.divergence.shape == (1,)
+    w_d = r.divergence[0]
+    before, after = spins < w_d, spins > w_d
+    assert np.all(r.min_stiffness[before] > 0.0) and np.all(r.min_stiffness[after] < 0.0)
+    # the independent check: the rotating stiffness about the symmetry axis is singular at w_d
+    sys = rsys.reduced_system(membrane_coarse, "Q")
+    k = rf.rotating_frame_matrices(sys, w_d * r.spin_axis[0])[2]
+    kmin0 = np.linalg.eigvalsh(rf.rotating_frame_matrices(sys, 0 * r.axis)[2]).min()
+    assert abs(np.linalg.eigvalsh(k).min()) < 1e-6 * kmin0
+    first_after = int(np.argmax(after))
+    for b in range(len(r.labels)):
+        alive = np.isfinite(r.frequency[:, b])
+        assert not (alive[before].any() and alive[after].any()), r.labels[b]
+        if alive[after].any():
+            assert r.start[b] == first_after
+    assert np.isfinite(r.frequency[before]).any() and np.isfinite(r.frequency[after]).any()
+    paths = write_campbell(r, tmp_path)
+    with xr.open_dataset(paths["nc"]) as ds:
+        np.testing.assert_allclose(ds["divergence_spin"].values, r.divergence)
+        assert ds["divergence_spin"].attrs["units"] == "rad/s"
+
+
+def test_divergence_spin_does_not_depend_on_the_grid(membrane_coarse):
+    found = [campbell(membrane_coarse, np.linspace(0.0, 2 * np.pi * 45.0, n)).divergence[0]
+             for n in (3, 10)]  # fmt: skip
+    assert found[0] == pytest.approx(found[1], rel=1e-6)

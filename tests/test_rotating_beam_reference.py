@@ -118,6 +118,14 @@ def test_rotary_inertia_first_order():
     np.testing.assert_allclose(out["lag"] ** 2 - w0**2, -2 * (w0**2) * r_g2 * ratio, rtol=1e-3)
 
 
+# The Ritz roots are converged to 2e-14 here (32 against 40 functions), so the agreement is
+# limited by the shooting: its roots move by up to 4.0e-9 between ODE tolerances 1e-11 and
+# 1e-13 (DOP853), and the difference is machine dependent (6.2e-9 on one machine, 1.02e-8 on
+# another). The tolerance is five times the larger: a real error of the rotor's equations shows
+# up at 1e-4 and above.
+SHOOTING_RTOL = 5e-8
+
+
 def test_shooting_solution_of_the_half_rotor_agrees():
     omega = 30.0
     beam = SpinningBeam(1.0, 1.0, math.inf, 1.0)
@@ -128,7 +136,7 @@ def test_shooting_solution_of_the_half_rotor_agrees():
         if fam == "flap" and parity == 1:
             shot = shot[1:]  # the tilt, ω = Ω, is a root of the pinned half-rotor too
         assert shot.size >= 2
-        assert _rel(ritz[: shot.size], shot) < 1e-8, fam
+        assert _rel(ritz[: shot.size], shot) < SHOOTING_RTOL, fam
 
 
 @pytest.mark.parametrize("omega", [0.0, 3.0, 9.0])

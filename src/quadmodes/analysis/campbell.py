@@ -18,7 +18,7 @@ entry: :mod:`quadmodes.analysis.campbell_output`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -52,6 +52,10 @@ class CampbellResult:
     spin_axis (ns, 3): the axis of the relative equilibrium (= axis for a clamped body).
     vectors (ns, nb, 3+2N or 2N) complex: state eigenvectors (free: δω, δs, δṡ; clamped: δs, δṡ),
     unit energy norm.
+    divergence (nd,) rad/s: spin rates where the free body's rotating stiffness loses (or
+    regains) positive definiteness between two points of the sweep (empty for a clamped body):
+    there the relative equilibrium s* = (Λ − ωᵀJ2ω)⁻¹ ½ωᵀJ1ω passes through infinity, so every
+    branch ends at the last point before it and the roots after it start new branches.
     """
 
     spin: np.ndarray
@@ -68,6 +72,7 @@ class CampbellResult:
     vectors: np.ndarray = field(repr=False)
     mode_labels: tuple[str, ...] = ()
     start: np.ndarray | None = None
+    divergence: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -131,6 +136,14 @@ class _Point:
     s: np.ndarray
     axis: np.ndarray
 
+    @property
+    def finite(self) -> bool:
+        """Roots, eigenvectors and weight all finite (not so next to a divergence, where the
+        relative equilibrium overflows)."""
+        return bool(
+            np.isfinite(self.lam).all() and np.isfinite(self.vec).all() and np.isfinite(self.wgt).all()
+        )
+
     def reordered(self, order: np.ndarray) -> _Point:
         return _Point(
             self.spin, self.lam[order], self.vec[:, order], self.wgt, self.kmin, self.s, self.axis
@@ -179,6 +192,9 @@ def _sweep_setup(
 def _selected_roots(sw: _Sweep, om: float):
     """``(linearisation, selected λ (count,), their eigenvectors (m, count))`` at ``om`` rad/s."""
     lin = linearise(sw.sys, sw.model, om, sw.axis, sw.damped)
+    if not np.isfinite(lin.lam).all():
+        idx = np.arange(sw.count)  # no roots (non-finite equilibrium): NaN in every branch
+        return lin, idx, lin.lam[idx], lin.vectors[:, idx]
     idx = _select(lin.lam, sw.count, sw.scale)
     return lin, idx, lin.lam[idx], lin.vectors[:, idx]
 
@@ -224,9 +240,43 @@ def _bridge(
     budget[0] -= 1
     d = np.sign(p1.spin - p0.spin)
     mid = _point(sw, 0.5 * (p0.spin + p1.spin), d)
+    if _crosses(sw, p0, mid) or _crosses(sw, mid, p1):
+        return p1m, np.zeros_like(mac)  # a divergence inside the step: the branches end
     pm, mac_a = _bridge(sw, p0, mid, depth - 1, budget)
     p1, mac_b = _bridge(sw, pm, p1, depth - 1, budget)
     return p1, np.minimum(mac_a, mac_b)
+
+
+def _crosses(sw: _Sweep, p0: _Point, p1: _Point) -> bool:
+    """True when no branch can continue from p0 to p1: either point is not finite, or (free
+    body) the rotating stiffness changes definiteness between them (a divergence: the relative
+    equilibrium passes through infinity; a clamped body's roots pass through zero continuously
+    and are tracked on)."""
+    if not (p0.finite and p1.finite):
+        return True
+    return bool(sw.sys.free and (p0.kmin > 0.0) != (p1.kmin > 0.0))
+
+
+def _divergence_spin(sw: _Sweep, p0: _Point, p1: _Point) -> float:
+    """Spin rate (rad/s) between p0 and p1 where the smallest eigenvalue of the rotating
+    stiffness Λ − ωᵀJ2ω about p0's equilibrium axis is zero (Brent's method; exact for an axis
+    that does not move with s*, e.g. a body of revolution; otherwise within the axis change
+    between the points). NaN when it has no sign change there (a non-finite point)."""
+    from scipy.optimize import brentq
+
+    from quadmodes.rom import rotating_frame as rf
+
+    axis = p0.axis / max(float(np.linalg.norm(p0.axis)), 1e-300)
+
+    def kmin(om: float) -> float:
+        k = rf.rotating_frame_matrices(sw.sys, om * axis)[2]
+        return float(np.linalg.eigvalsh(k).min()) if k.size else np.inf
+
+    a, b = p0.spin, p1.spin
+    fa, fb = kmin(a), kmin(b)
+    if not (np.isfinite(fa) and np.isfinite(fb)) or (fa > 0.0) == (fb > 0.0):
+        return float("nan")
+    return float(brentq(kmin, a, b, xtol=1e-12 * max(abs(a), abs(b), 1.0)))
 
 
 def _direction(spin: np.ndarray, i: int) -> float:
@@ -335,11 +385,16 @@ def campbell(
     macs = np.ones((spin.size, sw.count))
     branches: list[np.ndarray] = []
     book = _Branches(np.arange(sw.count), [0] * sw.count, [])
+    divergence: list[float] = []
     for i, om in enumerate(spin):
         p = _point(sw, om, _direction(spin, i))
         if not pts:
             p = p.reordered(np.lexsort((p.lam.real, np.abs(p.lam.imag))))
-            book.labels = list(_branch_labels(model, p.vec.T, sw.sys.free))
+            book.labels = list(_new_labels(model, p, sw.sys.free, dedupe=True))
+        elif _crosses(sw, pts[-1], p):
+            if sw.sys.free and pts[-1].finite and p.finite:
+                divergence.append(_divergence_spin(sw, pts[-1], p))
+            book.refuse(np.arange(sw.count), i, list(_new_labels(model, p, sw.sys.free)))
         else:
             # a fresh budget per interval: persistent degeneracy must not bisect forever
             p, macs[i] = _bridge(sw, pts[-1], p, max_bisections, [max_refinements])
@@ -350,7 +405,16 @@ def campbell(
                 macs[i, poor] = 1.0
         pts.append(p)
         branches.append(book.column.copy())
-    return _result(sw, spin, formulation, pts, macs, branches, book)
+    res = _result(sw, spin, formulation, pts, macs, branches, book)
+    return replace(res, divergence=np.array([d for d in divergence if np.isfinite(d)]))
+
+
+def _new_labels(model: ReducedModel, p: _Point, free: bool, dedupe: bool = False):
+    """Branch names of the roots of ``p`` (:func:`_branch_labels`); "undefined" for every root
+    of a point that is not finite."""
+    if not p.finite:
+        return ("undefined",) * p.lam.size
+    return _branch_labels(model, p.vec.T, free, dedupe=dedupe)
 
 
 def _branch_labels(

@@ -42,8 +42,14 @@ def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str |
     axs = fig.subplots(panels, 1, sharex=True, squeeze=False)[:, 0]
     ax = axs[0]
     colours = {}
+    past = _past_divergence(result)
     for b, lab in enumerate(result.labels):
-        (line,) = ax.plot(result.spin, result.frequency[:, b], "-", lw=1.5, label=lab)
+        # branches that start beyond a divergence: dotted, out of the legend (an unstable
+        # equilibrium of another family, not a continuation of the branches before it)
+        beyond = bool(past[_starts(result)[b]])
+        (line,) = ax.plot(result.spin, result.frequency[:, b], ".:" if beyond else "-",
+                          lw=1.0 if beyond else 1.5, ms=3,
+                          label="_nolegend_" if beyond else lab)  # fmt: skip
         colours.setdefault(lab, line.get_color())
         bad = unstable[:, b]
         if bad.any():
@@ -58,6 +64,16 @@ def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str |
         j = np.searchsorted(k * result.spin, top) - 1
         if 0 <= j < result.spin.size and k * result.spin[j] > 0:
             ax.annotate(f"{k}Ω", (result.spin[j], k * result.spin[j]), fontsize=8)
+    for k, w in enumerate(result.divergence):  # every branch ends here (CampbellResult)
+        if result.spin.size and np.any(result.spin > w):
+            nxt = result.divergence[k + 1] if k + 1 < result.divergence.size else result.spin.max()
+            if past[np.searchsorted(result.spin, w)]:
+                ax.axvspan(w, nxt, color="0.5", alpha=0.12, lw=0)
+        for a in axs:
+            a.axvline(w, color="tab:red", ls="--", lw=1.0,
+                      label=f"divergence {w:.4g} rad/s" if (a is ax and k == 0) else None)  # fmt: skip
+        ax.annotate("divergence", (w, 0.97 * top), color="tab:red", fontsize=8, rotation=90,
+                    ha="right", va="top")  # fmt: skip
     ax.set_ylim(0.0, top)
     ax.set_ylabel("rotating-frame frequency (rad/s)")
     ax.grid(True, alpha=0.3)
@@ -74,6 +90,14 @@ def plot_campbell(result: CampbellResult, path=None, orders=(1, 2), title: str |
         with atomic_path(path) as tmp:
             fig.savefig(os.fspath(tmp), dpi=150)
     return fig
+
+
+def _past_divergence(result: CampbellResult) -> np.ndarray:
+    """(ns,) bool: spin rates beyond a divergence where the rotating stiffness is not positive
+    definite (the shaded part of the figure)."""
+    if result.divergence.size == 0:
+        return np.zeros(result.spin.size, bool)
+    return np.asarray(result.min_stiffness) <= 0.0
 
 
 def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
@@ -100,6 +124,9 @@ def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
                 "modal coordinates of the relative equilibrium"),
             "equilibrium_spin_axis": cf.variable(("spin", "xyz"), result.spin_axis, "1",
                                                  "spin axis of the relative equilibrium, body frame"),
+            "divergence_spin": cf.variable(("divergence",), result.divergence, "rad/s",
+                                           "spin rate where the rotating stiffness changes "
+                                           "definiteness (every branch ends there)"),
         },
         coords={
             "spin": c("spin", result.spin, "rad/s", "spin rate"),

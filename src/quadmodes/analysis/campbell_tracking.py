@@ -59,9 +59,13 @@ def mac(a: np.ndarray, b: np.ndarray, wgt: np.ndarray, disp: np.ndarray | None =
         d, v = np.asarray(disp, bool), ~np.asarray(disp, bool)
         cross = np.abs(a[d].conj().T @ wgt[np.ix_(d, d)] @ b[d])
         cross = cross + np.abs(a[v].conj().T @ wgt[np.ix_(v, v)] @ b[v])
-    na = np.einsum("ik,ij,jk->k", a.conj(), wgt, a).real
-    nb = np.einsum("ik,ij,jk->k", b.conj(), wgt, b).real
-    return cross**2 / np.maximum(np.outer(na, nb), 1e-300)
+    na = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", a.conj(), wgt, a).real, 1e-300))
+    nb = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", b.conj(), wgt, b).real, 1e-300))
+    # normalised before squaring: near a divergence the weight grows without bound and the
+    # squared overlap would overflow; a non-finite overlap is no match at all
+    with np.errstate(over="ignore", invalid="ignore"):
+        ratio = (cross / na[:, None]) / nb[None, :]
+    return np.nan_to_num(ratio**2, nan=0.0, posinf=0.0, neginf=0.0)
 
 
 def _orthonormal(vec: np.ndarray, wgt: np.ndarray) -> np.ndarray:

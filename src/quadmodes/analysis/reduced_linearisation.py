@@ -197,6 +197,11 @@ def linearise(
         jac, wgt, k, s, e_eq = _free_point(sys, model, spin, axis, damped)
     else:
         jac, wgt, k, s, e_eq = _clamped_point(sys, spin, axis, damped)
+    if not (np.isfinite(jac).all() and np.isfinite(k).all()):
+        # next to a divergence the relative equilibrium overflows: no roots there
+        m = jac.shape[0]
+        return SpinLinearisation(np.full(m, np.nan + 0j), np.full((m, m), np.nan + 0j), wgt,
+                                 np.nan, s, e_eq)  # fmt: skip
     lam, vec = np.linalg.eig(jac)
     kmin = float(np.linalg.eigvalsh(k).min()) if n else np.inf
     return SpinLinearisation(lam, vec, wgt, kmin, s, e_eq)
