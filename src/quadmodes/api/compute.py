@@ -92,7 +92,8 @@ def reduced_model(
     return reduced_model_for(_model(case), int(n_modes), progress, use_cache=cache, spin=rate)
 
 
-def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None):
+def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,
+             check_deformation: bool = True):  # fmt: skip
     """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
     spin-up (``[spinup]``).
 
@@ -105,12 +106,16 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         (``result.run.model``), so its TOML (``case_toml`` of ``results.nc``) replays it.
     model
         An already reduced model to use (else from the cache).
+    check_deformation
+        As ``quadmodes run``: set an initial modal deformation beside the FE model's condensed
+        energy before integrating (one static solve on the FE model; stage "initial deformation
+        vs the FE model"), recorded in ``result.validity`` (2 % tolerance) and the summary.
 
     Returns
     -------
     quadmodes.runs.simulate.RunResult or SpinupRun
         ``solution`` (t (nt,) s, y (nt, 7 + 2N)), ``diagnostics`` (angular momentum kg m^2/s,
-        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``;
+        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``, ``validity``;
         :func:`summary` gives what ``quadmodes run`` prints.
     """
     from quadmodes.runs import simulate as sim
@@ -118,7 +123,8 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
     run = _run(run)
     if run.spinup is not None:
         return sim.simulate_spinup(run, model, model_case=model_case)
-    return sim.simulate(run, model, progress, model_case=model_case)
+    return sim.simulate(run, model, progress, model_case=model_case,
+                        check_deformation=check_deformation)  # fmt: skip
 
 
 def results_dataset(result):
@@ -142,16 +148,24 @@ def summary(result) -> dict:
     return results.summary(ds) if hasattr(result, "diagnostics") else results.spinup_summary(ds)
 
 
-def write_results(result, folder: str | os.PathLike[str], plots: bool = True) -> dict:
-    """Write ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
-    rad/s, J, kg m^2/s, kg^0.5 m), ``summary.json`` and (if ``plots``) the PNG figures of a
-    :func:`simulate` result into ``folder`` (created); returns the summary (:func:`summary`)."""
-    from quadmodes.runs import results
+def write_results(result, folder: str | os.PathLike[str], plots: bool = True, *,
+                  extra: dict | None = None, animate: int | None = None,
+                  animate_frame: str = "inertial", note=None) -> dict:  # fmt: skip
+    """Write what ``quadmodes run`` writes for a :func:`simulate` result into ``folder``
+    (created): ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
+    rad/s, J, kg m^2/s, kg^0.5 m) and ``summary.json``, all or nothing (staged in a hidden
+    folder beside ``folder``, then moved in; figures of an earlier run there are removed), then
+    (if ``plots``) the PNG figures, with ``animate`` frames the motion (``motion.xdmf`` +
+    ``motion.h5`` in the ``animate_frame``: "inertial" or "body"), and ``report.html``.
 
-    folder = Path(folder)
-    if hasattr(result, "diagnostics"):
-        return results.write_outputs(result, folder, plots=plots)
-    return results.write_spinup_outputs(result, folder, plots=plots)
+    ``extra``: summary keys to add (e.g. ``{"dt_convergence": dt_convergence(run)}``);
+    ``note(text)``: receives the one-line notes (default: the ``logging`` module).
+    Returns the summary (:func:`summary`, with ``extra``)."""
+    from quadmodes.runs.run_folder import Animation, write_run_outputs
+
+    animation = None if animate is None else Animation(animate_frame, int(animate))
+    return write_run_outputs(result, Path(folder), extra=extra, plots=plots, animation=animation,
+                             note=note)  # fmt: skip
 
 
 def campbell(
@@ -198,24 +212,65 @@ def rotating(
 
 def compare(
     run, window: QuantityLike = "1 s", *, formulations: Sequence[str] = ("rigid", "L", "P", "Q"),
-    full_order_dt: QuantityLike | None = None, progress: Progress | None = None,
+    full_order_dt: QuantityLike | None = None, damping_cutoff: QuantityLike | None = None,
+    checkpoint: str | os.PathLike[str] | None = None, resume: bool = False,
+    checkpoint_every: int | None = None, output_dir: str | os.PathLike[str] | None = None, plots: bool = True,
+    progress: Progress | None = None,
 ):  # fmt: skip
     """Reduced formulations against the full-order finite-element transient over
-    ``[0, window]`` (a time; bare floats are s). Expensive: the full order of the paper model
-    takes minutes per simulated second.
+    ``[0, window]`` (a time; bare floats are s), as ``quadmodes compare``. Expensive: the full
+    order of the paper model takes minutes per simulated second.
+
+    Parameters
+    ----------
+    damping_cutoff
+        The full order's damping: every FE mode below this frequency (e.g. "150 Hz"; bare
+        floats are Hz; default 3 × max(spin, highest retained mode)).
+    checkpoint, resume, checkpoint_every
+        The full-order run is checkpointed into ``checkpoint`` (.npz) every
+        ``checkpoint_every`` steps (default
+        ``quadmodes.analysis.comparison_run.FULL_ORDER_CHECKPOINT_EVERY``, 500, as the CLI);
+        with ``resume`` it continues from it (bit for bit the uninterrupted run, with the same
+        ``checkpoint_every``). Without ``resume`` an existing checkpoint is discarded.
+    output_dir
+        Also write ``comparison.nc``, ``.json``, ``.csv``, the overlay PNGs (``plots``) and
+        ``report.html`` there (all or nothing for the data); the checkpoint is removed once
+        they are written.
 
     Returns
     -------
     quadmodes.analysis.compare.Comparison
         ``table``: per formulation the relative errors (1), wall time (s), speed-up (1) and the
-        secular rates; :func:`quadmodes.analysis.compare.write_comparison` writes
-        ``comparison.nc``.
-    """
-    from quadmodes.analysis.compare import compare as run_compare
+        secular rates; ``as_json()`` is ``comparison.json``.
 
+    Raises
+    ------
+    quadmodes.analysis.comparison_run.FullOrderIncomplete
+        The full order did not reach the end of the window (``interrupted``: Ctrl-C, e.g. a
+        ``progress`` callback raising KeyboardInterrupt; its ``checkpoint`` continues it with
+        ``resume=True``): it is never scored.
+    """
+    from quadmodes.analysis import comparison_run as runner
+
+    span = si(window, "time", "window")
     dt = None if full_order_dt is None else si(full_order_dt, "time", "full_order_dt")
-    return run_compare(_run(run), si(window, "time", "window"), formulations=tuple(formulations),
-                       full_order_dt=dt, progress=progress)  # fmt: skip
+    cutoff = None if damping_cutoff is None else si(damping_cutoff, "frequency", "damping_cutoff")
+    path = None if checkpoint is None else Path(checkpoint)
+    if resume and (path is None or not path.is_file()):
+        raise runner.CheckpointError(f"resume: no checkpoint at {path}; run without resume")
+    if resume:
+        runner.check_checkpoint_readable(path, option="resume", fix="start again without resume")
+    if path is not None and not resume:
+        path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
+    every = runner.FULL_ORDER_CHECKPOINT_EVERY if checkpoint_every is None else int(checkpoint_every)
+    resolved, setup = runner.prepare_comparison(_run(run), span, cutoff, progress)
+    result = runner.run_comparison(resolved, span, formulations=tuple(formulations),
+                                   full_order_dt=dt, setup=setup, checkpoint=path, resume=resume,
+                                   checkpoint_every=every, progress=progress)  # fmt: skip
+    if output_dir is not None:
+        runner.write_comparison_outputs(result, Path(output_dir), plots=plots, setup=setup,
+                                        checkpoint=path)  # fmt: skip
+    return result
 
 
 def calibrate(

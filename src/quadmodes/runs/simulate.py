@@ -231,12 +231,14 @@ def simulate(
     *,
     model_case: Case | None = None,
     max_chunks: int = MAX_CHUNKS,
+    check_deformation: bool = False,
 ) -> RunResult:
-    """:func:`prepare` and :func:`execute` ``run`` (reduced model from the cache unless
-    ``model`` is given). Raises :class:`CaseError` for bad inputs only; an integrator failure
-    gives a result with ``complete`` False; Ctrl-C raises
-    :class:`~quadmodes.runs.chunked.Interrupted`."""
-    setup = prepare(run, model, progress, model_case=model_case)
+    """:func:`prepare` (with ``check_deformation``, as ``quadmodes run``) and :func:`execute`
+    ``run`` (reduced model from the cache unless ``model`` is given). Raises
+    :class:`CaseError` for bad inputs only; an integrator failure gives a result with
+    ``complete`` False; Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted`."""
+    setup = prepare(run, model, progress, model_case=model_case,
+                    check_deformation=check_deformation)  # fmt: skip
     return execute(setup, progress, max_chunks)
 
 
