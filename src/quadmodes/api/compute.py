@@ -231,7 +231,8 @@ def compare(
         ``checkpoint_every`` steps (default
         ``quadmodes.analysis.comparison_run.FULL_ORDER_CHECKPOINT_EVERY``, 500, as the CLI);
         with ``resume`` it continues from it (bit for bit the uninterrupted run, with the same
-        ``checkpoint_every``). Without ``resume`` an existing checkpoint is discarded.
+        ``checkpoint_every``). Without ``resume`` an existing checkpoint is discarded; a
+        complete comparison removes it.
     output_dir
         Also write ``comparison.nc``, ``.json``, ``.csv``, the overlay PNGs (``plots``) and
         ``report.html`` there (all or nothing for the data); the checkpoint is removed once
@@ -267,9 +268,11 @@ def compare(
     result = runner.run_comparison(resolved, span, formulations=tuple(formulations),
                                    full_order_dt=dt, setup=setup, checkpoint=path, resume=resume,
                                    checkpoint_every=every, progress=progress)  # fmt: skip
-    if output_dir is not None:
+    if output_dir is not None:  # the checkpoint is removed once the data are written
         runner.write_comparison_outputs(result, Path(output_dir), plots=plots, setup=setup,
                                         checkpoint=path)  # fmt: skip
+    elif path is not None:  # complete: nothing left to resume
+        path.unlink(missing_ok=True)
     return result
 
 
