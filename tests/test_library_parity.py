@@ -115,3 +115,14 @@ def test_compare_resume_needs_a_checkpoint(tmp_path):
     with pytest.raises(ValueError) as info:  # one line, as every user error
         qm.compare("paper-41hz-coarse", "0.2 s", checkpoint=tmp_path / "none.npz", resume=True)
     assert "no checkpoint" in str(info.value)
+
+
+def test_modal_model_writes_the_files_of_the_modes_command(workdir):  # noqa: F811
+    case = workdir / "small.toml"
+    cli = CliRunner().invoke(app, ["modes", str(case), "-o", str(workdir / "cli"), "--json"])
+    assert cli.exit_code == 0, cli.output
+    model = qm.modal_model(case, output_dir=workdir / "api")
+    assert _files(workdir / "api") == _files(workdir / "cli")
+    assert {"mesh.vtu", "modes", "modes.json", "modes.png"} <= set(_files(workdir / "api"))
+    summary = json.loads((workdir / "api" / "modes.json").read_text())
+    assert summary == json.loads(cli.stdout) == json.loads(json.dumps(qm.modes_summary(model)))

@@ -37,13 +37,18 @@ def _run(run: RunCase | str | os.PathLike[str]) -> RunCase:
     return loaded
 
 
-def modal_model(case, progress: Progress | None = None):
+def modal_model(case, progress: Progress | None = None, *,
+                output_dir: str | os.PathLike[str] | None = None):  # fmt: skip
     """Mesh, finite-element structure, inflated (prestressed) state and free-free modes.
 
     Parameters
     ----------
     case : Case, str or path
         Model case (or a run case: its model).
+    output_dir
+        Also write what ``quadmodes modes -o DIR`` writes there, all or nothing: ``mesh.vtu``,
+        ``modes/`` (a PVD series per mode, ParaView), PNG pictures of the mesh, the prestress and every mode, and
+        ``modes.json`` (:func:`modes_summary`).
 
     Returns
     -------
@@ -52,9 +57,15 @@ def modal_model(case, progress: Progress | None = None):
         and ``modes.shapes`` (N, n, 3) mass-normalised (kg^-0.5); ``labels`` (N,).
         :func:`modes_summary` gives what ``quadmodes modes`` prints.
     """
+    from quadmodes.io.staging import staged_output
+    from quadmodes.structure.modal_files import write_modal_outputs
     from quadmodes.structure.pipeline import build_modal_model
 
-    return build_modal_model(_model(case), progress)
+    model = build_modal_model(_model(case), progress)
+    if output_dir is not None:
+        with staged_output(Path(output_dir)) as scratch:
+            write_modal_outputs(model, scratch)
+    return model
 
 
 def modes_summary(modal) -> dict:
