@@ -15,7 +15,6 @@ from test_run import workdir  # noqa: F401  (fixture)
 from typer.testing import CliRunner
 
 import quadmodes as qm
-from quadmodes.analysis.comparison_run import FullOrderIncomplete
 from quadmodes.cli.app import app
 from quadmodes.runs import results as res
 
@@ -81,7 +80,7 @@ def test_compare_reports_an_interrupted_full_order_incomplete_and_resumes_it(wor
         if stage == "full order" and checkpoint.is_file():
             raise KeyboardInterrupt
 
-    with pytest.raises(FullOrderIncomplete) as stopped:
+    with pytest.raises(qm.FullOrderIncomplete) as stopped:
         qm.compare(run, "0.012 s", checkpoint=checkpoint, progress=interrupt_after_a_checkpoint,
                    **COMPARE)  # fmt: skip
     assert stopped.value.interrupted and stopped.value.checkpoint == checkpoint
@@ -106,7 +105,7 @@ def test_compare_never_scores_a_full_order_that_stopped_early(monkeypatch):
     stopped = types.SimpleNamespace(status=1, message="diverged at t = 0.1 s")
     monkeypatch.setattr(fullorder, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
     monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: stopped)
-    with pytest.raises(FullOrderIncomplete, match="nothing is scored") as info:
+    with pytest.raises(qm.FullOrderIncomplete, match="nothing is scored") as info:
         qm.compare("paper-41hz-coarse", "0.2 s", formulations=("rigid",))
     assert not info.value.interrupted and info.value.reason == "diverged at t = 0.1 s"
 
