@@ -181,26 +181,37 @@ def write_results(result, folder: str | os.PathLike[str], plots: bool = True, *,
 
 def campbell(
     case, spin_min: QuantityLike = 0.0, spin_max: QuantityLike = "10 rad/s", points: int = 41,
-    *, formulation: str = "Q", output_dir: str | os.PathLike[str] | None = None,
-    progress: Progress | None = None,
+    *, formulation: str = "Q", axis=None, full_order: Sequence[QuantityLike] = (),
+    output_dir: str | os.PathLike[str] | None = None, progress: Progress | None = None,
 ):  # fmt: skip
     """Frequencies of the reduced model linearised about steady spin at ``points`` spin rates
     from ``spin_min`` to ``spin_max`` (quantities, e.g. "20 Hz"; bare floats are rad/s),
     tracked by MAC (what ``quadmodes campbell`` prints).
+
+    ``axis``: the body-frame spin axis, as ``--axis``: None (a free body: its symmetry axis; a
+    clamped body: z), a name ("x", "minor" ...), a principal index 0-2 or a vector (3,).
+    ``full_order``: spin rates (quantities; bare floats rad/s) at which the full-order model is
+    linearised about its spinning equilibrium, its roots drawn as markers (``--full-order``).
 
     Returns
     -------
     quadmodes.analysis.campbell.CampbellResult
         ``spin`` (ns,) rad/s, ``labels`` (nb,), ``frequency`` (ns, nb) rad/s (rotating frame),
         ``growth`` (ns, nb) 1/s, ``min_stiffness`` (ns,) 1/s^2. With ``output_dir``
-        campbell.png/.nc/.csv are written there.
+        campbell.png/.nc/.csv are written there (all or nothing), as ``campbell -o``.
     """
-    from quadmodes.analysis.campbell_output import campbell_main
+    from quadmodes.analysis.campbell_output import campbell_with_full_order
+    from quadmodes.io.staging import staged_output
 
     lo = si(spin_min, "angular_rate", "spin_min")
     hi = si(spin_max, "angular_rate", "spin_max")
-    result, _ = campbell_main(_model(case), lo, hi, int(points), formulation=formulation,
-                              output_dir=output_dir, progress=progress)  # fmt: skip
+    spins = [si(v, "angular_rate", "full_order") for v in full_order]
+    folder = None if output_dir is None else Path(output_dir)
+    with staged_output(folder) as scratch:
+        result, _, _ = campbell_with_full_order(
+            _model(case), lo, hi, int(points), axis=axis, formulation=formulation,
+            output_dir=scratch, progress=progress, full_order_spins=spins,
+        )  # fmt: skip
     return result
 
 
