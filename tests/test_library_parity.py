@@ -125,3 +125,37 @@ def test_modal_model_writes_the_files_of_the_modes_command(workdir):  # noqa: F8
     assert {"mesh.vtu", "modes", "modes.json", "modes.png"} <= set(_files(workdir / "api"))
     summary = json.loads((workdir / "api" / "modes.json").read_text())
     assert summary == json.loads(cli.stdout) == json.loads(json.dumps(qm.modes_summary(model)))
+
+
+def test_a_compare_resolves_auto_modes_once(tmp_path, monkeypatch):
+    """``reduced.modes = "auto"`` (paper-41hz-coarse) is resolved from the spectrum once per
+    comparison: for the reduced runs and the full order alike (full order faked by the Q run)."""
+    from test_compare import _reduced_as_reference
+
+    from quadmodes import fullorder
+    from quadmodes.runs import mode_choice, simulate
+
+    calls = []
+    real = mode_choice.covering_spectrum
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return real(*args, **kwargs)
+
+    def setup_for_run(run, **kwargs):  # the real one prepares the reduced run first
+        simulate.prepare(run)
+        return types.SimpleNamespace(notes=())
+
+    monkeypatch.setattr(mode_choice, "covering_spectrum", counted)
+    monkeypatch.setattr(fullorder, "setup_for_run", setup_for_run)
+    monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
+    monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
+    args = ["compare", "paper-41hz-coarse", "--window", "0.05 s", "--formulations", "rigid,Q",
+            "--no-plots", "--json", "-o", str(tmp_path / "cmp")]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert len(calls) == 1
+    assert isinstance(json.loads(result.stdout)["reduced_model"]["modes"], int)
+    calls.clear()
+    qm.compare("paper-41hz-coarse", "0.05 s", formulations=("Q",))
+    assert len(calls) == 1
