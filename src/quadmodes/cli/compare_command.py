@@ -100,8 +100,11 @@ def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
     an existing one is discarded only with --restart (else a one-line error)."""
     from quadmodes.analysis.comparison_run import check_checkpoint, checkpoint_beside
 
+    def discarded(text: str) -> None:
+        err.print(escape(text), highlight=False)
+
     return check_checkpoint(checkpoint_beside(target), resume=resume, restart=restart,
-                            note=print_note)  # fmt: skip
+                            note=discarded)  # fmt: skip
 
 
 def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: bool) -> None:
