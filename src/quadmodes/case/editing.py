@@ -11,9 +11,9 @@ reported with the case's own one-line message, prefixed by ``source`` (where the
 from: "command line", "--param", "run_case").
 
 Provenance: the edited case is rebuilt from the case's own TOML (``case.to_toml()``, which
-embeds a model built in Python), and an edited run case keeps the very model object it ran
-(``run.model``: a name, a path or an embedded :class:`~quadmodes.case.Case`), so its TOML
-replays the same model.
+embeds a model built in Python), and an edited run case keeps the model it names
+(``run.model``: a name, a path or an embedded :class:`~quadmodes.case.Case`, passed on as it
+is rather than read back from its TOML), so its TOML replays the same model.
 """
 
 from __future__ import annotations
