@@ -159,3 +159,27 @@ def test_a_compare_resolves_auto_modes_once(tmp_path, monkeypatch):
     calls.clear()
     qm.compare("paper-41hz-coarse", "0.05 s", formulations=("Q",))
     assert len(calls) == 1
+
+
+def test_simulate_checkpoints_and_resumes_bit_for_bit(workdir):  # noqa: F811
+    """As ``run --resume``: Ctrl-C (a progress callback raising KeyboardInterrupt after the
+    first checkpoint) stops with the partial result; resuming gives the uninterrupted numbers."""
+    from quadmodes.runs.chunked import Interrupted
+
+    run = qm.load(workdir / "small-run.toml")
+    checkpoint = workdir / "run.npz"
+
+    def interrupt_after_a_checkpoint(stage: str, fraction: float) -> None:
+        if stage == run.name and checkpoint.is_file():
+            raise KeyboardInterrupt
+
+    with pytest.raises(Interrupted) as stopped:
+        qm.simulate(run, checkpoint=checkpoint, checkpoint_every=0,
+                    progress=interrupt_after_a_checkpoint)  # fmt: skip
+    assert stopped.value.saved and not stopped.value.partial.complete and checkpoint.is_file()
+    resumed = qm.simulate(run, checkpoint=checkpoint, resume=True, checkpoint_every=0)
+    assert resumed.complete and not checkpoint.exists()
+    whole = qm.simulate(run)
+    assert np.array_equal(resumed.solution.t, whole.solution.t)
+    assert np.array_equal(resumed.solution.y, whole.solution.y)
+    assert np.array_equal(resumed.diagnostics.E_d, whole.diagnostics.E_d)

@@ -104,7 +104,8 @@ def reduced_model(
 
 
 def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,
-             check_deformation: bool = True):  # fmt: skip
+             check_deformation: bool = True, checkpoint: str | os.PathLike[str] | None = None,
+             resume: bool = False, checkpoint_every: QuantityLike = "10 s"):  # fmt: skip
     """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
     spin-up (``[spinup]``).
 
@@ -121,6 +122,14 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         As ``quadmodes run``: set an initial modal deformation beside the FE model's condensed
         energy before integrating (one static solve on the FE model; stage "initial deformation
         vs the FE model"), recorded in ``result.validity`` (2 % tolerance) and the summary.
+    checkpoint, resume, checkpoint_every
+        A free-body run is checkpointed into ``checkpoint`` (.npz) after the chunk that ends
+        ``checkpoint_every`` of wall time (a time, e.g. "10 s"; 0: every chunk) and on Ctrl-C,
+        as ``quadmodes run``; with ``resume`` it continues from it, bit for bit the
+        uninterrupted run (a checkpoint of another run is refused). Without ``resume`` an
+        existing checkpoint is discarded; a finished run removes it. Ctrl-C (or a ``progress``
+        callback raising KeyboardInterrupt) raises :class:`quadmodes.runs.chunked.Interrupted`
+        (a KeyboardInterrupt) whose ``partial`` is the result so far (``complete`` False).
 
     Returns
     -------
@@ -134,8 +143,30 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
     run = _run(run)
     if run.spinup is not None:
         return sim.simulate_spinup(run, model, model_case=model_case)
-    return sim.simulate(run, model, progress, model_case=model_case,
+    if checkpoint is None:
+        return sim.simulate(run, model, progress, model_case=model_case,
+                            check_deformation=check_deformation)  # fmt: skip
+    return _checkpointed(run, model, progress, model_case, check_deformation, Path(checkpoint),
+                         resume, si(checkpoint_every, "time", "checkpoint_every"))  # fmt: skip
+
+
+def _checkpointed(run, model, progress, model_case, check_deformation, path: Path, resume: bool,
+                  every_s: float):  # fmt: skip
+    """:func:`simulate` of a free-body run checkpointed into ``path`` (see there)."""
+    from quadmodes.runs import simulate as sim
+    from quadmodes.runs.run_checkpoint import CheckpointError, RunCheckpoint
+
+    if resume and not path.is_file():
+        raise CheckpointError(f"resume: no checkpoint at {path}; run without resume")
+    if not resume:
+        path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
+    setup = sim.prepare(run, model, progress, model_case=model_case,
                         check_deformation=check_deformation)  # fmt: skip
+    start = RunCheckpoint(path, setup).load() if resume else None
+    result = sim.execute(setup, progress, checkpoint=RunCheckpoint(path, setup, every_s),
+                         resume=start)  # fmt: skip
+    path.unlink(missing_ok=True)  # finished: nothing left to resume
+    return result
 
 
 def results_dataset(result):
