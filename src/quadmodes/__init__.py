@@ -7,7 +7,7 @@ The public Python API (``quadmodes.__all__``, reference in docs/api.md)::
     body = qm.model_case("paper-membrane-coarse", pressure={"value": "0.4 psi"})
     run = qm.run_case("paper-41hz", model=body, integration={"duration": "0.1 s"})
     result = qm.simulate(run)            # free-body run (or a [spinup])
-    qm.write_results(result, "out/my-run")  # results.nc (CF), summary.json, PNGs
+    qm.write_results(result, "out/my-run")  # results.nc (CF), summary.json, PNGs, report.html
     qm.summary(result)["cone_angle_end_deg"]
 
 Quantities are accepted as strings ("0.3 psi"), pint quantities or SI floats; cases are
@@ -27,10 +27,12 @@ import importlib
 
 from quadmodes._version import __version__
 
-#: The public API: functions of :mod:`quadmodes.api` and the case types of :mod:`quadmodes.case`.
+#: The public API: functions of :mod:`quadmodes.api`, the case types of :mod:`quadmodes.case`
+#: and the exceptions the functions document (docs/api.md: what is public and stable).
 __all__ = [
     "Case",
     "CaseError",
+    "FullOrderIncomplete",
     "QuantityError",
     "RunCase",
     "__version__",
@@ -64,6 +66,8 @@ __all__ = [
 
 _FROM_CASE = {"Case", "CaseError", "QuantityError", "RunCase", "case_to_toml", "format_quantity",
               "parse_quantity", "run_case_to_toml"}  # fmt: skip
+#: Exceptions of the API's functions, from the modules that raise them.
+_ERRORS = {"FullOrderIncomplete": "quadmodes.analysis.comparison_run"}
 
 
 def __getattr__(name: str):
@@ -72,6 +76,8 @@ def __getattr__(name: str):
         return importlib.import_module("quadmodes.case.units").ureg
     if name in _FROM_CASE:
         return getattr(importlib.import_module("quadmodes.case"), name)
+    if name in _ERRORS:
+        return getattr(importlib.import_module(_ERRORS[name]), name)
     if name in __all__:
         return getattr(importlib.import_module("quadmodes.api"), name)
     raise AttributeError(f"module 'quadmodes' has no attribute {name!r}")

@@ -250,15 +250,14 @@ def window_run(run, window: float, formulation: str | None = None):
 
 
 def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None):
-    """Reduced runs of ``run`` per formulation: ``({name: RunResult}, reduce_wall_s)``.
+    """Reduced runs of ``run`` (its modes resolved: a whole ``reduced.modes``, as
+    :func:`compare` gives it) per formulation: ``({name: RunResult}, reduce_wall_s)``.
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
     from quadmodes.models.build import reduced_model_for
     from quadmodes.rom import integrators
     from quadmodes.runs import simulate
-    from quadmodes.runs.mode_choice import resolve_modes
 
-    run, _ = resolve_modes(run, progress=progress)  # reduced.modes = "auto" → N
     kernel = integrators.numba_kernel()
     if kernel is not None:  # load the compiled kernel before any timing
         kernel.warm_up()
@@ -299,7 +298,9 @@ def compare(
         raise ValueError("--window: must be a positive duration, e.g. \"1 s\"")
     from quadmodes.runs.mode_choice import resolve_modes
 
-    run, _ = resolve_modes(window_run(run, window), progress=progress)  # "auto" → N modes
+    # "auto" → N modes, once for the reduced runs and the full order (a resolved run, e.g. from
+    # quadmodes.analysis.comparison_run.prepare_comparison, is kept as it is)
+    run, _ = resolve_modes(window_run(run, window), progress=progress)
     dt_full = float(full_order_dt or run.integration.dt)
     roms, reduce_wall = run_reduced(run, formulations, progress)
     if full_order is None:

@@ -2,27 +2,20 @@
 keyword arguments, with quantities given as strings ("0.3 psi"), pint quantities or SI floats;
 validated changes of a case; saving a case as TOML.
 
-Every function validates like a case file (:mod:`quadmodes.case`) and raises
+Every function validates like a case file (:mod:`quadmodes.case`; the changes go through
+:mod:`quadmodes.case.editing`, as the command line's and the sweeps' do) and raises
 :class:`~quadmodes.case.CaseError` (one line naming the field and the fix).
 """
 
 from __future__ import annotations
 
 import os
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from quadmodes.case import (
-    Case,
-    CaseError,
-    RunCase,
-    case_from_dict,
-    load_case,
-    load_run_case,
-    run_case_from_dict,
-)
+from quadmodes.case import Case, CaseError, RunCase, load_case, load_run_case
+from quadmodes.case.editing import case_table, merge, nested, validated
 from quadmodes.case.fields import input_table
 from quadmodes.io.atomic import write_text
 
@@ -30,42 +23,15 @@ CaseSource = str | os.PathLike[str] | Mapping[str, Any] | Case | None
 RunSource = str | os.PathLike[str] | Mapping[str, Any] | RunCase | None
 
 
-def _nested(changes: Mapping[str, Any]) -> dict[str, Any]:
-    """``changes`` with dotted keys (``"pressure.value"``) turned into nested dicts."""
-    out: dict[str, Any] = {}
-    for key, value in changes.items():
-        *parents, last = str(key).split(".")
-        table = out
-        for name in parents:
-            table = table.setdefault(name, {})
-        if isinstance(value, Mapping) and isinstance(table.get(last), dict):
-            table[last] = _merge(table[last], value)
-        else:
-            table[last] = dict(value) if isinstance(value, Mapping) else value
-    return out
-
-
-def _merge(base: dict[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
-    """``base`` with ``changes`` merged in, table by table (a nested dict updates a table; any
-    other value, e.g. a list of ``end_body`` tables or a :class:`Case`, replaces it)."""
-    merged = dict(base)
-    for key, value in _nested(changes).items():
-        if isinstance(value, dict) and isinstance(merged.get(key), dict):
-            merged[key] = _merge(merged[key], value)
-        else:
-            merged[key] = value
-    return merged
-
-
 def _table(source: Any, kind: type) -> dict[str, Any]:
     """The TOML table of ``source`` (a case of ``kind``, a mapping, or a name or path)."""
     if source is None:
         return {}
     if isinstance(source, Mapping):
-        return _nested(source)
+        return nested(source)
     if not isinstance(source, kind):
         source = load_run_case(source) if kind is RunCase else load_case(source)
-    return tomllib.loads(source.to_toml())
+    return case_table(source)
 
 
 def model_case(source: CaseSource = None, /, **tables: Any) -> Case:
@@ -90,8 +56,8 @@ def model_case(source: CaseSource = None, /, **tables: Any) -> Case:
     Case
         Frozen, SI floats inside; ``case.to_toml()`` is its TOML text.
     """
-    data = _merge(_table(source, Case), tables)
-    return case_from_dict(input_table(Case, data), source="model_case")
+    data = merge(_table(source, Case), tables)
+    return validated(Case, input_table(Case, data), "model_case")
 
 
 def run_case(source: RunSource = None, /, *, model: CaseSource = None, **tables: Any) -> RunCase:
@@ -113,12 +79,12 @@ def run_case(source: RunSource = None, /, *, model: CaseSource = None, **tables:
     RunCase
         Frozen, SI floats inside; ``run.to_toml()`` is its TOML text.
     """
-    data = _merge(_table(source, RunCase), tables)
+    data = merge(_table(source, RunCase), tables)
     if model is not None:
         path_or_name = isinstance(model, (str, os.PathLike))
         data["model"] = os.fspath(model) if path_or_name else model_case(model)
     data.setdefault("kind", "run")
-    return run_case_from_dict(input_table(RunCase, data), source="run_case")
+    return validated(RunCase, input_table(RunCase, data), "run_case")
 
 
 def changed(case: Case | RunCase, /, **tables: Any) -> Case | RunCase:

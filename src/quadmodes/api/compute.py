@@ -37,13 +37,18 @@ def _run(run: RunCase | str | os.PathLike[str]) -> RunCase:
     return loaded
 
 
-def modal_model(case, progress: Progress | None = None):
+def modal_model(case, progress: Progress | None = None, *,
+                output_dir: str | os.PathLike[str] | None = None):  # fmt: skip
     """Mesh, finite-element structure, inflated (prestressed) state and free-free modes.
 
     Parameters
     ----------
     case : Case, str or path
         Model case (or a run case: its model).
+    output_dir
+        Also write what ``quadmodes modes -o DIR`` writes there, all or nothing: ``mesh.vtu``,
+        ``modes/`` (a PVD series per mode, ParaView), PNG pictures of the mesh, the prestress and every mode, and
+        ``modes.json`` (:func:`modes_summary`).
 
     Returns
     -------
@@ -52,9 +57,15 @@ def modal_model(case, progress: Progress | None = None):
         and ``modes.shapes`` (N, n, 3) mass-normalised (kg^-0.5); ``labels`` (N,).
         :func:`modes_summary` gives what ``quadmodes modes`` prints.
     """
+    from quadmodes.io.staging import staged_output
+    from quadmodes.structure.modal_files import write_modal_outputs
     from quadmodes.structure.pipeline import build_modal_model
 
-    return build_modal_model(_model(case), progress)
+    model = build_modal_model(_model(case), progress)
+    if output_dir is not None:
+        with staged_output(Path(output_dir)) as scratch:
+            write_modal_outputs(model, scratch)
+    return model
 
 
 def modes_summary(modal) -> dict:
@@ -92,7 +103,9 @@ def reduced_model(
     return reduced_model_for(_model(case), int(n_modes), progress, use_cache=cache, spin=rate)
 
 
-def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None):
+def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,
+             check_deformation: bool = True, checkpoint: str | os.PathLike[str] | None = None,
+             resume: bool = False, checkpoint_every: QuantityLike = "10 s"):  # fmt: skip
     """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
     spin-up (``[spinup]``).
 
@@ -105,12 +118,24 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         (``result.run.model``), so its TOML (``case_toml`` of ``results.nc``) replays it.
     model
         An already reduced model to use (else from the cache).
+    check_deformation
+        As ``quadmodes run``: set an initial modal deformation beside the FE model's condensed
+        energy before integrating (one static solve on the FE model; stage "initial deformation
+        vs the FE model"), recorded in ``result.validity`` (2 % tolerance) and the summary.
+    checkpoint, resume, checkpoint_every
+        A free-body run is checkpointed into ``checkpoint`` (.npz) after the chunk that ends
+        ``checkpoint_every`` of wall time (a time, e.g. "10 s"; 0: every chunk) and on Ctrl-C,
+        as ``quadmodes run``; with ``resume`` it continues from it, bit for bit the
+        uninterrupted run (a checkpoint of another run is refused). Without ``resume`` an
+        existing checkpoint is discarded; a finished run removes it. Ctrl-C (or a ``progress``
+        callback raising KeyboardInterrupt) raises :class:`quadmodes.runs.chunked.Interrupted`
+        (a KeyboardInterrupt) whose ``partial`` is the result so far (``complete`` False).
 
     Returns
     -------
     quadmodes.runs.simulate.RunResult or SpinupRun
         ``solution`` (t (nt,) s, y (nt, 7 + 2N)), ``diagnostics`` (angular momentum kg m^2/s,
-        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``;
+        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``, ``validity``;
         :func:`summary` gives what ``quadmodes run`` prints.
     """
     from quadmodes.runs import simulate as sim
@@ -118,7 +143,30 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
     run = _run(run)
     if run.spinup is not None:
         return sim.simulate_spinup(run, model, model_case=model_case)
-    return sim.simulate(run, model, progress, model_case=model_case)
+    if checkpoint is None:
+        return sim.simulate(run, model, progress, model_case=model_case,
+                            check_deformation=check_deformation)  # fmt: skip
+    return _checkpointed(run, model, progress, model_case, check_deformation, Path(checkpoint),
+                         resume, si(checkpoint_every, "time", "checkpoint_every"))  # fmt: skip
+
+
+def _checkpointed(run, model, progress, model_case, check_deformation, path: Path, resume: bool,
+                  every_s: float):  # fmt: skip
+    """:func:`simulate` of a free-body run checkpointed into ``path`` (see there)."""
+    from quadmodes.runs import simulate as sim
+    from quadmodes.runs.run_checkpoint import CheckpointError, RunCheckpoint
+
+    if resume and not path.is_file():
+        raise CheckpointError(f"resume: no checkpoint at {path}; run without resume")
+    if not resume:
+        path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
+    setup = sim.prepare(run, model, progress, model_case=model_case,
+                        check_deformation=check_deformation)  # fmt: skip
+    start = RunCheckpoint(path, setup).load() if resume else None
+    result = sim.execute(setup, progress, checkpoint=RunCheckpoint(path, setup, every_s),
+                         resume=start)  # fmt: skip
+    path.unlink(missing_ok=True)  # finished: nothing left to resume
+    return result
 
 
 def results_dataset(result):
@@ -142,40 +190,59 @@ def summary(result) -> dict:
     return results.summary(ds) if hasattr(result, "diagnostics") else results.spinup_summary(ds)
 
 
-def write_results(result, folder: str | os.PathLike[str], plots: bool = True) -> dict:
-    """Write ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
-    rad/s, J, kg m^2/s, kg^0.5 m), ``summary.json`` and (if ``plots``) the PNG figures of a
-    :func:`simulate` result into ``folder`` (created); returns the summary (:func:`summary`)."""
-    from quadmodes.runs import results
+def write_results(result, folder: str | os.PathLike[str], plots: bool = True, *,
+                  extra: dict | None = None, animate: int | None = None,
+                  animate_frame: str = "inertial", note=None) -> dict:  # fmt: skip
+    """Write what ``quadmodes run`` writes for a :func:`simulate` result into ``folder``
+    (created): ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
+    rad/s, J, kg m^2/s, kg^0.5 m) and ``summary.json``, all or nothing (staged in a hidden
+    folder beside ``folder``, then moved in; figures of an earlier run there are removed), then
+    (if ``plots``) the PNG figures, with ``animate`` frames the motion (``motion.xdmf`` +
+    ``motion.h5`` in the ``animate_frame``: "inertial" or "body"), and ``report.html``.
 
-    folder = Path(folder)
-    if hasattr(result, "diagnostics"):
-        return results.write_outputs(result, folder, plots=plots)
-    return results.write_spinup_outputs(result, folder, plots=plots)
+    ``extra``: summary keys to add (e.g. ``{"dt_convergence": dt_convergence(run)}``);
+    ``note(text)``: receives the one-line notes (default: the ``logging`` module).
+    Returns the summary (:func:`summary`, with ``extra``)."""
+    from quadmodes.runs.run_folder import Animation, write_run_outputs
+
+    animation = None if animate is None else Animation(animate_frame, int(animate))
+    return write_run_outputs(result, Path(folder), extra=extra, plots=plots, animation=animation,
+                             note=note)  # fmt: skip
 
 
 def campbell(
     case, spin_min: QuantityLike = 0.0, spin_max: QuantityLike = "10 rad/s", points: int = 41,
-    *, formulation: str = "Q", output_dir: str | os.PathLike[str] | None = None,
-    progress: Progress | None = None,
+    *, formulation: str = "Q", axis=None, full_order: Sequence[QuantityLike] = (),
+    output_dir: str | os.PathLike[str] | None = None, progress: Progress | None = None,
 ):  # fmt: skip
     """Frequencies of the reduced model linearised about steady spin at ``points`` spin rates
     from ``spin_min`` to ``spin_max`` (quantities, e.g. "20 Hz"; bare floats are rad/s),
     tracked by MAC (what ``quadmodes campbell`` prints).
+
+    ``axis``: the body-frame spin axis, as ``--axis``: None (a free body: its symmetry axis; a
+    clamped body: z), a name ("x", "minor" ...), a principal index 0-2 or a vector (3,).
+    ``full_order``: spin rates (quantities; bare floats rad/s) at which the full-order model is
+    linearised about its spinning equilibrium, its roots drawn as markers (``--full-order``).
 
     Returns
     -------
     quadmodes.analysis.campbell.CampbellResult
         ``spin`` (ns,) rad/s, ``labels`` (nb,), ``frequency`` (ns, nb) rad/s (rotating frame),
         ``growth`` (ns, nb) 1/s, ``min_stiffness`` (ns,) 1/s^2. With ``output_dir``
-        campbell.png/.nc/.csv are written there.
+        campbell.png/.nc/.csv are written there (all or nothing), as ``campbell -o``.
     """
-    from quadmodes.analysis.campbell_output import campbell_main
+    from quadmodes.analysis.campbell_output import campbell_with_full_order
+    from quadmodes.io.staging import staged_output
 
     lo = si(spin_min, "angular_rate", "spin_min")
     hi = si(spin_max, "angular_rate", "spin_max")
-    result, _ = campbell_main(_model(case), lo, hi, int(points), formulation=formulation,
-                              output_dir=output_dir, progress=progress)  # fmt: skip
+    spins = [si(v, "angular_rate", "full_order") for v in full_order]
+    folder = None if output_dir is None else Path(output_dir)
+    with staged_output(folder) as scratch:
+        result, _, _ = campbell_with_full_order(
+            _model(case), lo, hi, int(points), axis=axis, formulation=formulation,
+            output_dir=scratch, progress=progress, full_order_spins=spins,
+        )  # fmt: skip
     return result
 
 
@@ -198,24 +265,68 @@ def rotating(
 
 def compare(
     run, window: QuantityLike = "1 s", *, formulations: Sequence[str] = ("rigid", "L", "P", "Q"),
-    full_order_dt: QuantityLike | None = None, progress: Progress | None = None,
+    full_order_dt: QuantityLike | None = None, damping_cutoff: QuantityLike | None = None,
+    checkpoint: str | os.PathLike[str] | None = None, resume: bool = False,
+    checkpoint_every: int | None = None, output_dir: str | os.PathLike[str] | None = None, plots: bool = True,
+    progress: Progress | None = None,
 ):  # fmt: skip
     """Reduced formulations against the full-order finite-element transient over
-    ``[0, window]`` (a time; bare floats are s). Expensive: the full order of the paper model
-    takes minutes per simulated second.
+    ``[0, window]`` (a time; bare floats are s), as ``quadmodes compare``. Expensive: the full
+    order of the paper model takes minutes per simulated second.
+
+    Parameters
+    ----------
+    damping_cutoff
+        The full order's damping: every FE mode below this frequency (e.g. "150 Hz"; bare
+        floats are Hz; default 3 × max(spin, highest retained mode)).
+    checkpoint, resume, checkpoint_every
+        The full-order run is checkpointed into ``checkpoint`` (.npz) every
+        ``checkpoint_every`` steps (default
+        ``quadmodes.analysis.comparison_run.FULL_ORDER_CHECKPOINT_EVERY``, 500, as the CLI);
+        with ``resume`` it continues from it (bit for bit the uninterrupted run, with the same
+        ``checkpoint_every``). Without ``resume`` an existing checkpoint is discarded; a
+        complete comparison removes it.
+    output_dir
+        Also write ``comparison.nc``, ``.json``, ``.csv``, the overlay PNGs (``plots``) and
+        ``report.html`` there (all or nothing for the data); the checkpoint is removed once
+        they are written.
 
     Returns
     -------
     quadmodes.analysis.compare.Comparison
         ``table``: per formulation the relative errors (1), wall time (s), speed-up (1) and the
-        secular rates; :func:`quadmodes.analysis.compare.write_comparison` writes
-        ``comparison.nc``.
-    """
-    from quadmodes.analysis.compare import compare as run_compare
+        secular rates; ``as_json()`` is ``comparison.json``.
 
+    Raises
+    ------
+    quadmodes.analysis.comparison_run.FullOrderIncomplete
+        The full order did not reach the end of the window (``interrupted``: Ctrl-C, e.g. a
+        ``progress`` callback raising KeyboardInterrupt; its ``checkpoint`` continues it with
+        ``resume=True``): it is never scored.
+    """
+    from quadmodes.analysis import comparison_run as runner
+
+    span = si(window, "time", "window")
     dt = None if full_order_dt is None else si(full_order_dt, "time", "full_order_dt")
-    return run_compare(_run(run), si(window, "time", "window"), formulations=tuple(formulations),
-                       full_order_dt=dt, progress=progress)  # fmt: skip
+    cutoff = None if damping_cutoff is None else si(damping_cutoff, "frequency", "damping_cutoff")
+    path = None if checkpoint is None else Path(checkpoint)
+    if resume and (path is None or not path.is_file()):
+        raise runner.CheckpointError(f"resume: no checkpoint at {path}; run without resume")
+    if resume:
+        runner.check_checkpoint_readable(path, option="resume", fix="start again without resume")
+    if path is not None and not resume:
+        path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
+    every = runner.FULL_ORDER_CHECKPOINT_EVERY if checkpoint_every is None else int(checkpoint_every)
+    resolved, setup = runner.prepare_comparison(_run(run), span, cutoff, progress)
+    result = runner.run_comparison(resolved, span, formulations=tuple(formulations),
+                                   full_order_dt=dt, setup=setup, checkpoint=path, resume=resume,
+                                   checkpoint_every=every, progress=progress)  # fmt: skip
+    if output_dir is not None:  # the checkpoint is removed once the data are written
+        runner.write_comparison_outputs(result, Path(output_dir), plots=plots, setup=setup,
+                                        checkpoint=path)  # fmt: skip
+    elif path is not None:  # complete: nothing left to resume
+        path.unlink(missing_ok=True)
+    return result
 
 
 def calibrate(

@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import glob
 import os
-import shutil
 import signal
 import tempfile
 from collections.abc import Callable, Iterator
@@ -24,6 +22,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from quadmodes.cli import verbosity
 from quadmodes.cli.consoles import err, out  # noqa: F401 (out: re-exported to the commands)
+from quadmodes.io import staging
 
 DEFAULT_CASE = "paper-membrane"
 
@@ -112,96 +111,21 @@ def progress_bars(enabled: bool = True) -> Iterator[ProgressCallback]:
         yield update
 
 
-def _staging_owner(folder: Path, prefix: str) -> int | None:
-    """The process id in the name of staging folder ``folder`` (``<prefix><pid>-<random>``)."""
-    head = folder.name[len(prefix):].partition("-")[0]
-    return int(head) if head.isdigit() else None
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # e.g. another user's process
-        return True
-    return True
+def note(text: str) -> None:
+    """One line on stderr (markup escaped): the ``note`` callback of the library's file
+    writers."""
+    err.print(escape(text), highlight=False, soft_wrap=True)
 
 
 def clean_stale_staging(directory: Path) -> list[Path]:
-    """Remove the hidden staging folders ``.<name>.partial-<pid>-…/`` beside ``directory`` left
-    by a process that no longer runs (e.g. killed while writing); returns those removed (a note
-    on stderr names each)."""
-    directory = Path(directory).resolve()
-    prefix = f".{directory.name}.partial-"
-    removed = []
-    if not directory.parent.is_dir():
-        return removed
-    for folder in sorted(directory.parent.glob(f"{glob.escape(prefix)}*")):
-        pid = _staging_owner(folder, prefix)
-        if not folder.is_dir() or (pid is not None and pid != os.getpid() and _alive(pid)):
-            continue
-        shutil.rmtree(folder, ignore_errors=True)
-        removed.append(folder)
-        err.print(f"note: removed the left-over staging folder {escape(str(folder))} (an "
-                  "earlier run stopped while writing)", highlight=False, soft_wrap=True)  # fmt: skip
-    return removed
+    """:func:`quadmodes.io.staging.clean_stale_staging`, its notes on stderr."""
+    return staging.clean_stale_staging(directory, note)
 
 
-@contextlib.contextmanager
-def staged_output(directory: Path | None) -> Iterator[Path | None]:
-    """Write into a hidden scratch folder ``.<name>.partial-<pid>-…/`` beside ``directory``; move
-    the files in only on success. Left-over scratch folders of dead processes are removed
-    first (:func:`clean_stale_staging`)."""
-    if directory is None:
-        yield None
-        return
-    directory = directory.resolve()
-    created = [p for p in directory.parents if not p.exists()]  # deepest first
-    directory.parent.mkdir(parents=True, exist_ok=True)
-    clean_stale_staging(directory)
-    prefix = f".{directory.name}.partial-{os.getpid()}-"
-    scratch = Path(tempfile.mkdtemp(prefix=prefix, dir=directory.parent))
-    done = False
-    try:
-        yield scratch
-        with deferred_interrupts():  # never half the new files beside half the old ones
-            directory.mkdir(exist_ok=True)
-            for item in scratch.iterdir():
-                target = directory / item.name
-                if target.is_dir():
-                    shutil.rmtree(target)
-                item.replace(target)
-            done = True
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
-        if not done:  # a failed run leaves no folders behind: remove the parents it made
-            for folder in created:
-                with contextlib.suppress(OSError):
-                    folder.rmdir()
-
-
-@contextlib.contextmanager
-def deferred_interrupts() -> Iterator[None]:
-    """Inside, Ctrl-C and SIGTERM are held and delivered at the end (a few renames that must not
-    be cut in half). Outside the main thread nothing is held."""
-    held: list[int] = []
-
-    def hold(signum, frame):
-        held.append(signum)
-
-    try:
-        previous = {s: signal.signal(s, hold) for s in (signal.SIGINT, signal.SIGTERM)}
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-        if held:
-            signal.raise_signal(held[0])
+def staged_output(directory: Path | None):
+    """:func:`quadmodes.io.staging.staged_output` (all-or-nothing output folder), its notes on
+    stderr."""
+    return staging.staged_output(directory, note)
 
 
 #: Exit status after Ctrl-C (128 + SIGINT) and after SIGTERM (128 + SIGTERM).
@@ -333,26 +257,6 @@ def guard_reduced_model(
         if not from_option:
             raise
         raise UserError(f"--modes {n_modes}: {exc.detail.split(': ', 1)[-1]}") from None
-
-
-def check_checkpoint_readable(path: Path, option: str = "--resume", fix: str | None = None) -> None:
-    """Raise UserError (naming ``option``) if the checkpoint ``path`` (.npz) is truncated, not a
-    checkpoint or unreadable; ``fix``: how to start again (default: delete it and run again
-    without ``option``)."""
-    import zipfile
-
-    import numpy as np
-
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            if "version" not in data.files or "step" not in data.files:
-                raise ValueError("not a quadmodes checkpoint")
-            int(data["step"])
-    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
-        raise UserError(
-            f"{option}: the checkpoint {path} is damaged (truncated or not a quadmodes "
-            f"checkpoint, {type(exc).__name__}); {fix or f'delete it and run again without {option}'}"
-        ) from None
 
 
 def load_model_case(case: str):

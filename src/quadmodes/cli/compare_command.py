@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import shlex
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -14,12 +14,12 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from quadmodes.analysis.comparison_run import FULL_ORDER_CHECKPOINT_EVERY  # noqa: E402
 from quadmodes.cli import extra_outputs as extras
 from quadmodes.cli.common import (
     NoCacheFlag,
     UserError,
     case_argument,
-    check_checkpoint_readable,
     check_output_folder,
     err,
     flag,
@@ -31,10 +31,9 @@ from quadmodes.cli.common import (
     parse_formulations,
     progress_bars,
     sigterm_as_interrupt,
-    staged_output,
 )
 from quadmodes.cli.run_files import note as print_note
-from quadmodes.cli.run_files import remove_old_extras, remove_old_figures, stop
+from quadmodes.cli.run_files import stop
 
 #: Full-order runs estimated longer than this (s) need --yes.
 LONG_FULL_ORDER_S = 1800.0
@@ -98,23 +97,14 @@ def _plan(
 
 def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
     """The full-order checkpoint beside ``target``: it must exist to resume; without --resume
-    an existing one is discarded only with --restart (else UserError)."""
-    checkpoint = target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
-    if resume and restart:
-        raise UserError("--restart: discards the checkpoint that --resume continues; pass one")
-    if resume and not checkpoint.exists():
-        raise UserError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
-    if resume:
-        check_checkpoint_readable(checkpoint, fix="start again with --restart")
-    if not resume and checkpoint.exists():
-        if not restart:
-            raise UserError(
-                f"{checkpoint} holds an interrupted full-order run; continue it with --resume, "
-                "or pass --restart to discard it"
-            )
-        checkpoint.unlink()
-        err.print(f"note: discarded {escape(str(checkpoint))} (--restart)", highlight=False)
-    return checkpoint
+    an existing one is discarded only with --restart (else a one-line error)."""
+    from quadmodes.analysis.comparison_run import check_checkpoint, checkpoint_beside
+
+    def discarded(text: str) -> None:
+        err.print(escape(text), highlight=False)
+
+    return check_checkpoint(checkpoint_beside(target), resume=resume, restart=restart,
+                            note=discarded)  # fmt: skip
 
 
 def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: bool) -> None:
@@ -140,22 +130,6 @@ def _check_estimate(plan: ComparisonPlan, setup, checkpoint: Path, *, go_ahead: 
         )
 
 
-#: Full-order steps between two checkpoints (the factorisation is renewed after each, so a
-#: resumed run repeats the uninterrupted one only with the same value).
-FULL_ORDER_CHECKPOINT_EVERY = 500
-
-
-def _complete_or_raise(sol):
-    """``sol`` if the full-order run reached the end of the window; an interrupted one raises
-    KeyboardInterrupt, any other early stop RuntimeError (never scored as a reference)."""
-    if sol.status == 0:
-        return sol
-    message = " ".join(str(sol.message).split())
-    if message.startswith("interrupted"):
-        raise KeyboardInterrupt
-    raise RuntimeError(f"full order stopped early ({message}); nothing is scored against it")
-
-
 def _stopped_message(checkpoint: Path, rerun_hint: str) -> str:
     """What Ctrl-C leaves: the checkpoint to resume from, or nothing."""
     if checkpoint.is_file():
@@ -168,27 +142,24 @@ def _stopped_message(checkpoint: Path, rerun_hint: str) -> str:
 def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bool,
                     bars_shown: bool, rerun_hint: str, signals: dict | None = None,
                     on_sample=None):  # fmt: skip
-    """The reduced runs and the checkpointed full-order run; Ctrl-C (in either) keeps the
+    """The reduced runs and the checkpointed full-order run
+    (:func:`quadmodes.analysis.comparison_run.run_comparison`); Ctrl-C (in either) keeps the
     checkpoint, says how to continue (``rerun_hint``: the command line without --resume) and
     exits with status ``signals["exit"]`` (130, 143 after SIGTERM; see
-    :func:`~quadmodes.cli.common.sigterm_as_interrupt`)."""
-    from quadmodes.analysis import compare as cmp
-    from quadmodes.analysis.full_order_runs import full_order_for_run
-
-    def full(r, dt):
-        return _complete_or_raise(full_order_for_run(
-            r, dt=dt, progress=bars, setup=setup, checkpoint=checkpoint,
-            checkpoint_every=FULL_ORDER_CHECKPOINT_EVERY, resume=resume,
-            **({"on_sample": on_sample} if on_sample is not None else {}),
-        ))  # fmt: skip
+    :func:`~quadmodes.cli.common.sigterm_as_interrupt`). A full order that stopped otherwise
+    is a one-line error (nothing is scored)."""
+    from quadmodes.analysis.comparison_run import FullOrderIncomplete, run_comparison
 
     with progress_bars(bars_shown) as bars:
         try:
-            return cmp.compare(
+            return run_comparison(
                 plan.run, plan.window_s, formulations=plan.formulations,
-                full_order_dt=plan.full_dt_s, full_order=full, progress=bars,
+                full_order_dt=plan.full_dt_s, setup=setup, checkpoint=checkpoint, resume=resume,
+                checkpoint_every=FULL_ORDER_CHECKPOINT_EVERY, on_sample=on_sample, progress=bars,
             )  # fmt: skip
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, FullOrderIncomplete) as exc:
+            if isinstance(exc, FullOrderIncomplete) and not exc.interrupted:
+                raise
             err.print(escape(_stopped_message(checkpoint, rerun_hint)), highlight=False,
                       soft_wrap=True)  # fmt: skip
             raise typer.Exit(code=(signals or {}).get("exit", 130)) from None
@@ -322,9 +293,9 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
              *, as_json, resume, restart, yes, plots, signals, no_cache, animation=(False, "inertial", 100)):  # fmt: skip
     """The body of :func:`compare_command`: returns (payload, plan, output folder);
     ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
-    from quadmodes.analysis import compare as cmp
-    from quadmodes.analysis.full_order_runs import setup_for_run
+    from quadmodes.analysis import comparison_run as runner
     from quadmodes.models.cache import caching_disabled
+    from quadmodes.runs.run_folder import OutputsInterrupted
 
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
     with one_line_errors(RuntimeError), caching_disabled(no_cache):
@@ -342,28 +313,20 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
                    "--damping-cutoff": damping_cutoff}  # fmt: skip
         hint = _rerun_hint(case, options, target, plots, as_json)
         signals["stopped"] = lambda: _stopped_message(checkpoint, hint)
-        # inflation, initial state and damping modes, once for the estimate and the run
-        setup = setup_for_run(plan.run, damping_cutoff=plan.damping_cutoff_hz)
+        # modes resolved once; inflation, initial state and damping modes, once for the
+        # estimate and the run
+        run, setup = runner.prepare_comparison(plan.run, plan.window_s, plan.damping_cutoff_hz)
         _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
-        recorder = extras.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
+        recorder = runner.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
         result = _run_comparison(
-            plan, setup, checkpoint, resume=resume, bars_shown=not as_json, rerun_hint=hint,
-            signals=signals, on_sample=recorder,
+            replace(plan, run=run), setup, checkpoint, resume=resume, bars_shown=not as_json,
+            rerun_hint=hint, signals=signals, on_sample=recorder,
         )  # fmt: skip
-        with staged_output(target) as scratch:  # the data first, then the figures
-            payload = cmp.write_comparison(result, scratch, plots=False)
-            old_figures = remove_old_figures(target)
-            remove_old_extras(target)
-        checkpoint.unlink(missing_ok=True)
-    if old_figures and not plots:
-        print_note(f"note: removed {len(old_figures)} figure(s) of an earlier comparison from "
-             f"{target} (--no-plots): {', '.join(old_figures)}")  # fmt: skip
-    if plots:
         try:
-            cmp.plot_comparison(result, target)
-        except KeyboardInterrupt:
-            raise stop(f"stopped while drawing the figures; the data are saved in {target} "
-                       "(comparison.nc, .json, .csv); the figures are incomplete",
-                       signals["exit"]) from None  # fmt: skip
-    extras.finish_compare(target, payload, plan, setup, recorder, animation, signals)
+            payload = runner.write_comparison_outputs(
+                result, target, plots=plots, setup=setup, recorder=recorder, animation=animation,
+                checkpoint=checkpoint, note=print_note, run=plan.run,
+            )  # fmt: skip
+        except OutputsInterrupted as stopped:
+            raise stop(str(stopped), signals["exit"]) from None
     return payload, plan, target

@@ -70,63 +70,6 @@ def show_case(name: ModelCase, as_json: JsonFlag = False) -> None:
 # ------------------------------------------------------------------------------ modes
 
 
-def _mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict]:
-    """Triangles (n_tri, 3), line segments (n_lines, 2) or None, and per-triangle cell data of a
-    modal model; a beam is drawn as the centreline through its position DOFs."""
-    s = model.structure
-    tri, lines, cell_data = None, None, {}
-    for e in s.elements:
-        kind = type(e).__name__
-        if kind == "MembraneSet":
-            tri = e.conn
-        elif kind in ("BarSet",):
-            lines = e.conn
-    if model.prestress is not None:
-        res = model.prestress.stress_resultants
-        cell_data = {
-            "stress_resultant_minor_N_per_m": res[:, 0],
-            "stress_resultant_major_N_per_m": res[:, 1],
-            "wrinkle_state": model.prestress.wrinkle_state(),
-        }
-    if tri is None:  # beam: draw the centreline of the position DOFs as lines
-        pos = np.flatnonzero(s.translational)
-        lines = np.stack([pos[:-1], pos[1:]], 1)
-        tri = np.zeros((0, 3), int)
-    return tri, lines, cell_data
-
-
-def _write_modal_outputs(model, directory: Path) -> None:
-    """Mesh and modes as VTU/PVD (ParaView), PNG pictures and ``modes.json`` in ``directory``."""
-    from quadmodes.io import pictures, vtk
-    from quadmodes.structure.pipeline import modes_summary
-
-    x = model.x
-    tri, lines, cell_data = _mesh_for_output(model)
-    shapes = model.modes.shapes
-    freqs = model.modes.frequencies_hz
-    labels = model.labels
-    vtk.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
-    vtk.write_modes_pvd(directory / "modes", x, tri, shapes, freqs, labels, lines=lines)
-    if len(tri):
-        pictures.plot_mesh_png(directory / "mesh.png", x, tri, title=model.case.name, lines=lines)
-        if cell_data:
-            pictures.plot_mesh_png(
-                directory / "prestress.png",
-                x,
-                tri,
-                title=f"{model.case.name}: minor principal stress resultant after inflation",
-                cell_values=cell_data["stress_resultant_minor_N_per_m"],
-                cell_label="N/m",
-            )
-    for k in range(len(freqs)):
-        pictures.plot_mode_png(
-            directory / f"mode_{k + 1:02d}.png", x, tri, shapes[k], freqs[k], labels[k],
-            lines=lines, index=k + 1,
-        )  # fmt: skip
-    pictures.plot_modes_overview_png(directory / "modes.png", x, tri, shapes, freqs, labels, lines)
-    write_text(directory / "modes.json", json.dumps(modes_summary(model), indent=2))
-
-
 def _mode_table(title: str, frequencies_hz, labels, slack_onset_m=None) -> Table:
     """Mode number, frequency (Hz) and label, one row a mode (with ``slack_onset_m``, the
     amplitude at which the membrane first loses tension, in mm)."""
@@ -176,6 +119,7 @@ def modes(
     yes: LargeModelFlag = False,
 ) -> None:
     """Inflate the case, compute its modes, print a table (and write pictures and ParaView files)."""
+    from quadmodes.structure.modal_files import write_modal_outputs
     from quadmodes.structure.pipeline import build_modal_model, modes_summary
 
     with one_line_errors():
@@ -186,7 +130,7 @@ def modes(
             model = build_modal_model(c, progress)
             if scratch is not None:
                 progress("outputs", 0.0)
-                _write_modal_outputs(model, scratch)
+                write_modal_outputs(model, scratch)
                 progress("outputs", 1.0)
     summary = modes_summary(model)
     if as_json:

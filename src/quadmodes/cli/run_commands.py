@@ -33,12 +33,10 @@ from quadmodes.cli.run_files import (
     RunFolders,
     check_folders,
     checkpoint_interval,
-    commit_run,
-    commit_spinup,
+    note,
     resume_hint,
     resume_point,
     run_folders,
-    save_partial,
     stop,
     stopped_message,
 )
@@ -286,7 +284,7 @@ class _Options:
     mode_convergence: bool
     hint: str
     signals: dict
-    animation: Any = None  # --animate: quadmodes.cli.extra_outputs.Animation, or None
+    animation: Any = None  # --animate: quadmodes.runs.run_folder.Animation, or None
 
     @property
     def exit_code(self) -> int:
@@ -309,12 +307,12 @@ def _extras(setup, result, opts: _Options, progress) -> dict:
 
 def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
     """Integrate one prepared free-body run (checkpointed; resumed with --resume), then write
-    its data and figures (:func:`~quadmodes.cli.run_files.commit_run`). Ctrl-C/SIGTERM saves
-    the checkpoint and the partial results in the partial folder and exits 130/143."""
-    from quadmodes.runs import simulate
+    its data, figures and report (:func:`~quadmodes.runs.run_folder.write_run_outputs`).
+    Ctrl-C/SIGTERM saves the checkpoint and the partial results in the partial folder and
+    exits 130/143."""
     from quadmodes.runs.chunked import Interrupted
     from quadmodes.runs.deformation_check import with_deformation_check
-    from quadmodes.runs.run_checkpoint import RunCheckpoint
+    from quadmodes.runs.run_folder import execute_in_folders
 
     name = setup.run.name
     with one_line_errors():  # a damaged checkpoint or one of another run
@@ -322,24 +320,33 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
     with progress_bars(True) as bars:  # after the input checks: one static FE solve
         setup = with_deformation_check(setup, bars)
     _warn_validity(name, setup.validity)
-    checkpoint = RunCheckpoint(folders.checkpoint, setup, opts.checkpoint_every_s)
     again = f"continue with: {opts.hint} --resume"
     with progress_bars(True) as bars:
         try:
-            result = simulate.execute(
-                setup, bars, checkpoint=checkpoint, resume=start
-            )
+            result = execute_in_folders(setup, folders, every_s=opts.checkpoint_every_s,
+                                        start=start, progress=bars, note=note)  # fmt: skip
         except Interrupted as stopped:
-            where = save_partial(stopped.partial, folders, stopped.saved)
             hint = f"; {again}" if stopped.saved else ""
-            raise stop(f"{name} stopped ({stopped.reason}); {where}{hint}", opts.exit_code) from None
+            raise stop(f"{name} stopped ({stopped.reason}); {stopped.where}{hint}", opts.exit_code) from None
         try:
             extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:
             kept = (f"its integration is saved in {folders.checkpoint}; {again} (it is not "
                     "repeated)") if folders.has_checkpoint else "nothing was saved"  # fmt: skip
             raise stop(f"{name}: stopped during the convergence runs; {kept}", opts.exit_code) from None
-    return result, extras.finish_run(result, folders.target, commit_run(result, folders, extra, plots=opts.plots, signals=opts.signals), opts)
+    return result, _write(result, folders, opts, extra)
+
+
+def _write(result, folders: RunFolders, opts: _Options, extra: dict | None = None) -> dict:
+    """:func:`~quadmodes.runs.run_folder.write_run_outputs` into the run's folder (its partial
+    folder dropped); Ctrl-C after the data exits with ``opts.exit_code`` (the data kept)."""
+    from quadmodes.runs.run_folder import OutputsInterrupted, write_run_outputs
+
+    try:
+        return write_run_outputs(result, folders.target, extra=extra, plots=opts.plots,
+                                 animation=opts.animation, partial=folders.partial, note=note)  # fmt: skip
+    except OutputsInterrupted as stopped:
+        raise stop(str(stopped), opts.exit_code) from None
 
 
 def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict]:
@@ -348,7 +355,7 @@ def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict
 
     result = simulate.simulate_spinup(run)
     _warn_validity(run.name, result.validity)
-    return result, extras.finish_run(result, folders.target, commit_spinup(result, folders, plots=opts.plots, signals=opts.signals), opts)
+    return result, _write(result, folders, opts)
 
 
 def _run_all(setups: list, output_dir: Path, opts: _Options):

@@ -231,17 +231,19 @@ def simulate(
     *,
     model_case: Case | None = None,
     max_chunks: int = MAX_CHUNKS,
+    check_deformation: bool = False,
 ) -> RunResult:
-    """:func:`prepare` and :func:`execute` ``run`` (reduced model from the cache unless
-    ``model`` is given). Raises :class:`CaseError` for bad inputs only; an integrator failure
-    gives a result with ``complete`` False; Ctrl-C raises
-    :class:`~quadmodes.runs.chunked.Interrupted`."""
-    setup = prepare(run, model, progress, model_case=model_case)
+    """:func:`prepare` (with ``check_deformation``, as ``quadmodes run``) and :func:`execute`
+    ``run`` (reduced model from the cache unless ``model`` is given). Raises
+    :class:`CaseError` for bad inputs only; an integrator failure gives a result with
+    ``complete`` False; Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted`."""
+    setup = prepare(run, model, progress, model_case=model_case,
+                    check_deformation=check_deformation)  # fmt: skip
     return execute(setup, progress, max_chunks)
 
 
-def _spinup_overrides(data: dict, method, dt, duration, formulation, save_every, spin_rate):
-    """Apply command-line overrides to the TOML data of a spin-up run (``[spinup]``)."""
+def _spinup_overrides(method, dt, duration, formulation, save_every, spin_rate) -> list:
+    """The (field, value) changes of command-line overrides to a spin-up run (``[spinup]``)."""
     for option, value in (("method", method), ("dt", dt), ("save_every", save_every)):
         if value is not None:
             raise CaseError(
@@ -249,43 +251,26 @@ def _spinup_overrides(data: dict, method, dt, duration, formulation, save_every,
                 "is integrated by DOP853 with its own step control)",
                 field=f"spinup.{option}",
             )
-    if duration is not None:
-        data["spinup"]["duration"] = duration
-    if spin_rate is not None:
-        data["spinup"]["omega_s"] = spin_rate
-    if formulation is not None:
-        data.setdefault("reduced", {})["formulation"] = formulation
+    return [("spinup.duration", duration), ("spinup.omega_s", spin_rate),
+            ("reduced.formulation", formulation)]  # fmt: skip
 
 
-def _modes_override(data: dict, modes) -> None:
-    """Set ``reduced.modes`` from ``--modes`` (a whole number or "auto"; validated by the case)."""
+def _free_body_overrides(method, dt, duration, formulation, save_every, spin_rate) -> list:
+    """The (field, value) changes of command-line overrides to a free-body run."""
+    return [("initial.spin_rate", spin_rate), ("integration.method", method),
+            ("integration.dt", dt), ("integration.duration", duration),
+            ("integration.save_every", save_every), ("reduced.formulation", formulation)]  # fmt: skip
+
+
+def _modes_value(modes):
+    """``--modes`` as a whole number or "auto" (validated by the case)."""
     if isinstance(modes, str):
         text = modes.strip()
         try:
-            modes = int(text)
+            return int(text)
         except ValueError:
-            modes = text
-    reduced = data.setdefault("reduced", {})
-    reduced["modes"] = modes
-    if modes != "auto":
-        reduced.pop("mode_margin", None)  # read only with "auto"
-
-
-def _free_body_overrides(data: dict, method, dt, duration, formulation, save_every, spin_rate):
-    """Apply command-line overrides to the TOML data of a free-body run."""
-    if spin_rate is not None:
-        data.setdefault("initial", {})["spin_rate"] = spin_rate
-    integ = data.setdefault("integration", {})
-    if method is not None:
-        integ["method"] = method
-    if dt is not None:
-        integ["dt"] = dt
-    if duration is not None:
-        integ["duration"] = duration
-    if save_every is not None:
-        integ["save_every"] = save_every
-    if formulation is not None:
-        data.setdefault("reduced", {})["formulation"] = formulation
+            return text
+    return modes
 
 
 def apply_overrides(
@@ -300,24 +285,21 @@ def apply_overrides(
     modes: int | str | None = None,
 ) -> RunCase:
     """``run`` with command-line overrides (quantity strings such as ``"0.25 ms"``), validated
-    like the case file; raises :class:`CaseError` naming the field.
+    like the case file (:func:`quadmodes.case.editing.edit`); raises :class:`CaseError` naming
+    the field.
 
     ``spin_rate`` sets ``initial.spin_rate`` (free-body run) or ``spinup.omega_s`` (spin-up);
     ``duration`` sets ``integration.duration`` or ``spinup.duration``; ``modes`` (a whole
-    number, or "auto" for a free-body run) sets ``reduced.modes``."""
-    import tomllib
-
-    from quadmodes.case import run_case_from_dict
+    number, or "auto" for a free-body run) sets ``reduced.modes`` (a whole number drops
+    ``reduced.mode_margin``)."""
+    from quadmodes.case.editing import edit
 
     values = (method, dt, duration, formulation, save_every, spin_rate)
     if all(v is None for v in values) and modes is None:
         return run
-    data = tomllib.loads(run.to_toml())
-    apply = _spinup_overrides if run.spinup is not None else _free_body_overrides
-    apply(data, *values)
-    if modes is not None:
-        _modes_override(data, modes)
-    return run_case_from_dict(data, source="command line")
+    changes = (_spinup_overrides if run.spinup is not None else _free_body_overrides)(*values)
+    changes.append(("reduced.modes", None if modes is None else _modes_value(modes)))
+    return edit(run, [(k, v) for k, v in changes if v is not None], "command line")
 
 
 def is_run_case(name_or_path: str) -> bool:

@@ -1,0 +1,189 @@
+"""A comparison with the full order as ``quadmodes compare`` and :func:`quadmodes.compare` run
+it: the run's modes resolved once, the full-order run checkpointed as it goes and resumable,
+never scored unless it reached the end of the window, then the files of the comparison.
+
+The full-order checkpoint of a comparison written into folder OUT/NAME is the hidden file
+``OUT/.NAME.fullorder-checkpoint.npz`` (:func:`checkpoint_beside`); it is removed once the
+comparison's data are written. Without ``resume`` an existing checkpoint is discarded only on
+request (:func:`check_checkpoint`). A full-order run that stopped early raises
+:class:`FullOrderIncomplete` (``interrupted``: Ctrl-C, the checkpoint is kept for a resume).
+"""
+
+from __future__ import annotations
+
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from quadmodes.io.staging import Note, log_note
+from quadmodes.runs.run_folder import Animation, commit, guarded
+
+#: Full-order steps between two checkpoints (the factorisation is renewed after each, so a
+#: resumed run repeats the uninterrupted one only with the same value).
+FULL_ORDER_CHECKPOINT_EVERY = 500
+
+Progress = Callable[[str, float], None]
+
+
+class CheckpointError(ValueError):
+    """A full-order checkpoint is missing, damaged, or would be discarded unasked."""
+
+
+class FullOrderIncomplete(RuntimeError):
+    """The full-order run did not reach the end of the window, so nothing is scored against
+    it. ``interrupted``: stopped by Ctrl-C (its checkpoint, if one was written, continues it);
+    ``reason``: the full order's one-line message; ``checkpoint``: the checkpoint path or None."""
+
+    def __init__(self, reason: str, interrupted: bool, checkpoint: Path | None = None):
+        super().__init__(f"full order stopped early ({reason}); nothing is scored against it")
+        self.reason, self.interrupted, self.checkpoint = reason, interrupted, checkpoint
+
+
+def complete_or_raise(sol, checkpoint: Path | None = None):
+    """``sol`` if the full-order run reached the end of the window, else
+    :class:`FullOrderIncomplete` (never scored as a reference)."""
+    if sol.status == 0:
+        return sol
+    message = " ".join(str(sol.message).split())
+    raise FullOrderIncomplete(message, message.startswith("interrupted"), checkpoint)
+
+
+def checkpoint_beside(target: Path) -> Path:
+    """The full-order checkpoint of a comparison written into ``target``."""
+    target = Path(target)
+    return target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
+
+
+def check_checkpoint_readable(path: Path, option: str = "--resume", fix: str | None = None) -> None:
+    """Raise :class:`CheckpointError` (naming ``option``) if the checkpoint ``path`` (.npz) is
+    truncated, not a checkpoint or unreadable; ``fix``: how to start again (default: delete it
+    and run again without ``option``)."""
+    import numpy as np
+
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if "version" not in data.files or "step" not in data.files:
+                raise ValueError("not a quadmodes checkpoint")
+            int(data["step"])
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise CheckpointError(
+            f"{option}: the checkpoint {path} is damaged (truncated or not a quadmodes "
+            f"checkpoint, {type(exc).__name__}); {fix or f'delete it and run again without {option}'}"
+        ) from None
+
+
+def check_checkpoint(checkpoint: Path, *, resume: bool, restart: bool,
+                     note: Note | None = None) -> Path:  # fmt: skip
+    """Before any work: ``checkpoint`` must exist and be readable to ``resume``; without
+    ``resume`` an existing one is discarded only with ``restart`` (else
+    :class:`CheckpointError`). Returns ``checkpoint``."""
+    if resume and restart:
+        raise CheckpointError("--restart: discards the checkpoint that --resume continues; pass one")
+    if resume and not checkpoint.exists():
+        raise CheckpointError(f"--resume: no checkpoint at {checkpoint}; run without --resume")
+    if resume:
+        check_checkpoint_readable(checkpoint, fix="start again with --restart")
+    if not resume and checkpoint.exists():
+        if not restart:
+            raise CheckpointError(
+                f"{checkpoint} holds an interrupted full-order run; continue it with --resume, "
+                "or pass --restart to discard it"
+            )
+        checkpoint.unlink()
+        (note or log_note)(f"note: discarded {checkpoint} (--restart)")
+    return checkpoint
+
+
+def prepare_comparison(run, window: float, damping_cutoff: float | None = None,
+                       progress: Progress | None = None):  # fmt: skip
+    """``(run, setup)``: ``run`` cut to ``window`` (s) with its modes resolved (``"auto"`` →
+    N, the one :func:`~quadmodes.runs.mode_choice.resolve_modes` of a comparison) and the
+    full order's setup (inflation, initial state, damping modes below ``damping_cutoff`` Hz;
+    built once for the estimate and the run)."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.analysis.full_order_runs import setup_for_run
+    from quadmodes.runs.mode_choice import resolve_modes
+
+    run, _ = resolve_modes(cmp.window_run(run, window), progress=progress)
+    return run, setup_for_run(run, damping_cutoff=damping_cutoff)
+
+
+def full_order_recorder(animation: Animation | None, setup, window_s: float, dt_s: float):
+    """The :class:`~quadmodes.io.animation.FullOrderRecorder` of a comparison's motion (None
+    without ``animation``): the expected number of samples from the window, the full-order
+    step and the run's sampling interval."""
+    if animation is None:
+        return None
+    from quadmodes.io.animation import FullOrderRecorder
+
+    save_every = max(1, int(round(setup.sample_interval / dt_s)))
+    expected = int(round(window_s / dt_s)) // save_every + 1
+    return FullOrderRecorder(setup.model, setup.structure, expected, animation.frames)
+
+
+def run_comparison(run, window: float, *, formulations: Sequence[str] | None = None,
+                   full_order_dt: float | None = None, setup=None,
+                   damping_cutoff: float | None = None, checkpoint: Path | None = None,
+                   resume: bool = False, checkpoint_every: int = FULL_ORDER_CHECKPOINT_EVERY,
+                   on_sample=None, progress: Progress | None = None):  # fmt: skip
+    """The reduced runs of ``formulations`` and the full-order run (checkpointed every
+    ``checkpoint_every`` steps into ``checkpoint``, continued from it if ``resume``) over
+    ``[0, window]`` s (default: all of :data:`quadmodes.analysis.compare.FORMULATIONS`),
+    scored: a :class:`quadmodes.analysis.compare.Comparison`. ``setup``: from
+    :func:`prepare_comparison` (with ``run`` already cut and resolved), else built here.
+    ``on_sample(t, x)``: every full-order sample (e.g. :func:`full_order_recorder`). Raises
+    :class:`FullOrderIncomplete` if the full order stopped early (Ctrl-C in a reduced run
+    raises KeyboardInterrupt)."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.analysis.full_order_runs import full_order_for_run
+
+    if setup is None:
+        run, setup = prepare_comparison(run, window, damping_cutoff, progress)
+    extra = {"on_sample": on_sample} if on_sample is not None else {}
+
+    def full(r, dt):
+        return complete_or_raise(full_order_for_run(
+            r, dt=dt, progress=progress, setup=setup, checkpoint=checkpoint,
+            checkpoint_every=checkpoint_every, resume=resume, **extra,
+        ), checkpoint)  # fmt: skip
+
+    names = cmp.FORMULATIONS if formulations is None else tuple(formulations)
+    return cmp.compare(run, window, formulations=names,
+                       full_order_dt=full_order_dt, full_order=full, progress=progress)  # fmt: skip
+
+
+def write_comparison_outputs(result, target: Path, *, plots: bool = True,
+                             setup=None, recorder=None, animation: Animation | None = None,
+                             checkpoint: Path | None = None, note: Note | None = None,
+                             run=None) -> dict:  # fmt: skip
+    """Everything ``quadmodes compare`` writes into ``target``: ``comparison.nc``, ``.json``,
+    ``.csv`` all or nothing (the ``checkpoint`` is removed once they are in), then if ``plots``
+    the overlay PNGs, the full order's recorded motion (``recorder``, ``animation``) and
+    ``report.html`` (of ``run``, default the comparison's) of ``result`` (a
+    :class:`quadmodes.analysis.compare.Comparison`). Ctrl-C after the data raises
+    :class:`~quadmodes.runs.run_folder.OutputsInterrupted`. Returns the JSON payload."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.io.animation import write_animation
+    from quadmodes.io.run_report import write_compare_report
+
+    note = note or log_note
+    target = Path(target)
+
+    def data(scratch: Path):
+        return None, cmp.write_comparison(result, scratch, plots=False)
+
+    def removed_checkpoint():  # after the data are in, before the figures
+        if checkpoint is not None:
+            checkpoint.unlink(missing_ok=True)
+
+    _, payload = commit(target, data, lambda _, folder: cmp.plot_comparison(result, folder),
+                        plots=plots, note=note, what="comparison",
+                        saved="comparison.nc, .json, .csv", after_data=removed_checkpoint)  # fmt: skip
+    if recorder is not None and recorder.times:
+        guarded(target, "motion.xdmf", lambda: write_animation(
+            recorder.motion(animation.frame), target, note))  # fmt: skip
+    model = getattr(setup, "model", None)
+    run = run if run is not None else result.run
+    guarded(target, "report.html", lambda: write_compare_report(
+        target, payload, run, run.model_case(), model))  # fmt: skip
+    return payload

@@ -1,0 +1,265 @@
+"""The files of a run in its folder, and how they survive an interruption: what ``quadmodes
+run`` and :func:`quadmodes.write_results` write.
+
+For a run case NAME written into the folder OUT::
+
+    OUT/NAME/                 the complete result: results.nc, summary.json, then the figures,
+                              the motion (``--animate``) and report.html
+    OUT/NAME.partial/         an interrupted run: checkpoint.npz (written every ~10 s of wall
+                              time, at the end of the integration and on Ctrl-C/SIGTERM), and
+                              after Ctrl-C/SIGTERM its partial results.nc / summary.json
+                              (complete = 0)
+    OUT/.NAME.partial-<pid>-…/  hidden staging folder while the results are written
+
+An interrupted run never writes into OUT/NAME, so a complete result there survives any
+interruption of a rerun. A resumed run continues from the checkpoint (bit for bit the
+uninterrupted run); without resuming an existing checkpoint is discarded only on request.
+The data are moved in before the figures are drawn: an interruption while plotting keeps them
+(:class:`OutputsInterrupted`). Figures of an earlier run are removed when new data arrive;
+other files in OUT/NAME that the run did not write are listed. Left-over staging folders of
+killed runs are removed at the next start. Notes go to a ``note(text)`` callback
+(:mod:`quadmodes.io.staging`).
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from quadmodes.io.staging import Note, clean_stale_staging, log_note, staged_output
+
+#: The files of a run's data; anything else but figures (``*.png``) in its folder is listed.
+DATA_FILES = ("results.nc", "summary.json")
+#: Written after the data (report, motion): removed when new data arrive, never listed.
+EXTRA_FILES = ("report.html", "motion.xdmf", "motion.h5", "motion.gif")
+
+
+class FolderError(ValueError):
+    """A checkpoint to resume is missing, or one would be discarded without being asked to."""
+
+
+class OutputsInterrupted(KeyboardInterrupt):
+    """Ctrl-C after the data were saved (while drawing the figures or writing the motion or the
+    report); the message says what is saved where."""
+
+
+@dataclass(frozen=True)
+class Animation:
+    """The motion file's choices: the frame ("inertial" or "body") and the number of frames."""
+
+    frame: str = "inertial"
+    frames: int = 100
+
+
+@dataclass(frozen=True)
+class RunFolders:
+    """The result folder of one run case and its partial folder (module docstring)."""
+
+    target: Path
+    partial: Path
+
+    @property
+    def checkpoint(self) -> Path:
+        return self.partial / "checkpoint.npz"
+
+    @property
+    def has_checkpoint(self) -> bool:
+        return self.checkpoint.is_file()
+
+
+def run_folders(output_dir: Path, name: str) -> RunFolders:
+    """The folders of run case ``name`` in ``output_dir``."""
+    return RunFolders(output_dir / name, output_dir / f"{name}.partial")
+
+
+def _clean_leftovers(folders: RunFolders, note: Note) -> None:
+    """Staging folders of dead processes, temporary checkpoint files of a killed run, and a
+    partial folder without a checkpoint (nothing to resume)."""
+    clean_stale_staging(folders.target, note)
+    clean_stale_staging(folders.partial, note)
+    if not folders.partial.is_dir():
+        return
+    for tmp in folders.partial.glob(".checkpoint.npz.*"):
+        tmp.unlink(missing_ok=True)
+    if not folders.has_checkpoint:
+        shutil.rmtree(folders.partial, ignore_errors=True)
+        note(f"note: removed {folders.partial} (partial results without a checkpoint to resume)")
+
+
+def check_folders(all_folders: list[RunFolders], *, resume: bool, restart: bool,
+                  note: Note | None = None) -> None:  # fmt: skip
+    """Before any work: clean left-overs; with ``resume`` at least one checkpoint must exist;
+    without it an existing checkpoint is discarded only with ``restart`` (else
+    :class:`FolderError`)."""
+    note = note or log_note
+    if resume and restart:
+        raise FolderError("--restart: discards the checkpoint that --resume continues; pass one")
+    for folders in all_folders:
+        _clean_leftovers(folders, note)
+    with_checkpoint = [f for f in all_folders if f.has_checkpoint]
+    if resume and not with_checkpoint:
+        raise FolderError(f"--resume: no checkpoint at {all_folders[0].checkpoint}; run without "
+                          "--resume")  # fmt: skip
+    if not resume and with_checkpoint:
+        if not restart:
+            raise FolderError(
+                f"{with_checkpoint[0].checkpoint} holds an interrupted run; continue it with "
+                "--resume, or pass --restart to discard it"
+            )
+        for folders in with_checkpoint:
+            shutil.rmtree(folders.partial, ignore_errors=True)
+            note(f"note: discarded the checkpoint in {folders.partial} (--restart)")
+
+
+def resume_point(setup, folders: RunFolders, resume: bool, note: Note | None = None):
+    """(progress, wall s) of the checkpoint to resume ``setup`` from, or None (not ``resume``
+    or no checkpoint)."""
+    from quadmodes.runs.run_checkpoint import RunCheckpoint
+
+    if not (resume and folders.has_checkpoint):
+        return None
+    start = RunCheckpoint(folders.checkpoint, setup).load()
+    t = start[0].steps * setup.run.integration.duration / setup.run.integration.n_steps
+    (note or log_note)(f"{setup.run.name}: resuming from {folders.checkpoint} at t = {t:.6g} s")
+    return start
+
+
+def save_partial(result, folders: RunFolders, saved: bool, note: Note | None = None) -> str:
+    """Write the partial results of an interrupted run into its partial folder (beside the
+    checkpoint); returns the sentence saying where they are."""
+    from quadmodes.runs.results import write_run_data
+
+    if not saved:
+        return "nothing was saved (the first chunk had not ended)"
+    with staged_output(folders.partial, note) as scratch:
+        write_run_data(result, scratch)
+    return (f"its checkpoint and partial results (complete = 0) are in {folders.partial}; "
+            f"{folders.target} is untouched")  # fmt: skip
+
+
+def remove_old_figures(target: Path) -> list[str]:
+    """Remove the figures of an earlier run from ``target``; returns their names."""
+    names = []
+    if target.is_dir():
+        for png in sorted(target.glob("*.png")):
+            png.unlink(missing_ok=True)
+            names.append(png.name)
+    return names
+
+
+def remove_old_extras(target: Path) -> None:
+    """Remove the report and motion files (:data:`EXTRA_FILES`) of an earlier run."""
+    for name in EXTRA_FILES:
+        (target / name).unlink(missing_ok=True)
+
+
+def _others(target: Path) -> list[str]:
+    """Files in ``target`` that a run does not write (neither data, figures nor extras)."""
+    known = (*DATA_FILES, *EXTRA_FILES)
+    return sorted(p.name for p in target.iterdir() if p.name not in known and p.suffix != ".png")
+
+
+def guarded(target: Path, what: str, write) -> None:
+    """Run ``write()``; Ctrl-C raises :class:`OutputsInterrupted` (the data are saved)."""
+    try:
+        write()
+    except KeyboardInterrupt:
+        raise OutputsInterrupted(f"stopped while writing {what}; the data are saved in {target}") from None
+
+
+def commit(target: Path, data, draw, *, plots: bool, note: Note | None = None,
+           partial: Path | None = None, after_data=None, what: str = "run",
+           saved: str = ", ".join(DATA_FILES)):  # fmt: skip
+    """Write the data (``data(scratch) -> (dataset, summary)``) into a staging folder and move
+    them into ``target`` (old figures and extras removed, the data files replaced together),
+    drop the ``partial`` folder (and call ``after_data()``), then draw the figures
+    (``draw(dataset, folder)``) if ``plots``; ``what`` (an earlier "run") and ``saved`` (the
+    data files) word the notes. Ctrl-C while drawing raises :class:`OutputsInterrupted`.
+    Returns (dataset, summary)."""
+    note = note or log_note
+    with staged_output(target, note) as scratch:
+        ds, info = data(scratch)
+        old_figures = remove_old_figures(target)
+        remove_old_extras(target)
+    if partial is not None:
+        shutil.rmtree(partial, ignore_errors=True)
+    if after_data is not None:
+        after_data()
+    if old_figures and not plots:
+        note(f"note: removed {len(old_figures)} figure(s) of an earlier {what} from {target} "
+             f"(--no-plots): {', '.join(old_figures)}")  # fmt: skip
+    others = _others(target)
+    if others and what == "run":
+        note(f"note: {target} also holds files this run did not write: {', '.join(others)}")
+    if plots:
+        try:
+            draw(ds, target)
+        except KeyboardInterrupt:
+            raise OutputsInterrupted(f"stopped while drawing the figures; the data are saved in "
+                                     f"{target} ({saved}); the figures are incomplete") from None  # fmt: skip
+    return ds, info
+
+
+def _run_data(result, extra: dict | None):
+    """The ``data`` and ``draw`` of :func:`commit` for a free-body run or a spin-up."""
+    from quadmodes.io import plots as figures
+    from quadmodes.runs import results
+
+    if hasattr(result, "diagnostics"):
+        return (lambda scratch: results.write_run_data(result, scratch, extra)), figures.write_plots
+
+    def data(scratch: Path):
+        return results.spinup_dataset(result), results.write_spinup_outputs(result, scratch, plots=False)
+
+    def draw(ds, target: Path):
+        figures.plot_tip_deflection(ds, target / "tip_deflection.png")
+
+    return data, draw
+
+
+def write_run_outputs(result, target: Path, *, extra: dict | None = None, plots: bool = True,
+                      animation: Animation | None = None, partial: Path | None = None,
+                      note: Note | None = None) -> dict:  # fmt: skip
+    """Everything ``quadmodes run`` writes for ``result`` (a free-body ``RunResult`` or a
+    ``SpinupRun``) into ``target``: the data (``results.nc``, ``summary.json``, with ``extra``
+    summary keys) all or nothing, then if ``plots`` the PNG figures, with ``animation`` the
+    motion (``motion.xdmf`` + ``motion.h5``), then ``report.html``. ``partial``: the run's
+    partial folder, removed once the data are in. Ctrl-C after the data raises
+    :class:`OutputsInterrupted`. Returns the summary."""
+    from quadmodes.io.animation import write_animation
+    from quadmodes.io.run_report import write_run_report
+    from quadmodes.runs.run_motion import run_motion
+
+    note = note or log_note
+    target = Path(target)
+    data, draw = _run_data(result, extra)
+    _, summary = commit(target, data, draw, plots=plots, note=note, partial=partial)
+    if animation is not None and not hasattr(result, "system"):
+        note(f"note: --animate: {result.run.name} is a hub-driven spin-up; no motion file")
+    elif animation is not None:
+        def motion():
+            write_animation(run_motion(result, animation.frames, animation.frame), target, note)
+
+        guarded(target, "motion.xdmf", motion)
+    guarded(target, "report.html", lambda: write_run_report(target, summary, result))
+    return summary
+
+
+def execute_in_folders(setup, folders: RunFolders, *, every_s: float, start=None,
+                       progress=None, note: Note | None = None):  # fmt: skip
+    """Integrate the prepared free-body run ``setup`` checkpointed into ``folders.checkpoint``
+    (every ``every_s`` s of wall time; from ``start``, a :func:`resume_point`); returns its
+    ``RunResult``. Ctrl-C writes the partial results into the partial folder
+    (:func:`save_partial`) and raises :class:`~quadmodes.runs.chunked.Interrupted` with
+    ``where``: the sentence saying what was saved where."""
+    from quadmodes.runs import simulate
+    from quadmodes.runs.chunked import Interrupted
+    from quadmodes.runs.run_checkpoint import RunCheckpoint
+
+    checkpoint = RunCheckpoint(folders.checkpoint, setup, every_s)
+    try:
+        return simulate.execute(setup, progress, checkpoint=checkpoint, resume=start)
+    except Interrupted as stopped:
+        stopped.where = save_partial(stopped.partial, folders, stopped.saved, note)
+        raise
