@@ -253,3 +253,20 @@ def test_divergence_spin_does_not_depend_on_the_grid(membrane_coarse):
     found = [campbell(membrane_coarse, np.linspace(0.0, 2 * np.pi * 45.0, n)).divergence[0]
              for n in (3, 10)]  # fmt: skip
     assert found[0] == pytest.approx(found[1], rel=1e-6)
+
+
+def test_campbell_command_through_the_divergence(tmp_path):
+    """``quadmodes campbell paper-membrane-coarse --spin-max "45 Hz" --points 10`` succeeds (it
+    ended in "matrix contains invalid numeric entries") and reports the divergence."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from quadmodes.cli import app
+
+    res = CliRunner().invoke(app, ["campbell", "paper-membrane-coarse", "--spin-max", "45 Hz",
+                                   "--points", "10", "--json", "-o", str(tmp_path)])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    summary = json.loads(res.stdout)
+    assert len(summary["divergence_spin_hz"]) == 1 and 40.0 < summary["divergence_spin_hz"][0] < 45.0
+    assert (tmp_path / "campbell.png").is_file()

@@ -72,6 +72,9 @@ def _campbell_summary(result, case_name: str, formulation: str) -> dict:
             for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)
             if np.any(u) or k <= 0.0
         ],
+        # where the free body's rotating stiffness changes definiteness (branches end there)
+        "divergence_spin_rad_s": [float(w) for w in result.divergence],
+        "divergence_spin_hz": [float(w) / (2 * np.pi) for w in result.divergence],
     }
 
 
@@ -83,7 +86,10 @@ def _print_campbell(result, case_name: str, summary: dict) -> None:
         cells = [f"{v:.4g}" if np.isfinite(v) else "-" for v in freqs[k, :6]]
         table.add_row(f"{result.spin[k]:.3g}", *cells)
     out.print(table)
-    if summary["unstable_spin_rates_rad_s"]:
+    for w in summary["divergence_spin_rad_s"]:
+        out.print(f"[bold red]divergence at {w:.4g} rad/s ({w / (2 * np.pi):.4g} Hz): the "
+                  "rotating stiffness changes definiteness; every branch ends there[/]")  # fmt: skip
+    if summary["unstable_spin_rates_rad_s"] and not summary["divergence_spin_rad_s"]:
         out.print(
             f"[bold red]rotating stiffness not positive definite from "
             f"{summary['unstable_spin_rates_rad_s'][0]:.4g} rad/s[/]"
