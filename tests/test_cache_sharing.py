@@ -15,6 +15,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -226,3 +227,51 @@ def test_cache_entries_are_recognised_by_name(tmp_path):
 def test_model_building_commands_take_no_cache(command):
     result = CliRunner().invoke(app, [command, "--help"], terminal_width=200)
     assert result.exit_code == 0 and "--no-cache" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("kind", "size", "spin_hz", "modes", "spin"),
+    [
+        ("reduced", 16, 41.0, "16", "41 Hz"),
+        ("reduced", 5, 0.0, "5", ""),
+        ("spectrum", 20, 41.5, "20", "41.5 Hz"),
+        ("spectrum", 10, 0.0, "10", ""),
+        ("damping", 382.417, 0.0, "382.417 Hz", ""),
+    ],
+)
+def test_every_name_the_cache_writes_is_listed(tmp_path, kind, size, spin_hz, modes, spin):
+    """One naming scheme for the writers and the listing: a name made by ``entry_name`` (as
+    ``cache_path``, ``spectrum_path`` and the damping cache make theirs) parses back."""
+    from quadmodes.models.cache_entries import entry_name
+
+    name = entry_name(kind, "paper-membrane-coarse", size, "0123456789abcdef", spin_hz)
+    (tmp_path / name).write_bytes(b"x")
+    (tmp_path / f"{name}.lock").write_bytes(b"")
+    (found,) = cache_entries(tmp_path)
+    assert (found.kind, found.case, found.modes, found.spin) == (kind, "paper-membrane-coarse", modes, spin)
+    assert len(cache_entries(tmp_path, locks=True)) == 2
+
+
+def test_spinning_models_are_listed_and_cleared(tmp_path, monkeypatch):
+    """The default models are about a spinning state: their files (model, spectrum, locks) are
+    listed by ``cache list`` and removed by ``cache clear --yes``."""
+    from quadmodes.fullorder.damping import damping_cache_path
+
+    monkeypatch.setenv("QUADMODES_CACHE", str(tmp_path))
+    case = load_case("paper-membrane-coarse")
+    spin = 2 * np.pi * 41.0
+    written = [model_cache.cache_path(case, 16, spin), model_cache.spectrum_path(case, 20, spin),
+               model_cache.cache_path(case, 5), damping_cache_path(case, 382.417)]  # fmt: skip
+    for path in written:
+        path.write_bytes(b"x")
+        path.with_name(path.name + ".lock").write_bytes(b"")
+    (tmp_path / "notes.txt").write_text("mine")
+    assert {e.path for e in cache_entries(tmp_path)} == set(written)
+    listed = CliRunner().invoke(app, ["cache", "list", "--json"])
+    assert listed.exit_code == 0, listed.output
+    rows = json.loads(listed.stdout)["entries"]
+    assert sorted((r["kind"], r["modes"], r["spin"]) for r in rows) == [
+        ("damping", "382.417 Hz", ""), ("reduced", "16", "41 Hz"), ("reduced", "5", ""),
+        ("spectrum", "20", "41 Hz")]  # fmt: skip
+    assert CliRunner().invoke(app, ["cache", "clear", "--yes"]).exit_code == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]

@@ -21,21 +21,27 @@ cache_app = typer.Typer(
 
 @cache_app.command("list")
 def cache_list(as_json: JsonFlag = False) -> None:
-    """List the cache entries: case, kind, modes, size and age."""
+    """List the cache entries: case, kind, modes, reference spin, size and age."""
     from quadmodes.models.cache import cache_dir
     from quadmodes.models.cache_entries import cache_entries, format_age, format_size
 
     folder = cache_dir()
     entries = cache_entries(folder)
     if as_json:
-        rows = [{"case": e.case, "kind": e.kind, "modes": e.modes, "key": e.key,
+        rows = [{"case": e.case, "kind": e.kind, "modes": e.modes, "spin": e.spin, "key": e.key,
                  "size_bytes": e.size_bytes, "age_s": round(e.age_s, 1), "path": str(e.path)}
                 for e in entries]  # fmt: skip
         sys.stdout.write(json.dumps({"cache_dir": str(folder), "entries": rows}, indent=2) + "\n")
         return
-    table = Table("case", "kind", "modes", "size", "age", "key", title=f"cache: {escape(str(folder))}")
+    # names wrap rather than being cut, and the key shows its first 8 hex digits (all 16 in
+    # --json): the table keeps every value readable in 80 columns
+    table = Table(title=f"cache: {escape(str(folder))}")
+    table.add_column("case", overflow="fold")
+    for name in ("kind", "modes", "about", "size", "age", "key"):
+        table.add_column(name, no_wrap=True)
     for e in entries:
-        table.add_row(e.case, e.kind, e.modes, format_size(e.size_bytes), format_age(e.age_s), e.key)
+        table.add_row(e.case, e.kind, e.modes, e.spin or ("rest" if e.kind != "damping" else ""),
+                      format_size(e.size_bytes), format_age(e.age_s), e.key[:8])  # fmt: skip
     out.print(table)
     total = sum(e.size_bytes for e in entries)
     out.print(f"{len(entries)} entries, {format_size(total)}")

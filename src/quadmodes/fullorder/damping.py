@@ -29,6 +29,7 @@ from quadmodes.case import Case
 from quadmodes.fe.model import Structure
 from quadmodes.io.atomic import atomic_path
 from quadmodes.models import cache
+from quadmodes.models.cache_entries import entry_name
 from quadmodes.rom import artifact
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.structure.damping import CUTOFF_FACTOR, default_cutoff, modes_below, pairs_whole
@@ -106,8 +107,8 @@ def damping_key(case: Case, cutoff_hz: float) -> str:
 def damping_cache_path(case: Case, cutoff_hz: float) -> Path:
     """Cache file of the damping modes, beside the reduced models
     (:func:`~quadmodes.models.cache.cache_dir`)."""
-    tag = f"{float(cutoff_hz):.6g}".replace(".", "p")
-    return cache.cache_dir() / f"{case.name}-damping-{tag}Hz-{damping_key(case, cutoff_hz)}.nc"
+    name = entry_name("damping", case.name, cutoff_hz, damping_key(case, cutoff_hz))
+    return cache.cache_dir() / name
 
 
 def save_damping_modes(path: Path, freqs, shapes, labels, cutoff_hz: float, key: str) -> None:

@@ -33,6 +33,7 @@ from quadmodes._version import __version__
 from quadmodes.case import Case
 from quadmodes.io.atomic import write_text
 from quadmodes.io.locking import file_lock
+from quadmodes.models.cache_entries import entry_name
 from quadmodes.rom import artifact
 from quadmodes.rom.reduced import ReducedModel
 
@@ -138,16 +139,12 @@ def reduced_key(case: Case, n_modes: int, spin: float = 0.0) -> str:
     )
 
 
-def _spin_tag(spin: float) -> str:
-    """File-name part of a model or spectrum about the spin ``spin`` (rad/s): "-spin41Hz", or ""
-    at rest."""
-    return f"-spin{spin / (2 * np.pi):.6g}Hz".replace(".", "p") if spin else ""
-
-
 def cache_path(case: Case, n_modes: int, spin: float = 0.0) -> Path:
-    """Cache file of the reduced model of ``case`` with ``n_modes`` modes (about ``spin``)."""
-    tag = _spin_tag(spin)
-    return cache_dir() / f"{case.name}-N{int(n_modes)}{tag}-{reduced_key(case, n_modes, spin)}.nc"
+    """Cache file of the reduced model of ``case`` with ``n_modes`` modes (about ``spin``
+    rad/s), named by :func:`~quadmodes.models.cache_entries.entry_name`."""
+    name = entry_name("reduced", case.name, n_modes, reduced_key(case, n_modes, spin),
+                      spin / (2 * np.pi))  # fmt: skip
+    return cache_dir() / name
 
 
 def spectrum_path(case: Case, count: int, spin: float = 0.0) -> Path:
@@ -156,8 +153,7 @@ def spectrum_path(case: Case, count: int, spin: float = 0.0) -> Path:
     key = artifact.content_key(
         model_inputs(case) + f"\n# spectrum count = {int(count)}\n" + reference
     )
-    tag = _spin_tag(spin)
-    return cache_dir() / f"{case.name}-spectrum{int(count)}{tag}-{key}.json"
+    return cache_dir() / entry_name("spectrum", case.name, count, key, spin / (2 * np.pi))
 
 
 # ---------------------------------------------------------------------------------------------
