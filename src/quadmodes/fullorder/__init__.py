@@ -90,6 +90,7 @@ from quadmodes.fullorder.kinematics import (
     kane_hub,
 )
 from quadmodes.fullorder.newton import FullOrderNewtonError
+from quadmodes.fullorder.options import FullOrderOptions
 from quadmodes.fullorder.runs import (
     KaneFullOrder,
     estimate_for_run,
@@ -101,6 +102,7 @@ from quadmodes.fullorder.runs import (
 
 __all__ = [
     "FullOrderNewtonError",
+    "FullOrderOptions",
     "FullOrderSolution",
     "HubDrive",
     "KaneFullOrder",
