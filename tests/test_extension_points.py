@@ -146,6 +146,20 @@ def test_its_discrete_gradient_keeps_the_energy_of_a_large_deformation():
     assert drift["plain"] >= 1e-5  # 4e-4: what the one overridden method buys
 
 
+def test_the_old_keyword_arguments_still_work_for_one_release():
+    structure = tetrahedron()
+    x_ref = structure.reference
+    x0 = 1.05 * x_ref
+    args = (structure, x_ref, x0, np.zeros_like(x0), (0.0, 0.02), 1e-3)
+    new = integrate_full_order(*args, FullOrderOptions(save_every=4, newton_tol=1e-12))
+    with pytest.warns(DeprecationWarning, match="FullOrderOptions"):
+        old = integrate_full_order(*args, save_every=4, newton_tol=1e-12)
+    np.testing.assert_array_equal(old.t, new.t)
+    np.testing.assert_array_equal(old.E, new.E)
+    with pytest.raises(TypeError, match="unknown full-order option"), pytest.warns(DeprecationWarning):
+        integrate_full_order(*args, newton_tolerance=1e-12)
+
+
 def test_the_default_step_of_an_element_set_is_the_plain_midpoint():
     structure = tetrahedron()
     (springs,) = structure.elements
