@@ -12,6 +12,7 @@ from quadmodes.analysis.full_order_runs import kane_full_order
 from quadmodes.fe.model import centre_of_mass
 from quadmodes.fullorder import (
     FullOrderNewtonError,
+    FullOrderOptions,
     initial_state_from_reduced,
     integrate_full_order,
 )
@@ -55,7 +56,8 @@ def spinning(small_modal_model, small_reduced_model):
     x0, v0 = _full_state(small_modal_model, small_reduced_model, y0)
     m = small_modal_model
     return integrate_full_order(
-        m.structure, m.x, x0, v0, (0.0, 0.03), 2.5e-4, model=small_reduced_model, damping=False
+        m.structure, m.x, x0, v0, (0.0, 0.03), 2.5e-4,
+        FullOrderOptions(model=small_reduced_model, damping=False),
     )
 
 
@@ -67,7 +69,8 @@ def ringing(small_modal_model, small_reduced_model):
     m = small_modal_model
     period = 1.0 / small_reduced_model.frequencies_hz[BENDING]
     return integrate_full_order(
-        m.structure, m.x, x0, v0, (0.0, 5 * period), period / 60, model=small_reduced_model
+        m.structure, m.x, x0, v0, (0.0, 5 * period), period / 60,
+        FullOrderOptions(model=small_reduced_model),
     ), y0
 
 
@@ -142,7 +145,8 @@ def test_midpoint_second_order(small_modal_model, small_reduced_model):
     ends = {}
     for h in (4e-4, 2e-4, 1e-4, 2.5e-5):
         sol = integrate_full_order(
-            m.structure, m.x, x0, v0, (0.0, 3.2e-3), h, model=small_reduced_model, damping=False
+            m.structure, m.x, x0, v0, (0.0, 3.2e-3), h,
+            FullOrderOptions(model=small_reduced_model, damping=False),
         )
         ends[h] = sol.modal_coordinates[-1]
     e1 = np.linalg.norm(ends[4e-4] - ends[2.5e-5])
@@ -159,8 +163,9 @@ def test_checkpoint_resume_and_newton_failure(small_modal_model, small_reduced_m
 
     def run(n_steps, path, **kw):
         return integrate_full_order(
-            m.structure, m.x, x0, v0, (0.0, n_steps * h), h, model=small_reduced_model,
-            checkpoint=path, checkpoint_every=10, save_every=3, **kw,
+            m.structure, m.x, x0, v0, (0.0, n_steps * h), h, FullOrderOptions(
+                model=small_reduced_model, checkpoint=path, checkpoint_every=10, save_every=3,
+                **kw),
         )  # fmt: skip
 
     whole = run(30, tmp_path / "a.npz")

@@ -16,7 +16,12 @@ import pytest
 from quadmodes.fe.assembly import assemble_matrix, csr_pattern, submatrix_map
 from quadmodes.fe.model import centre_of_mass, mass_matrix, strain_energy, tangent_stiffness
 from quadmodes.fe.pressure import PressureSet
-from quadmodes.fullorder import condensed, initial_state_from_reduced, integrate_full_order
+from quadmodes.fullorder import (
+    FullOrderOptions,
+    condensed,
+    initial_state_from_reduced,
+    integrate_full_order,
+)
 from quadmodes.fullorder import kinematics as kin
 from quadmodes.fullorder import newton as nwt
 from quadmodes.fullorder import step as stp
@@ -214,8 +219,8 @@ def spin_runs(small_modal_model, small_reduced_model):
     x0, v0 = _spin_start(m, model)
 
     def run(full):
-        return integrate_full_order(m.structure, m.x, x0, v0, (0.0, 40 * H), H, model=model,
-                                    full_newton=full)  # fmt: skip
+        return integrate_full_order(m.structure, m.x, x0, v0, (0.0, 40 * H), H,
+                                    FullOrderOptions(model=model, full_newton=full))  # fmt: skip
 
     made = []
 
@@ -261,8 +266,8 @@ def test_plain_midpoint_path_matches_full_newton(small_modal_model, small_reduce
     omega = dyn.coning_omega(model.J0, 2 * np.pi * 5.0, math.radians(3.0))
     y0 = rsys.pack_state(system, omega=omega, s=np.zeros(model.n_modes))
     x0, v0 = initial_state_from_reduced(model, y0, p=centre_of_mass(m.structure, m.x))
-    sols = [integrate_full_order(m.structure, m.x, x0, v0, (0.0, 10 * H), H, model=model,
-                                 energy_momentum=False, full_newton=full)
+    sols = [integrate_full_order(m.structure, m.x, x0, v0, (0.0, 10 * H), H, FullOrderOptions(
+                model=model, energy_momentum=False, full_newton=full))
             for full in (False, True)]  # fmt: skip
     new, ref = sols
     assert new.status == 0 and ref.status == 0

@@ -51,12 +51,19 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
         st = pickle.load(fh)
     save_every = max(1, int(round(st.sample_interval / dt)))
 
+    options = dict(model=st.model, damping=st.integrator_damping(), save_every=save_every,
+                   hub=st.hub, spin_axis=st.spin_axis)  # fmt: skip
+    try:  # an options object since issue 23; an older tree takes them as keywords
+        from quadmodes.fullorder.options import FullOrderOptions
+    except ImportError:
+        FullOrderOptions = None  # noqa: N806
+
     def run(span: float):
-        return integrate_full_order(
-            st.structure, st.x_ref, st.x0, st.v0, (0.0, span), dt, model=st.model,
-            damping=st.integrator_damping(), save_every=save_every, hub=st.hub,
-            spin_axis=st.spin_axis,
-        )  # fmt: skip
+        if FullOrderOptions is None:
+            return integrate_full_order(st.structure, st.x_ref, st.x0, st.v0, (0.0, span), dt,
+                                        **options)  # fmt: skip
+        return integrate_full_order(st.structure, st.x_ref, st.x0, st.v0, (0.0, span), dt,
+                                    FullOrderOptions(**options))  # fmt: skip
 
     start = time.perf_counter()
     run(dt)  # one step: the one-off costs of a process (first calls, compiled kernels)

@@ -25,6 +25,7 @@ from quadmodes.fullorder.kinematics import (
     initial_state_from_reduced,
     kane_hub,
 )
+from quadmodes.fullorder.options import FullOrderOptions
 from quadmodes.fullorder.setup import step_count
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.rotations import rotation_matrix
@@ -237,10 +238,12 @@ def full_order_for_run(
     if save_every is None:
         save_every = max(1, int(round(st.sample_interval / dt)))
     frac = (lambda f: progress("full order", f)) if progress else None
+    on_sample = options.pop("on_sample", None)
     return integrate_full_order(
-        st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, model=st.model,
-        damping=st.integrator_damping(), save_every=save_every, hub=st.hub, spin_axis=st.spin_axis,
-        progress=frac, **options,
+        st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, FullOrderOptions(
+            model=st.model, damping=st.integrator_damping(), save_every=save_every, hub=st.hub,
+            spin_axis=st.spin_axis).updated(**options),
+        progress=frac, on_sample=on_sample,
     )  # fmt: skip
 
 
@@ -260,12 +263,14 @@ def estimate_wall_time(
     n_steps = step_count(t_span, dt)[0]
     t0 = float(t_span[0])
     start = time.perf_counter()
-    integrate_full_order(structure, x_ref, x0, v0, (t0, t0 + dt), dt, **options)
+    integrate_full_order(structure, x_ref, x0, v0, (t0, t0 + dt), dt,
+                         FullOrderOptions().updated(**options))  # fmt: skip
     first = time.perf_counter() - start
     k = max(1, min(n_probe, n_steps))
     start = time.perf_counter()
     sol = integrate_full_order(
-        structure, x_ref, x0, v0, (t0, t0 + (k + 1) * dt), dt, save_every=k + 1, **options
+        structure, x_ref, x0, v0, (t0, t0 + (k + 1) * dt), dt,
+        FullOrderOptions().updated(save_every=k + 1, **options),
     )
     elapsed = time.perf_counter() - start
     # on a busy machine the (k+1)-step run can take less than the first step did alone: then
@@ -357,8 +362,9 @@ def kane_full_order(
     x0, v0 = x_ref.copy(), np.zeros_like(x_ref)
     start = time.perf_counter()
     sol = integrate_full_order(
-        structure, x_ref, x0, v0, (0.0, duration), dt, model=model, damping=False,
-        save_every=save_every, hub=kane_hub(omega_s, t_ramp), **options,
+        structure, x_ref, x0, v0, (0.0, duration), dt, FullOrderOptions(
+            model=model, damping=False, save_every=save_every,
+            hub=kane_hub(omega_s, t_ramp)).updated(**options),
     )  # fmt: skip
     wall = time.perf_counter() - start
     tp, vp = refined_extreme(sol.t, sol.tip[:, 1])

@@ -10,9 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from quadmodes.fe.elements import ElementSet
+from quadmodes.fe.step_kernels import StepKernel, node_operator, rowdot
+
 
 @dataclass(frozen=True)
-class BarSet:
+class BarSet(ElementSet):
     """Bars ``conn`` ``(ne, 2)`` with stress-free lengths ``length0`` ``(ne,)`` (m) and axial
     stiffness ``EA`` ``(ne,)`` (N). Massless."""
 
@@ -57,6 +60,86 @@ class BarSet:
 
     def mass(self) -> None:
         return None
+
+    # ---------------------------------------------------------------- full-order step
+    def step_start(self, x0: np.ndarray) -> np.ndarray:
+        """Strains ``(ne,)`` at the step's start state."""
+        return self.strain(x0)
+
+    def step_force(self, x0: np.ndarray, x1: np.ndarray, start=None) -> np.ndarray:
+        """Energy–momentum step force ``(ne, 2, 3)``: ``∓ EA ε̄ d½ / L₀``, ε̄ = (ε₀ + ε₁)/2
+        (exact work, since ε is quadratic in x)."""
+        e0 = self.strain(x0) if start is None else start
+        ebar = 0.5 * (e0 + self.strain(x1))
+        fb = (self.EA * ebar / self.length0)[:, None] * self._d(0.5 * (x0 + x1))
+        return np.stack([-fb, fb], 1)
+
+    def step_block(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+        """``∂ step_force / ∂x1`` ``(ne, 6, 6)``: ``½ EA/L₀ [ε̄ I + d½ ⊗ d₁ / L₀²]`` per end
+        pair."""
+        dh, d1 = self._d(0.5 * (x0 + x1)), self._d(x1)
+        ebar = 0.5 * (self.strain(x0) + self.strain(x1))
+        k = self.EA / self.length0
+        kb = (0.5 * k)[:, None, None] * (
+            ebar[:, None, None] * np.eye(3)
+            + np.einsum("ei,ej->eij", dh, d1) / (self.length0**2)[:, None, None]
+        )
+        return np.block([[kb, -kb], [-kb, kb]])
+
+    def step_kernel(self, n: int, energy_momentum: bool, jit=None) -> StepKernel:
+        """:class:`BarKernel` (a tie) with the energy–momentum average."""
+        return BarKernel(self, n) if energy_momentum else super().step_kernel(n, False, jit)
+
+
+class BarKernel(StepKernel):
+    """Fast step of Green-strain bars: start data ``(d₀, ε₀)``, the bar vectors ``(ne, 3)``
+    and strains. ``tie``: these are the stiff ties that :mod:`~quadmodes.fullorder.condensed`
+    condenses."""
+
+    tie = True
+
+    def __init__(self, e: BarSet, n: int):
+        super().__init__(e, n)
+        self.conn = np.ascontiguousarray(e.conn)
+        self.l2 = e.length0**2
+        self.k = e.EA / e.length0
+        signs = np.broadcast_to(np.array([-1.0, 1.0]), e.conn.shape)
+        self.diff_op = node_operator(e.conn, signs, n)  # d = x_b − x_a
+        self.force_op = self.diff_op.T.tocsr()
+
+    def _d(self, x: np.ndarray) -> np.ndarray:
+        return self.diff_op @ x
+
+    def start(self, x0: np.ndarray):
+        d0 = self._d(x0)
+        return d0, (rowdot(d0, d0) - self.l2) / (2.0 * self.l2)
+
+    def _mean_strain(self, e0: np.ndarray, d1: np.ndarray) -> np.ndarray:
+        return 0.5 * (e0 + (rowdot(d1, d1) - self.l2) / (2.0 * self.l2))
+
+    def force(self, start, x1: np.ndarray) -> np.ndarray:
+        """Nodal forces (n,3): ``∓ EA ε̄ d½ / L₀`` on the two ends."""
+        d0, e0 = start
+        d1 = self._d(x1)
+        return self.force_op @ ((self.k * self._mean_strain(e0, d1))[:, None] * (0.5 * (d0 + d1)))
+
+    def block(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+        d0, e0 = self.start(x0)
+        d1 = self._d(x1)
+        dh = 0.5 * (d0 + d1)
+        kb = (0.5 * self.k)[:, None, None] * (
+            self._mean_strain(e0, d1)[:, None, None] * np.eye(3)
+            + dh[:, :, None] * d1[:, None, :] / self.l2[:, None, None]
+        )
+        out = np.empty((kb.shape[0], 2, 3, 2, 3))  # [[kb, −kb], [−kb, kb]]
+        out[:, 0, :, 0], out[:, 1, :, 1] = kb, kb
+        out[:, 0, :, 1], out[:, 1, :, 0] = -kb, -kb
+        return out.reshape(-1, 6, 6)
+
+    def add_tie_blocks(self, jit, z0, z1, positions, weight, out) -> bool:
+        """The blocks summed straight into the dense tie matrix by ``jit.tie_blocks``."""
+        jit.tie_blocks(self.conn, self.l2, self.k, z0, z1, positions, weight, out)
+        return True
 
 
 def bar_set(conn: np.ndarray, reference: np.ndarray, EA: float | np.ndarray) -> BarSet:

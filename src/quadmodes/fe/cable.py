@@ -46,6 +46,8 @@ from functools import cached_property
 
 import numpy as np
 
+from quadmodes.fe.elements import ElementSet
+
 __all__ = ["CableSet", "straight_cable", "clamped_mask", "hermite_shape"]
 
 #: Number of Gauss points per element: exact for the degree-8 axial energy integrand.
@@ -80,7 +82,7 @@ def hermite_shape(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class CableSet:
+class CableSet(ElementSet):
     """A set of ANCF cable elements (see the module docstring for the formulation).
 
     Attributes

@@ -13,6 +13,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from quadmodes.fe import wrinkling
+from quadmodes.fe.elements import ElementSet
+from quadmodes.fe.membrane_kernels import MembraneKernel, RelaxedMembraneKernel
+from quadmodes.fe.step_kernels import StepKernel
 
 
 def membrane_reference_gradients(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -86,7 +89,7 @@ def strain_displacement(f: np.ndarray, g: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class MembraneSet:
+class MembraneSet(ElementSet):
     """CST membrane elements over triangles ``conn`` ``(ne, 3)``.
 
     ``gradients`` ``(ne, 3, 2)`` and ``area0`` ``(ne,)`` come from the stress-free reference
@@ -226,6 +229,50 @@ class MembraneSet:
         if self.lumped_mass:
             return m[:, None, None] * (np.eye(3) / 3.0)
         return m[:, None, None] * ((np.ones((3, 3)) + np.eye(3)) / 12.0)
+
+    # ---------------------------------------------------------------- full-order step
+    # (green_strain, not deformation_strain: the discrete-gradient reference amplifies
+    # round-off in E)
+    def step_start(self, x0: np.ndarray) -> np.ndarray:
+        """Green strains ``(ne, 2, 2)`` at the step's start state."""
+        return green_strain(self.gradients, x0[self.conn])[1]
+
+    def step_force(self, x0: np.ndarray, x1: np.ndarray, start=None) -> np.ndarray:
+        """Energy–momentum step force ``(ne, 3, 3)`` (N): ``V F(x½) S̄ Gᵀ`` with the step
+        stress S̄ of :meth:`step_stress` (SVK: the stress of the averaged strain, Simo &
+        Tarnow; relaxed: its discrete gradient). ε being quadratic in x, ``E₁ − E₀ =
+        Dε(x½)(x₁ − x₀)``, so the work equals the energy change; ``start``: :meth:`step_start`
+        at x0 (else computed)."""
+        e0 = self.step_start(x0) if start is None else start
+        fh, _ = green_strain(self.gradients, (0.5 * (x0 + x1))[self.conn])
+        _, e1 = green_strain(self.gradients, x1[self.conn])
+        sbar = self.step_stress(e0, e1)
+        return self._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", fh, sbar,
+                                                         self.gradients)  # fmt: skip
+
+    def step_block(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+        """``∂ step_force / ∂x1`` ``(ne, 9, 9)``: ``V [½ K_geo(S̄) + B(x½)ᵀ (∂S̄/∂E₁) B(x₁)]``
+        (SVK: ``∂S̄/∂E₁ = ½ D``)."""
+        g = self.gradients
+        fh, _ = green_strain(g, (0.5 * (x0 + x1))[self.conn])
+        f1, e1 = green_strain(g, x1[self.conn])
+        _, e0 = green_strain(g, x0[self.conn])
+        sbar = self.step_stress(e0, e1)
+        t = self.step_tangent(e0, e1)
+        k_mat = np.einsum("epa,epq,eqb->eab", strain_displacement(fh, g), t,
+                          strain_displacement(f1, g))  # fmt: skip
+        k_geo = np.einsum("eak,ekl,ebl->eab", g, sbar, g)
+        k_geo = np.einsum("eab,ij->eaibj", k_geo, np.eye(3)).reshape(-1, 9, 9)
+        return self._volume()[:, None, None] * (k_mat + 0.5 * k_geo)
+
+    def step_kernel(self, n: int, energy_momentum: bool, jit=None) -> StepKernel:
+        """The fast membrane kernel (compiled force with ``jit``) or, under the wrinkling law,
+        its numpy form with the set's step stress; the plain midpoint without the average."""
+        if not energy_momentum:
+            return super().step_kernel(n, False, jit)
+        if self.tension_field:
+            return RelaxedMembraneKernel(self, n)
+        return MembraneKernel(self, n, jit)
 
     def principal_stress_resultants(self, x: np.ndarray) -> np.ndarray:
         """Principal Cauchy stress resultants ``(ne, 2)`` (N/m), ascending, in the current state."""

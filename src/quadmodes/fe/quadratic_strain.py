@@ -30,9 +30,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from quadmodes.fe.elements import ElementSet
+
 
 @dataclass(frozen=True, eq=False)
-class QuadraticStrainSet:
+class QuadraticStrainSet(ElementSet):
     """An element set with quadratic strains (see the module docstring).
 
     conn: ``(ne, k)`` vector-DOF indices. operators: ``a`` ``(ne, np, ns, k, k)`` symmetric.
@@ -113,9 +115,10 @@ class QuadraticStrainSet:
         return self.mass_blocks
 
     # ---------------------------------------------------------------- energy–momentum step
-    def step_force(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+    def step_force(self, x0: np.ndarray, x1: np.ndarray, start=None) -> np.ndarray:
         """Energy–momentum element forces ``(ne, k, 3)`` of the step ``x0 → x1``: the stress of
-        the averaged strain times the strain gradient at the midpoint (exact work)."""
+        the averaged strain times the strain gradient at the midpoint (exact work); ``start``
+        unused."""
         qh = 0.5 * (self._q(x0) + self._q(x1))
         ebar = 0.5 * (self.strains(x0) + self.strains(x1))
         return np.einsum("eps,epsjc->ejc", self._weighted_stress(ebar), self._gradients(qh))

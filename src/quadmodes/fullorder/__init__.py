@@ -91,9 +91,11 @@ from quadmodes.fullorder.kinematics import (
     kane_hub,
 )
 from quadmodes.fullorder.newton import FullOrderNewtonError
+from quadmodes.fullorder.options import FullOrderOptions
 
 __all__ = [
     "FullOrderNewtonError",
+    "FullOrderOptions",
     "FullOrderSolution",
     "HubDrive",
     "centrifugal_stretch",

@@ -32,7 +32,7 @@ from quadmodes.linalg.factor import factorize
 
 class TieSplit:
     """The I/T split of the free DOFs of a run (computed once): ``tie`` (|T|,) and ``soft``
-    (|I|,) positions in the free-DOF vector; ``scatter`` (Σ nb·36,) position of every entry of
+    (|I|,) positions in the free-DOF vector; ``scatter`` (Σ nb·(3k)²,) position of every entry of
     the ties' element blocks in the raveled |T|×|T| matrix (−1: a clamped row or column);
     ``stiff`` the indices of the tie kernels in ``ops.kernels``."""
 
@@ -49,18 +49,19 @@ class TieSplit:
         parts = []
         nt = len(self.tie)
         for d in dofs:
-            loc = np.where(where[d] >= 0, in_t[np.maximum(where[d], 0)], -1)  # (nb, 6)
+            loc = np.where(where[d] >= 0, in_t[np.maximum(where[d], 0)], -1)  # (nb, 3k)
             m = loc.shape[1]
             rows, cols = np.repeat(loc, m, axis=1).ravel(), np.tile(loc, (1, m)).ravel()
             parts.append(np.where((rows >= 0) & (cols >= 0), rows * nt + cols, -1))
         self.scatter = np.concatenate(parts)
-        self.positions = [part.reshape(-1, 36) for part in parts]  # per tie set (nb, 36)
+        self.positions = [part.reshape(len(d), -1) for part, d in zip(parts, dofs, strict=True)]
+        # per tie set (nb, (3k)²)
         self.stiff = stiff
 
     @classmethod
     def of(cls, ops: StepOperators, free: np.ndarray) -> TieSplit | None:
-        """The split of the tie kernels (bars with the energy–momentum average), or None
-        without ties."""
+        """The split of the tie kernels (those whose ``tie`` is True: bars with the
+        energy–momentum average), or None without ties."""
         stiff = [k for k, kern in enumerate(ops.kernels) if kern.tie]
         return cls(ops, free, stiff) if stiff else None
 
@@ -99,12 +100,14 @@ class CondensedNewtonMatrix:
         (z0, z1) (n,3)."""
         nt = len(self.split.tie)
         jit = jit_module()
-        if jit is not None:  # the bars' blocks summed straight into the Schur matrix
+        if jit is not None:  # the ties' blocks summed straight into the Schur matrix
             s = self.s_soft.copy().ravel()
             z0, z1 = np.ascontiguousarray(z0, float), np.ascontiguousarray(z1, float)
             for k, pos in zip(self.split.stiff, self.split.positions, strict=True):
                 kern = self.ops.kernels[k]
-                jit.tie_blocks(kern.conn, kern.l2, kern.k, z0, z1, pos, self.weight, s)
+                if not kern.add_tie_blocks(jit, z0, z1, pos, self.weight, s):
+                    keep = pos >= 0  # a tie kernel without a compiled form
+                    np.add.at(s, pos[keep], self.weight * kern.block(z0, z1).reshape(pos.shape)[keep])
             s = s.reshape(nt, nt)
         else:
             blocks = np.concatenate([self.ops.kernels[k].block(z0, z1).ravel()

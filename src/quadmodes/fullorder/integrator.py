@@ -8,16 +8,15 @@ samples (:mod:`~quadmodes.fullorder.sampling`) and checkpoints
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-import quadmodes.fullorder.kinematics as kin
 from quadmodes.fe.model import Structure
 from quadmodes.fullorder.checkpoint import checkpoint_data, resume_from, write_checkpoint
-from quadmodes.fullorder.damping import DampingModes
 from quadmodes.fullorder.kernels import StepOperators
 from quadmodes.fullorder.newton import (
     FullOrderNewtonError,
@@ -25,6 +24,7 @@ from quadmodes.fullorder.newton import (
     matrix_factory,
     solve_step,
 )
+from quadmodes.fullorder.options import FullOrderOptions
 from quadmodes.fullorder.sampling import SampledSeries
 from quadmodes.fullorder.setup import (
     FullOrderProblem,
@@ -35,7 +35,6 @@ from quadmodes.fullorder.setup import (
 )
 from quadmodes.fullorder.step import StepResidual, body_frame, dissipated_work, predict
 from quadmodes.rom.diagnostics import cone_angle
-from quadmodes.rom.reduced import ReducedModel
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,66 +84,53 @@ def integrate_full_order(
     v0: np.ndarray,
     t_span: tuple[float, float],
     dt: float,
+    options: FullOrderOptions | None = None,
     *,
-    model: ReducedModel | None = None,
-    damping: bool | DampingModes = True,
-    save_every: int = 1,
-    hub: kin.HubDrive | None = None,
-    spin_axis: np.ndarray | None = None,
-    rotation_map: bool = True,
-    energy_momentum: bool = True,
-    newton_tol: float = 1e-11,
-    max_newton: int = 40,
-    full_newton: bool = False,
-    checkpoint: Path | None = None,
-    checkpoint_every: int = 1000,
-    resume: bool = False,
     progress: Callable[[float], None] | None = None,
     on_sample: Callable[[float, np.ndarray], None] | None = None,
+    **legacy,
 ) -> FullOrderSolution:
     """Integrate ``M ẍ + f_d + f(x) = 0`` with the implicit midpoint from ``(x0, v0)`` (n,3).
 
     structure, x_ref (n,3): the FE model and its reference (inflated equilibrium) state; V is
     measured from x_ref and the body reference X is x_ref about its CoM (free) or the hub point.
-    t_span (s): (t0, t1); the step is ``span / ceil(span/dt)``. model: the reduced model whose
-    modes give the modal coordinates (None: N = 0) and, with ``damping=True``, the damping.
-    damping: the modal damping basis (:class:`~quadmodes.fullorder.damping.DampingModes`, e.g.
-    the independent one), True: the model's retained modes and C, False: none. save_every: sample every so many steps (and the
-    last). hub: prescribed rotation of the clamped DOFs (needed iff the structure has fixed
-    DOFs; default for a clamped structure: a fixed clamp). spin_axis (3,): nominal spin axis in
-    the initial body frame for the axis tracking (default: the minor axis of the initial
-    inertia). newton_tol: relative (to the body size) Newton correction at convergence.
-    max_newton: iterations per step. full_newton: a fresh factorisation of the whole Newton
-    matrix at every iteration, matrix and step force computed the straightforward way
-    (:func:`~quadmodes.fullorder.newton.step_jacobian`, :func:`~quadmodes.fullorder.step.step_force`;
-    the reference the tests compare the default with; several times slower). checkpoint: .npz path written every ``checkpoint_every``
-    steps (atomic); ``resume``: continue from it (same t0, dt; the end may differ) — the result
-    equals the uninterrupted run's (the factorisation is renewed after every checkpoint in both).
-    rotation_map: map the initial state to the scheme's steady-rotation form and the sampled
-    end states back for the diagnostics (free bodies; see the package docstring).
-    energy_momentum: averaged-stress internal force (False: plain ``f(x½)``).
-    progress(fraction). on_sample(t, x): called with every sample's physical positions x (n,3) m
-    (e.g. :class:`quadmodes.io.animation.FullOrderRecorder`). Raises :class:`FullOrderNewtonError` on a Newton failure; Ctrl-C returns
-    what was computed with status 1."""
+    t_span (s): (t0, t1); the step is ``span / ceil(span/dt)``. options: a
+    :class:`~quadmodes.fullorder.options.FullOrderOptions` (model, damping, sampling, hub,
+    Newton, checkpoints; default: its defaults). progress(fraction). on_sample(t, x): called
+    with every sample's physical positions x (n,3) m (e.g.
+    :class:`quadmodes.io.animation.FullOrderRecorder`).
+
+    Deprecated, kept for one release: the options as keyword arguments (``model=…,
+    damping=…, newton_tol=…``, the field names of ``FullOrderOptions``); they update
+    ``options`` and warn (``DeprecationWarning``).
+
+    Raises :class:`FullOrderNewtonError` on a Newton failure; Ctrl-C returns what was computed
+    with status 1."""
+    opts = FullOrderOptions() if options is None else options
+    if legacy:
+        warnings.warn("integrate_full_order: pass the options as options=FullOrderOptions(...)",
+                      DeprecationWarning, stacklevel=2)  # fmt: skip
+        opts = opts.updated(**legacy)
     start = time.perf_counter()
     problem = setup_problem(
-        structure, x_ref, t_span, dt, model=model, damping=damping, hub=hub,
-        newton_tol=newton_tol, energy_momentum=energy_momentum, rotation_map=rotation_map,
+        structure, x_ref, t_span, dt, model=opts.model, damping=opts.damping, hub=opts.hub,
+        newton_tol=opts.newton_tol, energy_momentum=opts.energy_momentum,
+        rotation_map=opts.rotation_map,
     )  # fmt: skip
-    ops = StepOperators.build(structure, problem.m_full, problem.free, energy_momentum)
-    samples = SampledSeries(problem, spin_axis, ops.energy if ops is not None else None,
+    ops = StepOperators.build(structure, problem.m_full, problem.free, opts.energy_momentum)
+    samples = SampledSeries(problem, opts.spin_axis, ops.energy if ops is not None else None,
                             on_sample)  # fmt: skip
-    ck = Path(checkpoint) if checkpoint is not None else None
+    ck = Path(opts.checkpoint) if opts.checkpoint is not None else None
     state = initial_run_state(x0, v0)
-    if resume and ck is not None and ck.is_file():
+    if opts.resume and ck is not None and ck.is_file():
         state = resume_from(ck, problem, samples)
     if state.step == 0 and samples.last_time() is None:
         state = discrete_initial_state(problem, state)
         samples.record(problem.t0, state.x, state.v, state.e_d)
     state, status, message = _run_steps(
-        problem, state, samples, ops, max_newton=max_newton, full_newton=full_newton,
-        save_every=save_every, checkpoint=ck,
-        checkpoint_every=checkpoint_every, progress=progress, start=start,
+        problem, state, samples, ops, max_newton=opts.max_newton, full_newton=opts.full_newton,
+        save_every=opts.save_every, checkpoint=ck,
+        checkpoint_every=opts.checkpoint_every, progress=progress, start=start,
     )  # fmt: skip
     modes = problem.damping
     stats = {"n_newton": state.n_newton, "n_factor": state.n_factor, "n_steps": state.step,

@@ -17,10 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from quadmodes.fe.assembly import assemble_matrix
-from quadmodes.fe.bar import BarSet
-from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
-from quadmodes.fe.quadratic_strain import QuadraticStrainSet
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
 from quadmodes.fullorder.kernels import StepOperators
 from quadmodes.fullorder.krylov import KrylovNewtonMatrix
@@ -65,66 +62,24 @@ class FullOrderNewtonError(RuntimeError):
 # ---------------------------------------------------------------------------------------------
 
 
-def _strain_rows(f: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """Membrane strain–displacement rows ``(ne, 3, 9)`` for ``[E11, E22, 2E12]`` at F (ne,3,2)."""
-    return np.stack(
-        [
-            np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 0]),
-            np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 1]),
-            np.einsum("ei,ea->eai", f[:, :, 0], g[:, :, 1])
-            + np.einsum("ei,ea->eai", f[:, :, 1], g[:, :, 0]),
-        ],
-        1,
-    ).reshape(-1, 3, 9)
-
-
-def _membrane_block(e: MembraneSet, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray):
-    """``½ K_geo(S̄) + B(x½)ᵀ (∂S̄/∂E₁) B(x₁)`` (ne,9,9) of a membrane set (SVK: ``∂S̄/∂E₁ =
-    ½ D``)."""
-    fh, _ = green_strain(e.gradients, xh[e.conn])
-    f1, e1 = green_strain(e.gradients, x1[e.conn])
-    _, e0 = green_strain(e.gradients, x0[e.conn])
-    sbar = e.step_stress(e0, e1)
-    g = e.gradients
-    t = e.step_tangent(e0, e1)
-    k_mat = np.einsum("epa,epq,eqb->eab", _strain_rows(fh, g), t, _strain_rows(f1, g))
-    k_geo = np.einsum("eak,ekl,ebl->eab", g, sbar, g)
-    k_geo = np.einsum("eab,ij->eaibj", k_geo, np.eye(3)).reshape(-1, 9, 9)
-    return e._volume()[:, None, None] * (k_mat + 0.5 * k_geo)
-
-
-def _bar_block(e: BarSet, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray):
-    """The bars' counterpart of :func:`_membrane_block` (ne,6,6)."""
-    dh, d1 = e._d(xh), e._d(x1)
-    ebar = 0.5 * (e.strain(x0) + e.strain(x1))
-    k = e.EA / e.length0
-    kb = (0.5 * k)[:, None, None] * (
-        ebar[:, None, None] * np.eye(3)
-        + np.einsum("ei,ej->eij", dh, d1) / (e.length0**2)[:, None, None]
-    )
-    return np.block([[kb, -kb], [-kb, kb]])
+def _membrane_block(e, x0: np.ndarray, x1: np.ndarray, xh: np.ndarray) -> np.ndarray:
+    """The Jacobian blocks of a membrane set (``e.step_block``; kept for the tests' old name,
+    ``xh`` unused)."""
+    return e.step_block(x0, x1)
 
 
 def step_jacobian(structure: Structure, x0: np.ndarray, x1: np.ndarray, energy_momentum: bool):
     """``∂f_step/∂x₁`` (3n,3n) sparse (N/m) of
     :func:`~quadmodes.fullorder.step.step_force` (or of ``f(x½)``: ½K(x½)) and its rank-one
-    gas-law terms ``[(c, v)]``. The energy–momentum blocks are not symmetric:
+    gas-law terms ``[(c, v)]``: every element set's ``step_block``
+    (:class:`~quadmodes.fe.elements.ElementSet`). The energy–momentum blocks are not symmetric:
     ``½[K_geo(S̄) + B(x½)ᵀ D B(x₁)]`` for membranes, likewise for bars."""
     xh = 0.5 * (x0 + x1)
     low = [(0.5 * c, v) for c, v in tangent_low_rank(structure, xh)]
     if not energy_momentum:
         return 0.5 * tangent_stiffness(structure, xh), low
-    mats = []
-    for e in structure.elements:
-        if isinstance(e, MembraneSet):
-            ke = _membrane_block(e, x0, x1, xh)
-        elif isinstance(e, BarSet):
-            ke = _bar_block(e, x0, x1, xh)
-        elif isinstance(e, QuadraticStrainSet):
-            ke = e.step_block(x0, x1)
-        else:
-            ke = 0.5 * e.stiffness(xh)
-        mats.append(assemble_matrix(e.conn, ke, structure.n))
+    mats = [assemble_matrix(e.conn, e.step_block(x0, x1), structure.n)
+            for e in structure.elements]  # fmt: skip
     out = mats[0]
     for m in mats[1:]:
         out = out + m

@@ -18,10 +18,7 @@ import numpy as np
 
 import quadmodes.fullorder.kinematics as kin
 from quadmodes.fe.assembly import assemble_vector
-from quadmodes.fe.bar import BarSet
-from quadmodes.fe.membrane import MembraneSet, green_strain
 from quadmodes.fe.model import Structure, internal_force
-from quadmodes.fe.quadratic_strain import QuadraticStrainSet
 from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.fullorder.setup import FullOrderProblem
 from quadmodes.rotations import skew
@@ -32,49 +29,29 @@ from quadmodes.rotations import skew
 
 
 def step_force(structure: Structure, x0: np.ndarray, x1: np.ndarray, strain0=None) -> np.ndarray:
-    """Internal force (n,3) N of the step x0 → x1 (energy–momentum midpoint).
+    """Internal force (n,3) N of the step x0 → x1 (energy–momentum midpoint): the sum of every
+    element set's ``step_force`` (:class:`~quadmodes.fe.elements.ElementSet`).
 
-    St Venant–Kirchhoff membranes and Green-strain bars: ``Dε(x½)ᵀ S̄`` with the stress of the
-    averaged strain ``S̄ = S((ε₀ + ε₁)/2)`` (Simo & Tarnow 1992); a wrinkling membrane uses its
-    strain-space discrete gradient (``MembraneSet.step_stress``, same exact work). Since ε is quadratic in x,
-    ``ε₁ − ε₀ = Dε(x½)(x₁ − x₀)`` and the energy is quadratic in ε, the step's work equals
+    St Venant–Kirchhoff membranes, Green-strain bars and quadratic-strain sets (beams, hubs)
+    use the stress of the averaged strain ``S̄ = S((ε₀ + ε₁)/2)`` at the midpoint (Simo &
+    Tarnow 1992); a wrinkling membrane its strain-space discrete gradient. Since ε is quadratic
+    in x, ``ε₁ − ε₀ = Dε(x½)(x₁ − x₀)`` and the energy is quadratic in ε, the step's work equals
     the energy change exactly; ``Dε(x½)ᵀ S̄`` is equilibrated at x½, so H is conserved too.
-    Quadratic-strain sets (beams, hubs) use their own stress average
-    (:meth:`QuadraticStrainSet.step_force`). Other sets (pressure, cable) use ``f(x½)``: the constant-pressure potential is cubic, and the
-    midpoint's energy error is the enclosed volume of the increment field (zero for a rigid
-    rotation). ``strain0``: per-set strains at x0 from :func:`step_strains` (else computed)."""
-    xh = 0.5 * (x0 + x1)
+    Other sets (pressure, cable) use the default ``f(x½)``: the constant-pressure potential is
+    cubic, and the midpoint's energy error is the enclosed volume of the increment field (zero
+    for a rigid rotation). ``strain0``: per-set start data at x0 from :func:`step_strains`
+    (else computed)."""
     out = np.zeros((structure.n, 3))
     strain0 = step_strains(structure, x0) if strain0 is None else strain0
     for e, e0 in zip(structure.elements, strain0, strict=True):
-        if isinstance(e, MembraneSet):
-            fh, _ = green_strain(e.gradients, xh[e.conn])
-            _, e1 = green_strain(e.gradients, x1[e.conn])
-            sbar = e.step_stress(e0, e1)
-            fe = e._volume()[:, None, None] * np.einsum("eij,ejk,eak->eai", fh, sbar, e.gradients)
-        elif isinstance(e, BarSet):
-            ebar = 0.5 * (e0 + e.strain(x1))
-            fb = (e.EA * ebar / e.length0)[:, None] * e._d(xh)
-            fe = np.stack([-fb, fb], 1)
-        elif isinstance(e, QuadraticStrainSet):
-            fe = e.step_force(x0, x1)
-        else:
-            fe = e.force(xh)
-        out += assemble_vector(e.conn, fe, structure.n)
+        out += assemble_vector(e.conn, e.step_force(x0, x1, e0), structure.n)
     return out
 
 
 def step_strains(structure: Structure, x: np.ndarray) -> list:
-    """Per element set the strains at x used by :func:`step_force` (None for other sets)."""
-    out = []
-    for e in structure.elements:
-        if isinstance(e, MembraneSet):
-            out.append(green_strain(e.gradients, x[e.conn])[1])
-        elif isinstance(e, BarSet):
-            out.append(e.strain(x))
-        else:
-            out.append(None)
-    return out
+    """Per element set the start data at x used by :func:`step_force` (``step_start``: the
+    strains of membranes and bars, None for other sets)."""
+    return [e.step_start(x) for e in structure.elements]
 
 
 # ---------------------------------------------------------------------------------------------

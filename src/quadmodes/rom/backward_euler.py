@@ -11,17 +11,23 @@ from __future__ import annotations
 import numpy as np
 
 from quadmodes.rom.dynamics import potential_hessian, potential_nonlinear_force
+from quadmodes.rom.fixed_step import ImplicitStepper
 from quadmodes.rom.system import ReducedSystem
 from quadmodes.rotations import cross_matrix
 
 
-class BackwardEulerStep:
+class BackwardEulerStep(ImplicitStepper):
     """Residual and analytic Jacobian of one backward-Euler step (velocity form), x = ν₁.
 
     ``r = 𝕄(s₁)(ν₁ − ν₀) − Δt b(s₁, ν₁)``, ``s₁ = s₀ + Δt ṡ₁``, with
     ``b = [−ω × h, P_E·ν − Λs − Cṡ] − 2 ṡ·P`` (``P[k] = ½∂𝕄/∂s_k ν``, see
     :mod:`quadmodes.rom.dynamics`); "Q4" replaces ``Λs`` by the full potential gradient
-    ``∂V/∂s(s₁)``. The stepper protocol of :func:`~quadmodes.rom.fixed_step.run_fixed`."""
+    ``∂V/∂s(s₁)``. The implicit-step protocol of
+    :class:`~quadmodes.rom.fixed_step.ImplicitStepper`, hence a
+    :class:`~quadmodes.rom.stepper.Stepper`."""
+
+    name = "backward-euler"
+    order = 1
 
     def __init__(self, sys: ReducedSystem, dt: float):
         self.n = n = sys.n_modes

@@ -1,10 +1,12 @@
-"""The numpy driver of the implicit one-step methods (:mod:`quadmodes.rom.midpoint`,
-:mod:`quadmodes.rom.backward_euler`): predictor, chord Newton, bookkeeping, sampling and failure
-handling. The compiled midpoint kernel (:mod:`quadmodes.rom.midpoint_kernel`) follows the same
-contract and shares the convergence weights and the failure messages defined here.
+"""The numpy driver of the fixed-step methods (the :class:`~quadmodes.rom.stepper.Stepper`
+contract: :mod:`quadmodes.rom.midpoint`, :mod:`quadmodes.rom.backward_euler`, or a user's
+class): bookkeeping, sampling and failure handling (:func:`run_fixed`), and the base class of
+the implicit one-step methods with their predictor and chord Newton (:class:`ImplicitStepper`).
+The compiled midpoint kernel (:mod:`quadmodes.rom.midpoint_kernel`) follows the same contract
+and shares the convergence weights and the failure messages defined here.
 
-Stepper protocol (what a method provides, with the unknowns ``ν₁ = (ω₁, ṡ₁)``; s₁ is an
-explicit linear function of ṡ₁ and is eliminated):
+Implicit-step protocol (what an :class:`ImplicitStepper` subclass provides, with the unknowns
+``ν₁ = (ω₁, ṡ₁)``; s₁ is an explicit linear function of ṡ₁ and is eliminated):
 
 * ``begin(ν₀, s₀)``: per-step constants from the state at t0;
 * ``residual(ν₁, jac=False)``: the residual r (3+N,) of the step equations, or ``(r, ∂r/∂ν₁)``;
@@ -24,6 +26,7 @@ import math
 import numpy as np
 
 from quadmodes.rom.solution import work_counters
+from quadmodes.rom.stepper import NewtonControl, StepResult
 from quadmodes.rom.system import ReducedSystem
 from quadmodes.rotations import quat_step
 
@@ -80,6 +83,39 @@ def failure_message(name: str, step: int, t: float, its: int | None = None, err:
     )
 
 
+class ImplicitStepper:
+    """Base of the implicit one-step methods (module docstring): :meth:`step` of the
+    :class:`~quadmodes.rom.stepper.Stepper` contract from the subclass's ``begin``,
+    ``residual`` and ``advance``: the predictor ``2ν₀ − ν₋₁``, the analytic Jacobian there,
+    chord Newton (:func:`chord_newton`). Subclasses set ``name`` and ``order`` and are made by
+    ``cls(sys, dt)``."""
+
+    name = ""
+    order = 0
+
+    def step(self, nu0, s0, nu_prev, newton: NewtonControl) -> StepResult:
+        """One step from (ν₀, s₀) (the stepper contract); a singular Newton matrix or an iterate
+        that left the reals is a ``"diverged"`` failure, no convergence a ``"newton"`` one."""
+        self.begin(nu0, s0)
+        xg = 2.0 * nu0 - nu_prev  # linear extrapolation predictor
+        scale = state_scale(nu0, xg, s0, newton.weights, newton.lam)
+        n_jac = 0
+        try:
+            r, jm = self.residual(xg, jac=True)
+            jinv = np.linalg.inv(jm)
+            n_jac = 1
+            (ok, xg, its), err = chord_newton(
+                self.residual, xg, r, jinv, newton.weights, scale, newton.tol, newton.max_iter
+            )
+        except (np.linalg.LinAlgError, ValueError, OverflowError):
+            # a singular Newton matrix, or an iterate that left the reals (math domain error)
+            return StepResult(None, None, None, 0.0, 0, 0, n_jac, "diverged")
+        if not ok:
+            return StepResult(None, None, None, 0.0, its, its, n_jac, "newton", err)
+        nu1, s1, phi, ded = self.advance(xg)
+        return StepResult(nu1, s1, phi, ded, its, its, n_jac)
+
+
 class _Samples:
     """Sample buffer of a fixed-step run: rows ``[q, ω, s, ṡ]`` (7+2N) and E_d (J) at the step
     indices ``save_idx`` (increasing, starting at 0, whose row is ``y0``)."""
@@ -114,50 +150,35 @@ class _Samples:
 
 
 def run_fixed(stepper, sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name):
-    """Drive an implicit one-step method (the stepper protocol of the module docstring) for
-    ``n_steps`` steps of ``dt`` (s) from ``y0`` (7+2N,), q normalised. Returns
-    (ys (K, 7+2N), dissipated (K,), steps done, stats, status, message)."""
+    """Drive ``stepper`` (the :class:`~quadmodes.rom.stepper.Stepper` contract) for
+    ``n_steps`` steps of ``dt`` (s) from ``y0`` (7+2N,), q normalised; ``name`` labels failure
+    messages. Returns (ys (K, 7+2N), dissipated (K,), steps done, stats, status, message)."""
     n = sys.n_modes
-    wt = newton_weights(sys)
-    lam = sys.Lam
+    newton = NewtonControl(newton_tol, max_newton, newton_weights(sys), sys.Lam)
     q = y0[0:4].copy()
     s = y0[7 : 7 + n].copy()
     x = y0[np.r_[4:7, 7 + n : 7 + 2 * n]]  # ν = (ω, ṡ)
     x_prev = x
     samples = _Samples(y0, save_idx)
     e_d = 0.0
-    n_newton = n_jac = 0
+    n_rhs = n_newton = n_jac = 0
     status, msg = 0, "ok"
-    residual, begin, advance = stepper.residual, stepper.begin, stepper.advance
-    inv = np.linalg.inv
+    step = stepper.step
     i = 0
     for i in range(1, n_steps + 1):
-        begin(x, s)
-        xg = 2.0 * x - x_prev  # linear extrapolation predictor
-        scale = state_scale(x, xg, s, wt, lam)
-        try:
-            r, jm = residual(xg, jac=True)
-            jinv = inv(jm)
-            n_jac += 1
-            (ok, xg, its), err = chord_newton(
-                residual, xg, r, jinv, wt, scale, newton_tol, max_newton
-            )
-        except (np.linalg.LinAlgError, ValueError, OverflowError):
-            # a singular Newton matrix, or an iterate that left the reals (math domain error)
-            status, msg = 1, failure_message(name, i, t0 + i * dt)
+        res = step(x, s, x_prev, newton)
+        n_rhs, n_newton, n_jac = n_rhs + res.n_rhs, n_newton + res.n_newton, n_jac + res.n_jac
+        if res.failure is not None:
+            its = res.n_newton if res.failure == "newton" else None
+            status, msg = 1, failure_message(name, i, t0 + i * dt, its, res.error)
             break
-        n_newton += its
-        if not ok:
-            status, msg = 1, failure_message(name, i, t0 + i * dt, its, err)
-            break
-        xg, s, phi, ded = advance(xg)
-        e_d += ded
-        q = quat_step(q, phi)
+        e_d += res.dissipated
+        q = quat_step(q, res.phi)
         x_prev = x
-        x = xg
+        x, s = res.nu, res.s
         if i == samples.next_step:
             samples.store(q, x, s, e_d)
     steps_done = i if status == 0 else i - 1
     out, ed_out = samples.result(status != 0, q, x, s, e_d)
-    stats = work_counters(steps_done, n_newton, n_newton, n_jac)
+    stats = work_counters(steps_done, n_rhs, n_newton, n_jac)
     return out, ed_out, steps_done, stats, status, msg

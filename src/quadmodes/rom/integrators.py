@@ -15,15 +15,16 @@ backend="auto") -> Solution``
 
 * ``system``: a :class:`~quadmodes.rom.system.ReducedSystem` (a ReducedModel is converted with
   formulation "Q"). ``y0`` (7+2N,) = ``[q, ω, s, ṡ]``; q is normalised first.
-* What a fixed-step method provides (a "stepper" object, driven by
-  :func:`~quadmodes.rom.fixed_step.run_fixed`):
-  ``begin(ν₀, s₀)`` (per-step constants), ``residual(ν₁, jac=False)`` returning the residual
-  (3+N,) of the step equations in the unknowns ``ν₁ = (ω₁, ṡ₁)`` (s₁ is an explicit linear
-  function of ṡ₁ and is eliminated) or ``(r, ∂r/∂ν₁)``, and ``advance(ν₁) -> (ν₁, s₁, φ, ΔE_d)``
-  with the attitude update ``q₁ = q₀ ⊗ exp(φ/2)`` (φ the rotation vector of the step) and the
-  energy the scheme dissipates in the step (midpoint: ``Δt ṡ½ᵀCṡ½``, the exact discrete balance
-  of the quadratic part; backward Euler: ``Δt ṡ₁ᵀCṡ₁``). The driver does the Newton (chord)
-  iteration, the bookkeeping, the sampling and the failure handling.
+* ``method``: the name of a built-in fixed-step method (:data:`STEPPERS`: "midpoint",
+  "backward-euler"), "adaptive" (or a scipy solver's name), or a stepper factory: a class
+  satisfying :class:`~quadmodes.rom.stepper.Stepper` (the written contract: what a stepper
+  receives, returns, its work counters and order), or any callable ``(sys, dt) -> Stepper``.
+  Each fixed step is the stepper's ``step``; the driver
+  (:func:`~quadmodes.rom.fixed_step.run_fixed`) does the bookkeeping, the sampling and the
+  failure handling. The built-in implicit methods derive from
+  :class:`~quadmodes.rom.fixed_step.ImplicitStepper` (``begin``, ``residual``, ``advance``;
+  predictor and chord Newton shared) and report as dissipated energy their discrete balance
+  (midpoint: ``Δt ṡ½ᵀCṡ½``, exact for the quadratic part; backward Euler: ``Δt ṡ₁ᵀCṡ₁``).
 * Step size. Fixed-step methods need ``dt``; the step used is ``(t1 − t0)/n`` with
   ``n = ceil((t1 − t0)/dt)`` (equal to ``dt`` when it divides the span); ``Solution.dt`` is it.
 * Output sampling. Fixed step: ``t0``, every ``save_every``-th step, and always the last step;
@@ -43,9 +44,10 @@ backend="auto") -> Solution``
 * Backend (``backend=``): ``"numpy"`` runs the steppers below from Python; ``"numba"`` runs the
   whole midpoint loop in one compiled call (:mod:`quadmodes.rom.midpoint_kernel`, the ``[jit]``
   extra; 20–30× faster for N = 5; same equations and convergence test, results equal to
-  round-off); ``"auto"`` (default) uses numba for ``method="midpoint"`` when numba is
-  importable, numpy otherwise (backward Euler and the adaptive solvers are numpy only).
-  ``"numba"`` without numba, or with another method, raises ``ValueError``.
+  round-off); ``"auto"`` (default) uses numba for the midpoint (the built-in
+  :class:`~quadmodes.rom.midpoint.MidpointStep`) when numba is importable, numpy otherwise (backward Euler, the adaptive solvers and
+  other steppers are numpy only). ``"numba"`` without numba, or with another method, raises
+  ``ValueError``.
 
 Methods
 -------
@@ -73,6 +75,7 @@ Methods
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -82,11 +85,18 @@ from quadmodes.rom.fixed_step import run_fixed
 from quadmodes.rom.midpoint import MidpointStep
 from quadmodes.rom.sampling import adaptive_times, fixed_grid, fixed_times
 from quadmodes.rom.solution import Solution
+from quadmodes.rom.stepper import Stepper
 from quadmodes.rom.system import ReducedSystem, reduced_system
 
-METHODS = ("midpoint", "backward-euler", "adaptive")
+#: The built-in fixed-step methods: name → stepper factory (``factory(sys, dt)``; the
+#: :class:`~quadmodes.rom.stepper.Stepper` contract). A new method registered here is available
+#: by name to ``integrate`` (and to everything that passes a method name through).
+STEPPERS: dict[str, Callable[..., Stepper]] = {
+    MidpointStep.name: MidpointStep,
+    BackwardEulerStep.name: BackwardEulerStep,
+}
+METHODS = (*STEPPERS, "adaptive")
 BACKENDS = ("auto", "numpy", "numba")
-STEPPERS = {"midpoint": MidpointStep, "backward-euler": BackwardEulerStep}
 
 _KERNEL: list = []  # [module or None] once looked up: the import is tried once per process
 
@@ -102,10 +112,13 @@ def numba_kernel():
     return _KERNEL[0]
 
 
-def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None):
+def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None,
+                    compiled: bool | None = None):  # fmt: skip
     """The compiled kernel module to use, or None for the numpy steppers (every formulation,
     "Q4" included, runs on both; a system with a ``nonlinear_potential``, a Python object, on
-    the numpy steppers only)."""
+    the numpy steppers only). ``compiled``: the method has the compiled midpoint loop (default:
+    ``method == "midpoint"``)."""
+    compiled = method == "midpoint" if compiled is None else compiled
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
     general = sys is not None and sys.nonlinear_potential is not None
@@ -113,9 +126,9 @@ def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None)
         raise ValueError('backend "numba" cannot evaluate a nonlinear potential; use "numpy"')
     if backend == "numpy" or general:
         return None
-    if backend == "numba" and method != "midpoint":
+    if backend == "numba" and not compiled:
         raise ValueError(f'backend "numba" supports method "midpoint" only, not {method!r}')
-    kernel = numba_kernel() if method == "midpoint" else None
+    kernel = numba_kernel() if compiled else None
     if backend == "numba" and kernel is None:
         raise ValueError(
             'backend "numba" needs numba, which is not installed: pip install "quadmodes[jit]"'
@@ -123,29 +136,51 @@ def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None)
     return kernel
 
 
-def _integrate_fixed(sys, y0, t_span, method, dt, save_every, t_eval, newton, kernel):
-    """(t, ys, dissipated, stats, status, message, step) of a fixed-step method; ``newton`` =
-    (newton_tol, max_newton); ``kernel`` the compiled module or None (numpy steppers)."""
+def _integrate_fixed(sys, y0, t_span, factory, dt, save_every, t_eval, newton, kernel):
+    """(t, ys, dissipated, stats, status, message, step, name) of a fixed-step method made by
+    ``factory(sys, h)``; ``newton`` = (newton_tol, max_newton); ``kernel`` the compiled module
+    or None (the stepper's ``step`` from Python)."""
     n_steps, h, idx = fixed_grid(t_span, dt, save_every, t_eval)
     t0 = float(t_span[0])
     if kernel is not None:  # whole loop compiled (midpoint only)
+        name = "midpoint"
         y, ed, done, stats, status, msg = kernel.fixed_run(
-            sys, y0, n_steps, h, idx, *newton, t0, method
+            sys, y0, n_steps, h, idx, *newton, t0, name
         )
     else:
-        stepper = STEPPERS[method](sys, h)
+        stepper = factory(sys, h)
+        if not isinstance(stepper, Stepper):
+            raise TypeError(f"method {factory!r} did not make a Stepper (name, order, step)")
+        name = stepper.name
         y, ed, done, stats, status, msg = run_fixed(
-            stepper, sys, y0, n_steps, h, idx, *newton, t0, method
+            stepper, sys, y0, n_steps, h, idx, *newton, t0, name
         )
     t = fixed_times(t0, h, idx, len(y), status, done)
-    return t, y, ed, stats, status, msg, h
+    return t, y, ed, stats, status, msg, h, name
+
+
+def _resolve_method(method, solver: str):
+    """``(name, factory, solver, compiled)`` of ``method``: a built-in name (factory None for
+    "adaptive"), a scipy solver's name, or a stepper factory; ``compiled``: the built-in
+    midpoint, whose whole loop has a compiled form (a subclass runs its own Python step)."""
+    if not isinstance(method, str):
+        if not callable(method):
+            raise ValueError(f"method must be a name in {METHODS} or a stepper class, not {method!r}")
+        name = getattr(method, "name", None) or getattr(method, "__name__", repr(method))
+        return str(name), method, solver, method is MidpointStep
+    if method in ADAPTIVE_SOLVERS:
+        method, solver = "adaptive", method
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {METHODS}")
+    factory = STEPPERS.get(method)
+    return method, factory, solver, factory is MidpointStep
 
 
 def integrate(
     system,
     y0,
     t_span,
-    method: str = "midpoint",
+    method: str | Callable[..., Stepper] = "midpoint",
     dt: float | None = None,
     rtol: float = 1e-9,
     atol=1e-12,
@@ -158,18 +193,16 @@ def integrate(
 ) -> Solution:
     """Integrate the free-body equations of ``system`` from ``y0`` over ``t_span`` (s).
 
-    See the module docstring for the contract (``backend``: "auto", "numpy" or "numba").
+    See the module docstring for the contract (``method``: a name or a stepper class,
+    :class:`~quadmodes.rom.stepper.Stepper`; ``backend``: "auto", "numpy" or "numba").
     Returns a :class:`~quadmodes.rom.solution.Solution`."""
     sys = system if isinstance(system, ReducedSystem) else reduced_system(system, "Q")
     y0 = np.array(y0, float)
     if y0.shape != (sys.n_state,):
         raise ValueError(f"y0 must have shape ({sys.n_state},), got {y0.shape}")
     y0[0:4] /= np.linalg.norm(y0[0:4])
-    if method in ADAPTIVE_SOLVERS:
-        method, solver = "adaptive", method
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {METHODS}")
-    kernel = _select_backend(backend, method, sys)
+    method, factory, solver, compiled = _resolve_method(method, solver)
+    kernel = _select_backend(backend, method, sys, compiled)
     start = time.perf_counter()
     if method == "adaptive":
         if solver not in ADAPTIVE_SOLVERS:
@@ -181,10 +214,9 @@ def integrate(
         )
         step, name = None, f"adaptive/{solver}"
     else:
-        t, y, ed, stats, status, msg, step = _integrate_fixed(
-            sys, y0, t_span, method, dt, save_every, t_eval, (newton_tol, max_newton), kernel
+        t, y, ed, stats, status, msg, step, name = _integrate_fixed(
+            sys, y0, t_span, factory, dt, save_every, t_eval, (newton_tol, max_newton), kernel
         )
-        name = method
     stats["wall_s"] = time.perf_counter() - start
     stats["backend"] = "numpy" if kernel is None else "numba"
     return Solution(t, y, name, stats, status, msg, ed, step)

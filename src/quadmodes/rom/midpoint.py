@@ -21,11 +21,12 @@ from quadmodes.rom.dynamics import (
     potential_nonlinear_energy,
     potential_nonlinear_force,
 )
+from quadmodes.rom.fixed_step import ImplicitStepper
 from quadmodes.rom.system import ReducedSystem
 from quadmodes.rotations import cross_matrix, rotate, so3_left_jacobian
 
 
-class MidpointStep:
+class MidpointStep(ImplicitStepper):
     """Residual and analytic Jacobian of one Lie-group midpoint step, unknowns x = ν₁ = (ω₁, ṡ₁).
 
     With z = (1, s) and the mass tensor of :class:`~quadmodes.rom.system.FlatTensors`,
@@ -44,8 +45,13 @@ class MidpointStep:
     gradient is exact again (``Δs·F̄ = V_nl(s₁) − V_nl(s₀)``); the chord Jacobian leaves the
     correction out (it is O(Δt⁴) where N is smooth).
 
-    The stepper protocol of :func:`~quadmodes.rom.fixed_step.run_fixed`: :meth:`begin`,
-    :meth:`residual`, :meth:`advance`."""
+    The implicit-step protocol of :class:`~quadmodes.rom.fixed_step.ImplicitStepper`
+    (:meth:`begin`, :meth:`residual`, :meth:`advance`), hence a
+    :class:`~quadmodes.rom.stepper.Stepper`; the whole loop has a compiled form
+    (:mod:`quadmodes.rom.midpoint_kernel`, ``backend="numba"``)."""
+
+    name = "midpoint"
+    order = 2
 
     def __init__(self, sys: ReducedSystem, dt: float):
         self.n = n = sys.n_modes

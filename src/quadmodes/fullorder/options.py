@@ -1,0 +1,60 @@
+"""The options of a full-order transient (:func:`~quadmodes.fullorder.integrator.integrate_full_order`)
+in one frozen object."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+import quadmodes.fullorder.kinematics as kin
+from quadmodes.fullorder.damping import DampingModes
+from quadmodes.rom.reduced import ReducedModel
+
+
+@dataclass(frozen=True, eq=False)
+class FullOrderOptions:
+    """How :func:`~quadmodes.fullorder.integrator.integrate_full_order` integrates (SI units).
+
+    model: the reduced model whose modes give the modal coordinates (None: N = 0) and, with
+    ``damping=True``, the damping. damping: the modal damping basis
+    (:class:`~quadmodes.fullorder.damping.DampingModes`, e.g. the independent one), True: the
+    model's retained modes and C, False: none. save_every: sample every so many steps (and the
+    last). hub: prescribed rotation of the clamped DOFs (needed iff the structure has fixed
+    DOFs; default for a clamped structure: a fixed clamp). spin_axis (3,): nominal spin axis in
+    the initial body frame for the axis tracking (default: the minor axis of the initial
+    inertia). rotation_map: map the initial state to the scheme's steady-rotation form and the
+    sampled end states back for the diagnostics (free bodies; see the package docstring).
+    energy_momentum: averaged-stress internal force (False: plain ``f(x½)``). newton_tol:
+    relative (to the body size) Newton correction at convergence. max_newton: iterations per
+    step. full_newton: a fresh factorisation of the whole Newton matrix at every iteration,
+    matrix and step force computed the straightforward way
+    (:func:`~quadmodes.fullorder.newton.step_jacobian`,
+    :func:`~quadmodes.fullorder.step.step_force`; the reference the tests compare the default
+    with; several times slower). checkpoint: .npz path written every ``checkpoint_every``
+    steps (atomic); resume: continue from it (same t0, dt; the end may differ) — the result
+    equals the uninterrupted run's (the factorisation is renewed after every checkpoint in
+    both).
+    """
+
+    model: ReducedModel | None = None
+    damping: bool | DampingModes = True
+    save_every: int = 1
+    hub: kin.HubDrive | None = None
+    spin_axis: np.ndarray | None = None
+    rotation_map: bool = True
+    energy_momentum: bool = True
+    newton_tol: float = 1e-11
+    max_newton: int = 40
+    full_newton: bool = False
+    checkpoint: Path | None = None
+    checkpoint_every: int = 1000
+    resume: bool = False
+
+    def updated(self, **changes) -> FullOrderOptions:
+        """A copy with ``changes`` (option names as the fields; ``TypeError`` for others)."""
+        unknown = set(changes) - {f.name for f in fields(self)}
+        if unknown:
+            raise TypeError(f"unknown full-order option(s): {', '.join(sorted(unknown))}")
+        return replace(self, **changes) if changes else self
