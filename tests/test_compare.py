@@ -117,7 +117,16 @@ def test_compare_bad_input(runner, tmp_path, args, field):
     assert not out.exists()
 
 
-def test_compare_refuses_a_window_too_long_without_yes(runner, tmp_path):
+def test_compare_refuses_a_window_too_long_without_yes(runner, tmp_path, monkeypatch):
+    """The refusal depends on the estimate only: the estimate is fixed here (20 ms a step, a
+    coarse-model rate) so that the test does not depend on how loaded the machine is (a probe
+    timed on a busy machine once let the 500 s run start)."""
+    from quadmodes.analysis import full_order_runs
+
+    def estimate(run, *, dt, window, setup=None, n_probe=8):
+        return {"estimate_s": 0.02 * window / dt}
+
+    monkeypatch.setattr(full_order_runs, "estimate_for_run", estimate)
     out = tmp_path / "cmp"
     result = runner.invoke(app, ["compare", "paper-41hz-coarse", "--window", "500 s", "-o", str(out)])
     assert result.exit_code == 2
