@@ -27,6 +27,7 @@ from quadmodes.case.fields import (
     ratio,
     text,
 )
+from quadmodes.limits import MODE_COUNT
 
 _CAP_FIELDS = ("length", "front_cap_diameter", "rear_cap_diameter", "diameter", "file")
 _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
@@ -328,4 +329,4 @@ class Boom(Section):
 class Modes(Section):
     """Number of elastic modes to compute."""
 
-    count: integer(10, 1) = 10
+    count: integer(10, 1, MODE_COUNT) = 10

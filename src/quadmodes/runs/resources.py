@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from quadmodes.case import Case, CaseError
+from quadmodes.limits import REDUCED_MODES, LimitError
 from quadmodes.mesh.estimate import revolution_node_count
 from quadmodes.structure.pipeline import revolution_profile
 
@@ -158,15 +159,18 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
     :data:`MAX_REDUCED_BYTES`."""
     size = estimate_size(case)
     n_modes = int(n_modes)
-    if size is None or n_modes < 1:
+    if n_modes < 1:
         return
-    dofs = 3 * size.nodes * vector_dofs_per_node(case) - 6
+    dofs = 3 * size.nodes * vector_dofs_per_node(case) - 6 if size is not None else n_modes
     if n_modes > dofs:
         raise CaseError(
             f"reduced.modes = {n_modes}: the model has about {size.nodes} nodes, at most "
             f"{max(dofs, 0)} elastic modes; use fewer modes (the paper cases use 5)",
             field="reduced.modes",
         )
+    check_reduced_modes(n_modes)
+    if size is None:
+        return
     nbytes = 8.0 * (n_modes**2 * 3 * size.nodes + n_modes**4)
     if n_modes > MAX_MODES and nbytes <= MAX_REDUCED_BYTES and not allow_large:
         minutes = 16.0 * (n_modes / 60.0) ** 4 / 60.0
@@ -181,6 +185,22 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
             f"reduced.modes = {n_modes}: the reduced model would need about {nbytes / 1e9:.3g} "
             f"GB (quadratic modes N² × nodes, quartic terms N⁴); use fewer modes (the paper "
             "cases use 5), or pass --yes to build it anyway",
+            field="reduced.modes",
+        )
+
+
+def check_reduced_modes(n_modes: int) -> None:
+    """Raise :class:`CaseError` (``reduced.modes``) for more modes than the hard bound
+    :data:`quadmodes.limits.REDUCED_MODES` (``--yes`` does not lift it; its variable does)."""
+    try:
+        bound = REDUCED_MODES.value()
+    except LimitError as exc:
+        raise CaseError(exc.detail, field=exc.field) from None
+    if n_modes > bound:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: more than the limit of {bound:,.0f} {REDUCED_MODES.what} "
+            "(its quartic terms hold N⁴ numbers); use fewer modes (the paper cases use 5), "
+            f"{REDUCED_MODES.raise_hint(n_modes)}",
             field="reduced.modes",
         )
 
