@@ -19,6 +19,10 @@ from dataclasses import dataclass
 __all__ = [
     "CAMPBELL_POINTS",
     "LIMITS",
+    "MAX_MASS",
+    "MAX_STRAIN",
+    "MAX_VOLUME_CHANGE",
+    "MIN_MASS",
     "MESH_FILE_BYTES",
     "MESH_NODES",
     "MODE_COUNT",
@@ -71,7 +75,8 @@ class Limit:
     def raise_hint(self, needed: float | None = None) -> str:
         """``"raise the limit with QUADMODES_MAX_...=<needed>"`` for messages."""
         target = needed if needed is not None else 10 * self.value()
-        return f"or raise the limit with {self.env}={target:.0f}"
+        shown = f"{target:.0f}" if 1 <= target < 1e12 else f"{target:.3g}"
+        return f"or raise the limit with {self.env}={shown}"
 
 
 #: Elastic modes a model case computes (``modes.count``): the eigensolver keeps count × 3n
@@ -94,6 +99,21 @@ MESH_NODES = Limit("QUADMODES_MAX_MESH_NODES", 200_000, "nodes of a mesh file")
 #: run (2 million samples of a 5-mode run: ~650 MB on disk, ~3 GB in memory).
 OUTPUT_BYTES = Limit("QUADMODES_MAX_OUTPUT_BYTES", 1e9, "bytes of results.nc")
 
+# ---------------------------------------------------------------- physical plausibility (item 4)
+
+#: Largest membrane strain scale p R / (E t) accepted (R: the largest cap radius, or for a mesh
+#: file the radius of the sphere of its volume): beyond ~10 % the St Venant–Kirchhoff membrane
+#: is far outside its range, and a thickness, modulus or mesh unit is usually off by a power of
+#: ten (paper-membrane: 0.013). The lower bound is ``runs.resources.MIN_STRAIN``.
+MAX_STRAIN = Limit("QUADMODES_MAX_STRAIN", 0.1, "membrane strain scale p R / (E t)")
+#: Smallest and largest structural mass accepted (kg): density × thickness × area of a
+#: membrane, density × area × length of a beam (paper-membrane: 0.13 kg; kane-beam: 12 kg).
+MIN_MASS = Limit("QUADMODES_MIN_MASS", 1e-6, "kg of structural mass")
+MAX_MASS = Limit("QUADMODES_MAX_MASS", 1e6, "kg of structural mass")
+#: A warning (not a refusal) when inflation changes the enclosed volume by more than this
+#: fraction (paper-membrane: 3 %): a mesh file in the wrong unit, or a far too soft membrane.
+MAX_VOLUME_CHANGE = Limit("QUADMODES_MAX_VOLUME_CHANGE", 0.2, "fraction of volume change")
+
 #: Every limit, for the docs and tests.
 LIMITS: tuple[Limit, ...] = (
     MODE_COUNT,
@@ -103,6 +123,10 @@ LIMITS: tuple[Limit, ...] = (
     MESH_FILE_BYTES,
     MESH_NODES,
     OUTPUT_BYTES,
+    MAX_STRAIN,
+    MIN_MASS,
+    MAX_MASS,
+    MAX_VOLUME_CHANGE,
 )
 
 

@@ -15,7 +15,6 @@ from pydantic import BeforeValidator, model_validator
 from quadmodes.case.fields import (
     FieldMeta,
     Section,
-    check_limit,
     choice,
     field_error,
     integer,
@@ -24,7 +23,6 @@ from quadmodes.case.fields import (
     quantity,
 )
 from quadmodes.case.units import format_quantity
-from quadmodes.limits import REDUCED_MODES
 
 
 def _cone(theta: float) -> str | None:
@@ -58,7 +56,6 @@ def _modes(value: Any) -> int | str:
         raise field_error("case_value", 'must be a whole number of modes or "auto"; use e.g. 5')
     if value < 1:
         raise field_error("case_value", 'must be at least 1 (or "auto"); use e.g. 5')
-    check_limit(value, REDUCED_MODES, 5)
     return value
 
 
