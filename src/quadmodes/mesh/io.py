@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import stat
+import warnings
 from pathlib import Path
 
 import meshio
@@ -38,7 +39,9 @@ def read_surface(path: str | Path, scale: float = 1.0) -> TriangleSurface:
     _check_nodes(path, _stl_node_estimate(path, size), "estimated from its header")
     try:  # meshio prints its own messages and may call sys.exit: keep them to ourselves
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            mesh = meshio.read(path)
+            with warnings.catch_warnings():  # meshio's STL sniffing overflows on ASCII files
+                warnings.simplefilter("ignore", RuntimeWarning)
+                mesh = meshio.read(path)
     except (Exception, SystemExit) as exc:  # ReadError, KeyError, OSError, SystemExit, ...
         reason = " ".join(str(exc).split()) if not isinstance(exc, SystemExit) else "unreadable"
         raise ValueError(
