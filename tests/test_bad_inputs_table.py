@@ -244,6 +244,7 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("modes-500-yes", "reduce paper-membrane-coarse --modes 500 --yes", ("--modes 500", "QUADMODES_MAX_REDUCED_MODES")),
     ("sweep-range-huge", "sweep paper-0.5hz --param 'initial.spin_rate=1 Hz:45 Hz:100000000' -o {d}/out", ("--param", "QUADMODES_MAX_SWEEP_POINTS")),
     ("sweep-grid-huge", "sweep paper-0.5hz --param 'initial.spin_rate=1 Hz:45 Hz:1000' --param 'pressure.value=0.2 psi:0.4 psi:1000' -o {d}/out", ("--param", "1000 × 1000", "QUADMODES_MAX_SWEEP_POINTS")),
+    ("sweep-modes-huge", "sweep paper-0.5hz --param 'reduced.modes=5,1000' -o {d}/out", ("--param", "reduced.modes = 1000", "QUADMODES_MAX_REDUCED_MODES")),
     ("campbell-points-huge", "campbell kane-beam --points 1000000000", ("--points", "QUADMODES_MAX_CAMPBELL_POINTS")),
     ("mesh-fifo", "modes {d}/fifo-mesh.toml -o {d}/out", ("geometry.file", "not a regular file")),
     ("mesh-dev-zero-link", "modes {d}/dev-zero-mesh.toml -o {d}/out", ("geometry.file", "not a regular file")),

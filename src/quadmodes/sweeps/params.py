@@ -29,7 +29,7 @@ from pydantic import BaseModel
 from quadmodes.case import Case, QuantityError, RunCase, parse_quantity, si_unit
 from quadmodes.case.fields import field_meta
 from quadmodes.case.meta import nested_model
-from quadmodes.limits import SWEEP_POINTS, LimitError
+from quadmodes.limits import REDUCED_MODES, SWEEP_POINTS, LimitError
 
 
 class SweepError(ValueError):
@@ -211,6 +211,20 @@ def _check_points(count: int, what: str) -> None:
                          f"use fewer values, {SWEEP_POINTS.raise_hint(count)}")  # fmt: skip
 
 
+def _check_modes(values: tuple, option: str) -> None:
+    """Raise :class:`SweepError` for a mode count above :data:`quadmodes.limits.REDUCED_MODES`
+    (refused here, before any point runs)."""
+    try:
+        bound = REDUCED_MODES.value()
+    except LimitError as exc:
+        raise SweepError(str(exc)) from None
+    for n in values:
+        if isinstance(n, int) and n > bound:
+            raise SweepError(f"{option}: reduced.modes = {n}: more than the limit of {bound:,.0f} "
+                             f"{REDUCED_MODES.what}; use fewer modes (the paper cases use 5), "
+                             f"{REDUCED_MODES.raise_hint(n)}")  # fmt: skip
+
+
 def parse_values(text: str, path: FieldPath, option: str = "--param") -> tuple:
     """The values of ``VALUES`` for ``path`` (module docstring); raises :class:`SweepError`."""
     text = text.strip()
@@ -221,7 +235,10 @@ def parse_values(text: str, path: FieldPath, option: str = "--param") -> tuple:
         if ":" in text:
             raise SweepError(f"{option}: {path.text} is not a quantity: give a comma list, "
                              'not a range (e.g. "reduced.formulation=Q,L")')  # fmt: skip
-        return tuple(_plain(v) for v in text.split(",") if v.strip())
+        values = tuple(_plain(v) for v in text.split(",") if v.strip())
+        if path.keys == ("reduced", "modes"):
+            _check_modes(values, option)
+        return values
     parts = text.split(",")
     if any(not v.strip() for v in parts):
         raise SweepError(f'{option}: {path.text}: empty item in the list "{text}"; e.g. '
