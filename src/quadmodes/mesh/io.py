@@ -14,7 +14,7 @@ import numpy as np
 from quadmodes.limits import MESH_FILE_BYTES, MESH_NODES, LimitError, check_count
 from quadmodes.mesh.surface import TriangleSurface
 
-__all__ = ["merge_coincident", "read_surface", "write_surface"]
+__all__ = ["check_mesh_file", "merge_coincident", "read_surface", "write_surface"]
 
 
 def read_surface(path: str | Path, scale: float = 1.0) -> TriangleSurface:
@@ -35,7 +35,7 @@ def read_surface(path: str | Path, scale: float = 1.0) -> TriangleSurface:
     read, is too large or holds no triangles.
     """
     path = Path(path)
-    size = _check_mesh_file(path)
+    size = check_mesh_file(path)
     _check_nodes(path, _stl_node_estimate(path, size), "estimated from its header")
     try:  # meshio prints its own messages and may call sys.exit: keep them to ourselves
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
@@ -79,7 +79,7 @@ def merge_coincident(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndar
     return points[first[order]], renumber[inverse.ravel()][triangles]
 
 
-def _check_mesh_file(path: Path) -> int:
+def check_mesh_file(path: Path) -> int:
     """The size (bytes) of the mesh file ``path``; ``ValueError`` unless it is an existing,
     non-empty regular file within :data:`~quadmodes.limits.MESH_FILE_BYTES`."""
     where = f"surface file '{path}' (geometry.file)"

@@ -33,6 +33,7 @@ from quadmodes._version import __version__
 from quadmodes.case import Case
 from quadmodes.io.atomic import write_text
 from quadmodes.io.locking import file_lock
+from quadmodes.mesh.io import check_mesh_file
 from quadmodes.rom import artifact
 from quadmodes.rom.reduced import ReducedModel
 
@@ -120,7 +121,8 @@ def model_inputs(case: Case) -> str:
     mesh_file = getattr(geometry, "file", None)
     if mesh_file:
         path = Path(mesh_file)
-        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else "missing"
+        check_mesh_file(path)  # a regular file within the size bound, before its bytes are read
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
         text += f"\n# geometry.file sha256 = {digest}\n"
     return text
 
