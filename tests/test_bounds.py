@@ -197,6 +197,39 @@ def test_file_unit_scales_the_coordinates(tmp_path):
     assert 'file_unit = "mm"' in case.to_toml()
 
 
+def test_a_millimetre_file_with_its_unit_has_the_metre_file_modes(tmp_path):
+    """Physics: the same body written in mm (file_unit = "mm") and in m has the same modes."""
+    import numpy as np
+
+    from quadmodes.case import case_from_toml
+    from quadmodes.mesh.io import write_surface
+    from quadmodes.mesh.surface import TriangleSurface
+    from quadmodes.structure.pipeline import build_modal_model
+
+    s = _sphere()
+    write_surface(tmp_path / "m.vtu", s)
+    write_surface(tmp_path / "mm.vtu", TriangleSurface(1000.0 * s.points, s.triangles))
+    freqs = []
+    for geometry in ('file = "m.vtu"', 'file = "mm.vtu"\nfile_unit = "mm"'):
+        case = case_from_toml(_sphere_case(f'shape = "file"\n{geometry}'), base_dir=tmp_path)
+        freqs.append(build_modal_model(case).modes.frequencies_hz)
+    assert np.allclose(freqs[0], freqs[1], rtol=1e-8)
+
+
+def test_modes_command_warns_of_a_large_volume_change(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from quadmodes.cli.app import app
+
+    (tmp_path / "sphere.toml").write_text(_sphere_case(), encoding="utf-8")
+    monkeypatch.setenv("QUADMODES_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("QUADMODES_MAX_VOLUME_CHANGE", "0.001")
+    result = CliRunner().invoke(app, ["modes", str(tmp_path / "sphere.toml")])
+    assert result.exit_code == 0, result.output
+    warning = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warning) == 1 and "enclosed volume" in warning[0], result.stderr
+
+
 def test_two_bodies_are_named(tmp_path):
     import numpy as np
 
