@@ -48,6 +48,10 @@ def sphere_case(
     )
 
 
+def _file_case(file: str, extra: str = "") -> str:
+    return sphere_case(geometry=f'shape = "file"\nfile = "{file}"\n{extra}')
+
+
 def beam_case(*, support: str = "clamped", elements: int = 20) -> str:
     text = load_case("kane-beam").to_toml()
     text = text.replace('support = "clamped"', f'support = "{support}"')
@@ -94,6 +98,22 @@ def make_inputs(d: Path) -> None:
         "free-beam.toml": beam_case(support="free"),
         "huge-beam.toml": beam_case(elements=100_000),
         "bad-syntax.toml": 'name = "x"\nkind = \n',
+        # ---- issue 24: bounded work, mesh files checked
+        "p-arithmetic.toml": sphere_case(pressure='"10**10**10 psi"'),
+        "count-huge.toml": sphere_case().replace("count = 6", "count = 1000000000"),
+        "t-1e-300.toml": sphere_case(material={"thickness": '"1e-300 m"'}),
+        "e-1e-30.toml": sphere_case(material={"youngs_modulus": '"1e-30 Pa"'}),
+        "rho-huge.toml": sphere_case(material={"density": '"1e12 kg/m^3"'}),
+        "fifo-mesh.toml": _file_case("fifo.vtu"),
+        "dev-zero-mesh.toml": _file_case("zero-link.vtu"),
+        "folder-mesh.toml": _file_case("afolder"),
+        "huge-mesh.toml": _file_case("huge.vtu"),
+        "stl-nodes-mesh.toml": _file_case("many.stl"),
+        "two-bodies-mesh.toml": _file_case("two.vtu"),
+        "mm-mesh.toml": _file_case("mm.stl"),
+        "unit-kg-mesh.toml": _file_case("mm.stl", 'file_unit = "kg"'),
+        "unit-not-file.toml": sphere_case(geometry='shape = "sphere"\ndiameter = "10 in"\n'
+                                                   'file_unit = "mm"'),
     }
     for name, text in cases.items():
         _write(d, name, text)
@@ -104,6 +124,18 @@ def make_inputs(d: Path) -> None:
     write_surface(d / "inward.vtu", TriangleSurface(sphere.points, sphere.triangles[:, ::-1].copy()))
     write_surface(d / "open.vtu", TriangleSurface(sphere.points, sphere.triangles[1:]))
     meshio.write(d / "empty.vtu", meshio.Mesh(np.zeros((0, 3)), []))
+    two = (sphere.points, sphere.points + [1.0, 0.0, 0.0])
+    write_surface(d / "two.vtu", TriangleSurface(np.vstack(two), np.vstack(
+        [sphere.triangles, sphere.triangles + len(sphere.points)])))  # fmt: skip
+    write_surface(d / "mm.stl", TriangleSurface(1000.0 * sphere.points, sphere.triangles))
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(d / "fifo.vtu")
+    (d / "zero-link.vtu").symlink_to("/dev/zero")
+    with open(d / "huge.vtu", "wb") as f:  # sparse: 300 MB on paper, nothing on disk
+        f.truncate(300_000_000)
+    with open(d / "many.stl", "wb") as f:  # a binary STL header: a million triangles
+        f.write(b"binary".ljust(80, b"\0") + (1_000_000).to_bytes(4, "little"))
+        f.truncate(84 + 50 * 1_000_000)
     (d / "zero.vtu").write_bytes(b"")
     (d / "afile").write_text("not a folder")
     (d / "afolder").mkdir()
@@ -205,6 +237,32 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("show-case-unknown", "show-case nope", ("unknown case",)),
     ("cache-clear-without-yes", "cache clear", ("--yes",)),
     ("validate-write-is-folder", "validate --quick --write {d}/afolder", ("--write", "is a folder")),
+    # ---- issue 24 item 3: bounded work (docs/reliability.md)
+    ("quantity-arithmetic", "modes {d}/p-arithmetic.toml -o {d}/out", ("pressure.value", "no arithmetic")),
+    ("quantity-arithmetic-option", "run paper-0.5hz --dt '10**10**10 s' -o {d}/out", ("integration.dt", "no arithmetic")),
+    ("modes-count-huge", "modes {d}/count-huge.toml -o {d}/out", ("modes.count", "QUADMODES_MAX_MODES")),
+    ("modes-500-yes", "reduce paper-membrane-coarse --modes 500 --yes", ("--modes 500", "QUADMODES_MAX_REDUCED_MODES")),
+    ("sweep-range-huge", "sweep paper-0.5hz --param 'initial.spin_rate=1 Hz:45 Hz:100000000' -o {d}/out", ("--param", "QUADMODES_MAX_SWEEP_POINTS")),
+    ("sweep-grid-huge", "sweep paper-0.5hz --param 'initial.spin_rate=1 Hz:45 Hz:1000' --param 'pressure.value=0.2 psi:0.4 psi:1000' -o {d}/out", ("--param", "1000 × 1000", "QUADMODES_MAX_SWEEP_POINTS")),
+    ("sweep-modes-huge", "sweep paper-0.5hz --param 'reduced.modes=5,1000' -o {d}/out", ("--param", "reduced.modes = 1000", "QUADMODES_MAX_REDUCED_MODES")),
+    ("campbell-points-huge", "campbell kane-beam --points 1000000000", ("--points", "QUADMODES_MAX_CAMPBELL_POINTS")),
+    ("mesh-fifo", "modes {d}/fifo-mesh.toml -o {d}/out", ("geometry.file", "not a regular file")),
+    ("mesh-dev-zero-link", "modes {d}/dev-zero-mesh.toml -o {d}/out", ("geometry.file", "not a regular file")),
+    ("mesh-folder", "modes {d}/folder-mesh.toml -o {d}/out", ("geometry.file", "is a folder")),
+    ("mesh-file-huge", "modes {d}/huge-mesh.toml -o {d}/out", ("geometry.file", "QUADMODES_MAX_MESH_BYTES")),
+    ("mesh-file-huge-reduce", "reduce {d}/huge-mesh.toml", ("geometry.file", "QUADMODES_MAX_MESH_BYTES")),
+    ("mesh-fifo-reduce", "reduce {d}/fifo-mesh.toml", ("geometry.file", "not a regular file")),
+    ("mesh-stl-nodes", "modes {d}/stl-nodes-mesh.toml -o {d}/out", ("geometry.file", "500,002 nodes", "QUADMODES_MAX_MESH_NODES")),
+    ("run-output-huge", "run paper-0.5hz --duration '20000 s' --yes -o {d}/out", ("integration.save_every", "save_every = 12", "QUADMODES_MAX_OUTPUT_BYTES")),
+    # ---- issue 24 item 4: mesh files checked, plausible values
+    ("mesh-two-bodies", "modes {d}/two-bodies-mesh.toml -o {d}/out", ("geometry.file", "2 separate closed parts")),
+    ("mesh-in-millimetres", "modes {d}/mm-mesh.toml -o {d}/out", ("geometry.file_unit", '"mm"')),
+    ("mesh-unit-not-length", "modes {d}/unit-kg-mesh.toml -o {d}/out", ("geometry.file_unit", "length unit")),
+    ("mesh-unit-without-file", "modes {d}/unit-not-file.toml -o {d}/out", ("geometry.file_unit", "only used")),
+    ("thickness-1e-300", "modes {d}/t-1e-300.toml -o {d}/out", ("material.thickness", "strain scale")),
+    ("thickness-1e-300-reduce", "reduce {d}/t-1e-300.toml", ("material.thickness", "strain scale")),
+    ("youngs-modulus-1e-30", "modes {d}/e-1e-30.toml -o {d}/out", ("material.youngs_modulus", "strain scale")),
+    ("density-huge", "modes {d}/rho-huge.toml -o {d}/out", ("material.density", "mass")),
 ]
 
 

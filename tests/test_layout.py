@@ -21,7 +21,7 @@ MAX_FUNCTION_LINES = 80
 #: ``experimental`` (research prototypes) may import anything, nothing in the product imports it.
 #: docs/architecture.md draws these layers.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_version",),
+    ("_version", "limits"),
     ("rotations", "signals", "linalg", "case"),
     ("io",),
     ("mesh",),

@@ -22,6 +22,7 @@ from quadmodes.analysis.full_order_markers import (
 )
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
+from quadmodes.limits import CAMPBELL_POINTS, check_count
 from quadmodes.rom.reduced import ReducedModel
 
 
@@ -269,6 +270,7 @@ def campbell_with_full_order(
     paths)``."""
     if n < 1:
         raise ValueError("n: give at least one spin rate")
+    check_count(CAMPBELL_POINTS, n, "points (--points)", "use fewer spin rates (41 by default)")
     if spin_max < spin_min:
         raise ValueError("spin_max: must not be below spin_min")
     spins = [float(s) for s in (full_order_spins or ())]

@@ -20,6 +20,7 @@ from pydantic_core import PydanticCustomError
 from quadmodes.case.errors import case_error
 from quadmodes.case.meta import FieldMeta, field_meta, nested_model, toml_value
 from quadmodes.case.units import QuantityError, format_quantity, parse_quantity, si_unit, ureg
+from quadmodes.limits import Limit, LimitError
 
 
 class Section(BaseModel):
@@ -121,8 +122,9 @@ def quantity(
     return Annotated[float, BeforeValidator(validate), meta]
 
 
-def integer(example: int, minimum: int) -> Any:
-    """Annotated whole-number field (no booleans, no fractions)."""
+def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
+    """Annotated whole-number field (no booleans, no fractions); at most ``limit`` (a bound of
+    :mod:`quadmodes.limits`, read when the case is validated) when given."""
 
     def validate(value: Any) -> int:
         if isinstance(value, float) and value.is_integer():
@@ -131,9 +133,25 @@ def integer(example: int, minimum: int) -> Any:
             raise field_error("case_value", f"must be a whole number; use e.g. {example}")
         if value < minimum:
             raise field_error("case_value", f"must be at least {minimum}; use e.g. {example}")
+        if limit is not None:
+            check_limit(value, limit, example)
         return value
 
     return Annotated[int, BeforeValidator(validate), FieldMeta(str(example))]
+
+
+def check_limit(value: int, limit: Limit, example: object) -> None:
+    """Raise a ``case_value`` error when the whole number ``value`` exceeds ``limit``."""
+    try:
+        bound = limit.value()
+    except LimitError as exc:
+        raise field_error("case_value", exc.detail) from None
+    if value > bound:
+        raise field_error(
+            "case_value",
+            f"more than the limit of {bound:,.0f} {limit.what}; use e.g. {example}, "
+            f"{limit.raise_hint(value)}",
+        )
 
 
 def text(example: str) -> Any:

@@ -27,6 +27,8 @@ from quadmodes.case.fields import (
     ratio,
     text,
 )
+from quadmodes.case.units import QuantityError, parse_quantity
+from quadmodes.limits import MODE_COUNT
 
 _CAP_FIELDS = ("length", "front_cap_diameter", "rear_cap_diameter", "diameter", "file")
 _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
@@ -52,6 +54,8 @@ class Geometry(Section):
     rear_cap_diameter: quantity("length", "20 in", positive, "in", optional=True) = None
     diameter: quantity("length", "20 in", positive, "in", optional=True) = None
     file: Annotated[str | None, FieldMeta('"body.vtu"')] = None
+    #: the length unit of the mesh file's coordinates (default metres), e.g. "mm", "in"
+    file_unit: Annotated[str | None, FieldMeta('"mm"')] = None
 
     @field_validator("file")
     @classmethod
@@ -65,6 +69,17 @@ class Geometry(Section):
         if base is not None and not path.is_absolute():
             path = Path(base) / path
         return str(path) if base is not None else value
+
+    @field_validator("file_unit")
+    @classmethod
+    def check_file_unit(cls, value: str | None) -> str | None:
+        if value is not None:
+            length_unit_scale(value)
+        return value
+
+    def file_scale(self) -> float:
+        """Metres per coordinate unit of the mesh file (``file_unit``; 1 if not given)."""
+        return 1.0 if self.file_unit is None else length_unit_scale(self.file_unit)
 
     @model_validator(mode="after")
     def check_shape(self) -> Self:
@@ -104,6 +119,10 @@ class Geometry(Section):
                     'for a ball use shape = "sphere"',
                     "length",
                 )
+        if self.file_unit is not None and self.shape != "file":
+            raise field_error(
+                "case_rule", 'only used with shape = "file" (a mesh file); remove it', "file_unit"
+            )
         return self
 
     def cap_radius(self, pole: str) -> float | None:
@@ -114,6 +133,17 @@ class Geometry(Section):
             cap = self.front_cap_diameter if pole == "front" else self.rear_cap_diameter
             return (cap or 0.0) / 2
         return (self.diameter or 0.0) / 2
+
+
+def length_unit_scale(unit: str) -> float:
+    """Metres per ``unit`` (a length unit such as "mm", "in", "m"); a ``case_value`` error
+    naming the fix otherwise."""
+    try:
+        return parse_quantity(f"1 {unit}", "length", "file_unit", "1 mm")
+    except QuantityError:
+        raise field_error(
+            "case_value", 'must be a length unit such as "mm", "cm", "m" or "in"'
+        ) from None
 
 
 class Mesh(Section):
@@ -328,4 +358,4 @@ class Boom(Section):
 class Modes(Section):
     """Number of elastic modes to compute."""
 
-    count: integer(10, 1) = 10
+    count: integer(10, 1, MODE_COUNT) = 10

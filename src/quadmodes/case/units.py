@@ -77,6 +77,20 @@ DIMENSIONS = MappingProxyType(
 
 _NUMBER_START = re.compile(r"^\s*[+-]?(\d|\.\d)")
 
+# The strict grammar of a quantity string: a number (int, decimal or scientific, optional
+# sign), then optionally a unit expression of unit names joined by "*", "/" or a space, each
+# with an optional small exponent ("^2", "**3", "^-1", "^0.5", "^(1/2)"). No arithmetic on
+# numbers: "10**10**10 psi" or "2*3 m" is refused before pint sees it (pint would evaluate it,
+# and Python's big integers make that unbounded work).
+_NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+_EXPONENT = r"(?:[+-]?\d{1,2}(?:\.\d{1,3})?|\(\s*[+-]?\d{1,2}\s*/\s*\d{1,2}\s*\))"
+_NAME = r"(?:[A-Za-z_%°µΩÅ][\w°µΩÅ]*|1)"  # "1" as in pint's own "1 / second"
+_FACTOR = rf"{_NAME}(?:\s*(?:\^|\*\*)\s*{_EXPONENT})?"
+_UNIT = rf"{_FACTOR}(?:(?:\s*[*/]\s*|\s+){_FACTOR})*"
+_QUANTITY = re.compile(rf"\s*(?P<number>{_NUMBER})\s*(?P<unit>{_UNIT})?\s*")
+#: Longest quantity string read (the longest in the project is about 45 characters).
+MAX_QUANTITY_CHARS = 120
+
 
 def si_unit(dimension: str) -> str:
     """SI unit string that :func:`parse_quantity` returns for ``dimension`` ("" if none)."""
@@ -141,15 +155,7 @@ def parse_quantity(value: object, dimension: str, field: str, example: str | Non
         if not math.isfinite(number):
             raise QuantityError(field, f"{value} is not a finite number; {fix}")
         return number
-    if not _NUMBER_START.match(value):
-        raise QuantityError(field, f"{_show(value)} does not start with a number; {fix}")
-    try:
-        q = ureg.Quantity(value)
-    except Exception as exc:  # pint raises many kinds of errors for bad strings
-        reason = str(exc).splitlines()[0].split(". ")[0] if str(exc) else type(exc).__name__
-        raise QuantityError(field, f"{_show(value)} cannot be read ({reason}); {fix}") from None
-    if not isinstance(q, pint.Quantity) or not isinstance(q.magnitude, (int, float)):
-        raise QuantityError(field, f"{_show(value)} is not a single quantity; {fix}")
+    q = _read(value, field, fix)
     if not math.isfinite(float(q.magnitude)):
         raise QuantityError(field, f"{_show(value)} is not a finite number; {fix}")
     sig = _signature(q)
@@ -166,6 +172,30 @@ def parse_quantity(value: object, dimension: str, field: str, example: str | Non
     if dimension == "angular_rate" and sig[1] == 0:  # Hz, 1/s -> rad/s
         return float(q.to("Hz").magnitude) * 2.0 * math.pi
     return float(q.to(spec.si).magnitude)
+
+
+def _read(value: str, field: str, fix: str) -> pint.Quantity:
+    """``value`` read by the strict grammar above: a number and a unit that pint parses."""
+    shown = _show(value if len(value) <= 60 else value[:60] + "...")
+    if len(value) > MAX_QUANTITY_CHARS:
+        raise QuantityError(field, f"{shown} is too long for a quantity "
+                                   f"(over {MAX_QUANTITY_CHARS} characters); {fix}")  # fmt: skip
+    if not _NUMBER_START.match(value):
+        raise QuantityError(field, f"{shown} does not start with a number; {fix}")
+    match = _QUANTITY.fullmatch(value)
+    if match is None:
+        raise QuantityError(
+            field,
+            f"{shown} is not one number followed by a unit (no arithmetic such as \"2*3\" or "
+            f"\"10**3\"; write 1e3 for a power of ten); {fix}",
+        )
+    try:
+        unit = ureg.parse_units(match["unit"] or "dimensionless")
+        q = ureg.Quantity(float(match["number"]), unit)
+    except Exception as exc:  # pint raises many kinds of errors for bad strings
+        reason = str(exc).splitlines()[0].split(". ")[0] if str(exc) else type(exc).__name__
+        raise QuantityError(field, f"{shown} cannot be read ({reason}); {fix}") from None
+    return q
 
 
 def format_quantity(si_value: float, unit: str, digits: int | None = None) -> str:

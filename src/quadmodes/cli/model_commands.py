@@ -104,6 +104,8 @@ def _print_modes_summary(name: str, summary: dict) -> None:
             f"{p['stress_resultant_min_n_per_m']:.3g}–{p['stress_resultant_max_n_per_m']:.3g} N/m, "
             f"{p['elements_in_compression']} elements in compression"
         )
+    for warning in summary.get("warnings", ()):
+        err.print(f"[bold yellow]warning:[/] {escape(warning)}", highlight=False, soft_wrap=True)
     if summary.get("slack_onset_m"):
         out.print("slackens at: the mode's largest displacement at which the membrane first "
                   "loses tension (linearised); beyond it the taut model does not hold")  # fmt: skip

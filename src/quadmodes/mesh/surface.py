@@ -26,6 +26,7 @@ __all__ = [
     "min_angle_deg",
     "degenerate_triangles",
     "check_closed_surface",
+    "connected_parts",
     "orient_outward",
     "surface_report",
 ]
@@ -201,6 +202,23 @@ def degenerate_triangles(points: np.ndarray, triangles: np.ndarray) -> np.ndarra
     return np.flatnonzero(repeated | (area <= _DEGENERATE_REL_AREA * lmax2))
 
 
+def connected_parts(triangles: np.ndarray) -> np.ndarray:
+    """The connected part (0, 1, ...) of each triangle, shape (nt,) int: triangles sharing a
+    node are in one part."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    t = np.asarray(triangles, dtype=np.int64)
+    if len(t) == 0:
+        return np.zeros(0, dtype=np.int64)
+    n = int(t.max()) + 1
+    rows = np.repeat(np.arange(len(t)), 3)  # triangle-node incidence, as a bipartite graph
+    graph = coo_matrix((np.ones(rows.size), (rows, len(t) + t.ravel())), (len(t) + n,) * 2)
+    _, labels = connected_components(graph, directed=False)
+    _, part = np.unique(labels[: len(t)], return_inverse=True)
+    return part.astype(np.int64)
+
+
 def check_closed_surface(surface: TriangleSurface) -> None:
     """Raise ``ValueError`` (one-line message naming problem and fix) unless the surface is
     a closed, manifold, consistently and outward-oriented triangulation without zero-area
@@ -227,6 +245,16 @@ def check_closed_surface(surface: TriangleSurface) -> None:
         raise ValueError(
             f"mesh: surface has {n_nm} non-manifold edges (shared by more than two triangles); "
             "split it into separate closed surfaces"
+        )
+    parts = connected_parts(tri)
+    if parts.max() > 0:
+        sizes = np.bincount(parts)
+        shown = ", ".join(str(int(k)) for k in np.sort(sizes)[::-1][:4])
+        raise ValueError(
+            f"mesh: the surface has {len(sizes)} separate closed parts ({shown}"
+            f"{', ...' if len(sizes) > 4 else ''} triangles); quadmodes models one connected "
+            "body (several would float apart as extra zero-frequency modes): keep one part in "
+            "the mesh file (geometry.file), or join them into one closed surface"
         )
     n_conflict = _n_same_direction_edges(tri)
     if n_conflict:

@@ -26,6 +26,7 @@ import numpy as np
 
 from quadmodes._version import __version__
 from quadmodes.case import Case, CaseError, Modes
+from quadmodes.limits import REDUCED_MODES, check_count
 from quadmodes.models import cache
 from quadmodes.models.cache import Spectrum
 from quadmodes.rom import reduced as red
@@ -223,6 +224,7 @@ def reduced_model_for(
     False, or :func:`~quadmodes.models.cache.caching_disabled`, builds without reading or
     saving. ``info`` (optional dict) receives ``cache`` ("hit", "miss", "rebuilt", "off" or
     "not saved (...)") and ``path``."""
+    check_count(REDUCED_MODES, n_modes, "n_modes (reduced.modes)", "use fewer modes")
     info = {} if info is None else info
     path = cache.cache_path(case, n_modes, spin)
     info["path"] = str(path)

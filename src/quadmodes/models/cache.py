@@ -120,8 +120,11 @@ def model_inputs(case: Case) -> str:
     geometry = getattr(case, "geometry", None)
     mesh_file = getattr(geometry, "file", None)
     if mesh_file:
+        from quadmodes.mesh.io import check_mesh_file  # here: keeps the import block as it was
+
         path = Path(mesh_file)
-        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else "missing"
+        check_mesh_file(path)  # a regular file within the size bound, before its bytes are read
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
         text += f"\n# geometry.file sha256 = {digest}\n"
     return text
 

@@ -12,11 +12,16 @@ hence :data:`MAX_NODES`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from quadmodes.case import Case, CaseError
+from quadmodes.case.plausibility import MIN_STRAIN, check_mass, check_strain_scale
+from quadmodes.limits import OUTPUT_BYTES, REDUCED_MODES, LimitError
 from quadmodes.mesh.estimate import revolution_node_count
 from quadmodes.structure.pipeline import revolution_profile
+
+__all__ = ["MIN_STRAIN", "MAX_NODES", "check_model_size", "check_reduced_size", "estimate_size"]
 
 #: Above this many nodes a model is refused unless ``--yes`` (the built-in cases have < 5000).
 MAX_NODES = 50_000
@@ -103,9 +108,6 @@ def check_model_size(case: Case, *, allow_large: bool = False) -> SizeEstimate |
 
 # ------------------------------------------------------------------------- inputs that cannot work
 
-#: Below this membrane strain scale p R / (E t) inflation does not converge reliably:
-#: paper-membrane-coarse fails at 1.3e-6 (3e-5 psi) and converges at 4.4e-6 (1e-4 psi).
-MIN_STRAIN = 3e-6
 #: Largest reduced model refused without ``--yes``: the quadratic modes G (N² × nodes × 3) and
 #: the quartic potential V4 (N⁴) in bytes.
 MAX_REDUCED_BYTES = 4e9
@@ -115,21 +117,14 @@ MAX_MODES = 60
 
 
 def check_pressure(case: Case) -> None:
-    """Raise :class:`CaseError` (``pressure.value``) if the pressure of a membrane of
-    revolution is too low to tension it (strain scale below :data:`MIN_STRAIN`)."""
+    """Raise :class:`CaseError` if the strain scale of a membrane of revolution is too low to
+    tension it (names ``pressure.value``) or implausibly high, or if a beam's mass is
+    implausible (:mod:`quadmodes.case.plausibility`; mesh files are checked once read)."""
+    check_mass(case)
     if case.kind != "membrane" or case.geometry.shape == "file":
         return
-    g, m, p = case.geometry, case.material, case.pressure.value
-    radius = max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0)
-    strain = p * radius / (m.youngs_modulus * m.thickness)
-    if radius > 0.0 and strain < MIN_STRAIN:
-        lowest = MIN_STRAIN * m.youngs_modulus * m.thickness / radius
-        raise CaseError(
-            f"pressure.value = {p:.3g} Pa ({p / 6894.757:.3g} psi) is too low to tension the "
-            f"membrane reliably (strain scale p R / (E t) = {strain:.2g}, below {MIN_STRAIN:g}); "
-            f"raise it to at least {lowest:.2g} Pa ({lowest / 6894.757:.2g} psi)",
-            field="pressure.value",
-        )
+    g = case.geometry
+    check_strain_scale(case, max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0))
 
 
 def vector_dofs_per_node(case: Case) -> int:
@@ -158,15 +153,18 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
     :data:`MAX_REDUCED_BYTES`."""
     size = estimate_size(case)
     n_modes = int(n_modes)
-    if size is None or n_modes < 1:
+    if n_modes < 1:
         return
-    dofs = 3 * size.nodes * vector_dofs_per_node(case) - 6
+    dofs = 3 * size.nodes * vector_dofs_per_node(case) - 6 if size is not None else n_modes
     if n_modes > dofs:
         raise CaseError(
             f"reduced.modes = {n_modes}: the model has about {size.nodes} nodes, at most "
             f"{max(dofs, 0)} elastic modes; use fewer modes (the paper cases use 5)",
             field="reduced.modes",
         )
+    if size is None:
+        check_reduced_modes(n_modes)
+        return
     nbytes = 8.0 * (n_modes**2 * 3 * size.nodes + n_modes**4)
     if n_modes > MAX_MODES and nbytes <= MAX_REDUCED_BYTES and not allow_large:
         minutes = 16.0 * (n_modes / 60.0) ** 4 / 60.0
@@ -183,6 +181,23 @@ def check_reduced_size(case: Case, n_modes: int, *, allow_large: bool = False) -
             "cases use 5), or pass --yes to build it anyway",
             field="reduced.modes",
         )
+    check_reduced_modes(n_modes)
+
+
+def check_reduced_modes(n_modes: int) -> None:
+    """Raise :class:`CaseError` (``reduced.modes``) for more modes than the hard bound
+    :data:`quadmodes.limits.REDUCED_MODES` (``--yes`` does not lift it; its variable does)."""
+    try:
+        bound = REDUCED_MODES.value()
+    except LimitError as exc:
+        raise CaseError(exc.detail, field=exc.field) from None
+    if n_modes > bound:
+        raise CaseError(
+            f"reduced.modes = {n_modes}: more than the limit of {bound:,.0f} {REDUCED_MODES.what} "
+            "(its quartic terms hold N⁴ numbers); use fewer modes (the paper cases use 5), "
+            f"{REDUCED_MODES.raise_hint(n_modes)}",
+            field="reduced.modes",
+        )
 
 
 #: Free-body runs with more steps than this are refused without ``--yes`` (20 × the longest
@@ -192,15 +207,64 @@ MAX_STEPS = 5_000_000
 
 def check_run_length(run, *, allow_long: bool = False) -> None:
     """Raise :class:`CaseError` (``integration.duration``) if the free-body run case ``run``
-    has more than :data:`MAX_STEPS` steps (samples for "adaptive"), unless ``allow_long``."""
-    if run.spinup is not None or allow_long:
+    has more than :data:`MAX_STEPS` steps (samples for "adaptive"), unless ``allow_long``; then,
+    even with ``allow_long``, if its results.nc would exceed the output bound
+    (:func:`check_output_size`)."""
+    if run.spinup is not None:
         return
     integ = run.integration
     steps = integ.n_steps
-    if steps > MAX_STEPS:
+    if steps > MAX_STEPS and not allow_long:
         raise CaseError(
             f"integration.duration / integration.dt = {integ.duration:.4g} s / {integ.dt:.3g} s "
             f"= {steps:,} steps (the limit is {MAX_STEPS:,}; paper-41hz has 240,000): shorten "
             "the duration (--duration) or lengthen the step (--dt), or pass --yes to run it anyway",
             field="integration.duration",
         )
+    check_output_size(run)
+
+
+#: Modes assumed for the output estimate of ``reduced.modes = "auto"`` (paper-41hz keeps 16).
+AUTO_MODES_ESTIMATE = 16
+#: Numbers per saved sample of results.nc besides the 2N modal coordinates and velocities
+#: (time, quaternion, angular velocity and momentum, principal axis, energies, spin, cone, ...):
+#: paper-0.5hz holds 288 bytes a sample with N = 5 (211 on disk, compressed).
+SAMPLE_NUMBERS = 27
+
+
+def output_bytes(run, n_modes: int | None = None) -> float:
+    """Estimated bytes of the results.nc of the free-body run ``run`` with ``n_modes`` modes
+    (default: ``reduced.modes``, :data:`AUTO_MODES_ESTIMATE` for "auto"): 8 bytes × numbers a
+    sample × samples (steps / save_every + 1)."""
+    integ = run.integration
+    if n_modes is None:
+        modes = run.reduced.modes
+        n_modes = AUTO_MODES_ESTIMATE if not isinstance(modes, int) else modes
+    if run.reduced.formulation == "rigid":
+        n_modes = 0
+    samples = integ.n_steps // max(1, int(integ.save_every)) + 1
+    return 8.0 * samples * (2 * int(n_modes) + SAMPLE_NUMBERS)
+
+
+def check_output_size(run, n_modes: int | None = None) -> None:
+    """Raise :class:`CaseError` (``integration.save_every``, with the ``save_every`` that fits)
+    if the results.nc of ``run`` is estimated (:func:`output_bytes`) above the bound
+    :data:`quadmodes.limits.OUTPUT_BYTES`; ``--yes`` does not lift it, its variable does."""
+    if run.spinup is not None:
+        return
+    estimate = output_bytes(run, n_modes)
+    try:
+        bound = OUTPUT_BYTES.value()
+    except LimitError as exc:
+        raise CaseError(exc.detail, field=exc.field) from None
+    if estimate <= bound:
+        return
+    every = int(run.integration.save_every)
+    suggested = math.ceil(every * estimate / bound)
+    raise CaseError(
+        f"integration.save_every = {every}: results.nc would hold about {estimate / 1e6:,.0f} MB "
+        f"({run.integration.n_steps:,} steps, every {every} kept; the limit is "
+        f"{bound / 1e6:,.0f} MB); keep fewer samples with save_every = {suggested} or more in "
+        f"[integration], {OUTPUT_BYTES.raise_hint(estimate)}",
+        field="integration.save_every",
+    )

@@ -44,6 +44,7 @@ from quadmodes.runs.chunked import (
 from quadmodes.runs.deformation_check import with_deformation_check
 from quadmodes.runs.initial import InitialState, initial_state
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
+from quadmodes.runs.resources import check_output_size
 from quadmodes.runs.validity import Validity, initial_validity, rotating_validity
 from quadmodes.structure import pipeline
 
@@ -140,6 +141,7 @@ def prepare(
     else:
         model_case = run.model_case()
     run, choice = resolve_modes(run, model_case, progress)
+    check_output_size(run)  # before the model is built: a results file too large to write
     if model is None:
         model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin)
     model = _model_for_run(run, model)

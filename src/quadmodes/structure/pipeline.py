@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from quadmodes.case import Case
+from quadmodes.case.plausibility import check_mass, check_strain_scale, volume_change_warning
 from quadmodes.fe.beam import BeamSection, solid_section
 from quadmodes.fe.build import (
     EndBodySpec,
@@ -42,7 +43,13 @@ from quadmodes.mesh.revolution import (
     sphere_profile,
     with_ring_at_radius,
 )
-from quadmodes.mesh.surface import TriangleSurface, check_closed_surface, min_angle_deg
+from quadmodes.mesh.surface import (
+    TriangleSurface,
+    check_closed_surface,
+    enclosed_volume,
+    min_angle_deg,
+    surface_area,
+)
 from quadmodes.structure.boom_labels import boom_labels
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import ModalResult, compute_modes
@@ -89,12 +96,28 @@ def surface_for_case(case: Case) -> TriangleSurface:
         surface = mesh_revolution(profile, case.mesh.edge_length, case.mesh.elements_per_radius,
                                   refine)  # fmt: skip
     else:
-        surface = read_surface(case.geometry.file)
+        surface = read_surface(case.geometry.file, case.geometry.file_scale())
     if case.pressure is not None and case.pressure.value > 0.0:
         check_closed_surface(surface)
     if min_angle_deg(surface.points, surface.triangles) < 5.0:
         raise ValueError("mesh: triangles with angles below 5° found; remesh or change edge_length")
+    check_surface_plausibility(case, surface)
     return surface
+
+
+def check_surface_plausibility(case: Case, surface: TriangleSurface) -> None:
+    """Strain scale and mass of a membrane case on its surface
+    (:mod:`quadmodes.case.plausibility`): R is the largest cap radius of a body of revolution,
+    or the radius of the sphere of a mesh file's volume."""
+    g = case.geometry
+    if g.shape == "file":
+        volume = abs(enclosed_volume(surface.points, surface.triangles))
+        radius = (3.0 * volume / (4.0 * np.pi)) ** (1.0 / 3.0)
+    else:
+        radius = max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0)
+    if case.pressure is not None:
+        check_strain_scale(case, radius)
+    check_mass(case, surface_area(surface.points, surface.triangles))
 
 
 def end_body_specs(case: Case) -> list[EndBodySpec]:
@@ -268,6 +291,9 @@ def modes_summary(model: ModalModel) -> dict:
             "elements_in_compression": int(np.sum(st.stress_resultants[:, 0] <= 0.0)),
             "relative_residual": st.residual_norm,
         }
+        warning = volume_change_warning(st.volume_change)
+        if warning:
+            out["warnings"] = [warning]
         out["slack_onset_m"] = mode_slack_onsets(s, x, model.modes.shapes)
     return out
 

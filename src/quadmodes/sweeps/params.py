@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import difflib
 import itertools
+import math
 import re
 import typing
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ from pydantic import BaseModel
 from quadmodes.case import Case, QuantityError, RunCase, parse_quantity, si_unit
 from quadmodes.case.fields import field_meta
 from quadmodes.case.meta import nested_model
+from quadmodes.limits import REDUCED_MODES, SWEEP_POINTS, LimitError
 
 
 class SweepError(ValueError):
@@ -189,11 +191,38 @@ def _range(text: str, path: FieldPath, option: str) -> tuple[float, ...]:
     if n < 1:
         raise SweepError(f'{option}: {path.text}: range "{text}" is empty (count {n}); give '
                          'at least one value, e.g. "1 Hz:45 Hz:45"')  # fmt: skip
+    _check_points(n, f'{option}: {path.text}: range "{text}"')
     a, b = _quantity(start, path, option), _quantity(stop, path, option)
     if n == 1 and a != b:
         raise SweepError(f'{option}: {path.text}: range "{text}" has one value but two ends; '
                          "use a count of at least 2")  # fmt: skip
     return tuple(a + (b - a) * k / (n - 1) for k in range(n)) if n > 1 else (a,)
+
+
+def _check_points(count: int, what: str) -> None:
+    """Raise :class:`SweepError` (``what`` names the option) when ``count`` points exceed the
+    bound :data:`quadmodes.limits.SWEEP_POINTS`."""
+    try:
+        bound = SWEEP_POINTS.value()
+    except LimitError as exc:
+        raise SweepError(str(exc)) from None
+    if count > bound:
+        raise SweepError(f"{what}: {count:,} points, more than the limit of {bound:,.0f}; "
+                         f"use fewer values, {SWEEP_POINTS.raise_hint(count)}")  # fmt: skip
+
+
+def _check_modes(values: tuple, option: str) -> None:
+    """Raise :class:`SweepError` for a mode count above :data:`quadmodes.limits.REDUCED_MODES`
+    (refused here, before any point runs)."""
+    try:
+        bound = REDUCED_MODES.value()
+    except LimitError as exc:
+        raise SweepError(str(exc)) from None
+    for n in values:
+        if isinstance(n, int) and n > bound:
+            raise SweepError(f"{option}: reduced.modes = {n}: more than the limit of {bound:,.0f} "
+                             f"{REDUCED_MODES.what}; use fewer modes (the paper cases use 5), "
+                             f"{REDUCED_MODES.raise_hint(n)}")  # fmt: skip
 
 
 def parse_values(text: str, path: FieldPath, option: str = "--param") -> tuple:
@@ -206,7 +235,10 @@ def parse_values(text: str, path: FieldPath, option: str = "--param") -> tuple:
         if ":" in text:
             raise SweepError(f"{option}: {path.text} is not a quantity: give a comma list, "
                              'not a range (e.g. "reduced.formulation=Q,L")')  # fmt: skip
-        return tuple(_plain(v) for v in text.split(",") if v.strip())
+        values = tuple(_plain(v) for v in text.split(",") if v.strip())
+        if path.keys == ("reduced", "modes"):
+            _check_modes(values, option)
+        return values
     parts = text.split(",")
     if any(not v.strip() for v in parts):
         raise SweepError(f'{option}: {path.text}: empty item in the list "{text}"; e.g. '
@@ -215,6 +247,7 @@ def parse_values(text: str, path: FieldPath, option: str = "--param") -> tuple:
     for item in parts:
         if item.count(":") == 2:
             values.extend(_range(item, path, option))
+            _check_points(len(values), f"{option}: {path.text}")
         elif ":" in item:
             raise SweepError(f'{option}: {path.text}: "{item.strip()}" is neither a quantity nor '
                              'a range start:stop:count; e.g. "1 Hz:45 Hz:45"')  # fmt: skip
@@ -269,4 +302,6 @@ def grid(params: list[SweepParameter], zipped: bool = False) -> list[tuple[int, 
             raise SweepError(f"--zip: the swept lists differ in length ({detail}); give each "
                              "the same number of values")  # fmt: skip
         return [(k,) * len(swept) for k in range(lengths.pop())]
-    return list(itertools.product(*(range(len(p.values)) for p in swept)))
+    sizes = [len(p.values) for p in swept]
+    _check_points(math.prod(sizes), "--param: the grid " + " × ".join(map(str, sizes)))
+    return list(itertools.product(*(range(n) for n in sizes)))
