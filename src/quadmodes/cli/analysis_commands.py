@@ -177,7 +177,7 @@ def campbell(
                             "bodies; this beam is clamped to a hub (drop --full-order)")  # fmt: skip
         guard_model_size(c, yes)
         guard_reduced_model(c, None, yes, spins=True)
-        with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
+        with progress_bars(True) as progress, staged_output(output_dir) as scratch:
             result, markers, _ = campbell_with_full_order(
                 c, lo, hi, n, axis=request, formulation=formulation, output_dir=scratch,
                 progress=progress, axis_option="--axis", full_order_spins=full_spins,
@@ -279,7 +279,7 @@ def rotating_command(
         c = load_model_case(case)
         guard_model_size(c, yes)
         guard_reduced_model(c, modes, yes, spins=True, from_option=True)
-        with progress_bars(not as_json) as bars:
+        with progress_bars(True) as bars:
             table = rotating_frequency_comparison(
                 c, spin_list, modes, names, axis=request, progress=bars, axis_option="--axis"
             )

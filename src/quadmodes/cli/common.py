@@ -12,6 +12,7 @@ import errno
 import os
 import signal
 import tempfile
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
@@ -71,14 +72,19 @@ def one_line_errors(*also: type[BaseException]) -> Iterator[None]:
 
 def _text_progress() -> ProgressCallback:
     """Progress for a stderr that is not a terminal (a log file, a pipe, a batch job): one
-    line per stage and 10 % step, e.g. ``inflate: 40 %``."""
+    time-stamped line per stage and 10 % step, e.g. ``12:04:31 paper-membrane N=16 about 41 Hz:
+    inflation: 40 %``. A stage that starts again (its fraction falls) is shown again from its
+    start, so a second model build of one command is never silent."""
     shown: dict[str, int] = {}
 
     def progress(stage: str, fraction: float) -> None:
         tenth = int(10 * fraction + 1e-9)
+        if tenth < shown.get(stage, -1):  # the stage runs again (another model, another pass)
+            del shown[stage]
         if shown.get(stage, -1) < tenth:
             shown[stage] = tenth
-            err.print(f"{escape(stage)}: {10 * tenth} %", highlight=False)
+            stamp = time.strftime("%H:%M:%S")
+            err.print(f"{stamp} {escape(stage)}: {10 * tenth} %", highlight=False, soft_wrap=True)
 
     return progress
 

@@ -319,7 +319,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
         recorder = runner.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
         result = _run_comparison(
-            replace(plan, run=run), setup, checkpoint, resume=resume, bars_shown=not as_json,
+            replace(plan, run=run), setup, checkpoint, resume=resume, bars_shown=True,
             rerun_hint=hint, signals=signals, on_sample=recorder,
         )  # fmt: skip
         try:

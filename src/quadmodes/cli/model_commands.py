@@ -128,7 +128,7 @@ def modes(
         check_output_folder(output_dir)
         c = load_model_case(case)
         guard_model_size(c, yes)
-        with progress_bars(not as_json) as progress, staged_output(output_dir) as scratch:
+        with progress_bars(True) as progress, staged_output(output_dir) as scratch:
             model = build_modal_model(c, progress)
             if scratch is not None:
                 progress("outputs", 0.0)
@@ -199,7 +199,7 @@ def calibrate(
         output_file = output_file_in(output_file, "calibrated.toml")
         c = load_model_case(case)
         guard_model_size(c, yes)
-        with progress_bars(not as_json) as progress:
+        with progress_bars(True) as progress:
             result = calibrate_end_masses(c, rocking_hz=rocking_hz, bending_hz=bending_hz,
                                           axial_hz=target_axial, progress=progress)  # fmt: skip
     if not as_json:
@@ -300,7 +300,7 @@ def reduce_command(
             guard_model_size(model_case, yes)
             spin = 0.0
         guard_reduced_model(model_case, n_modes, yes, from_option=modes is not None)
-        with progress_bars(not as_json) as progress:
+        with progress_bars(True) as progress:
             model = reduced_model_for(model_case, n_modes, progress, info=info, spin=spin)
         if output_file is not None:
             write_file_in(output_file, lambda path: artifact.save_reduced_model(model, path))

@@ -17,11 +17,10 @@ from typing import Annotated
 
 import typer
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from quadmodes.case import load_run_case, run_case_from_dict
 from quadmodes.cli.analysis_commands import FULL_ORDER_HELP, parse_full_order
-from quadmodes.cli.common import check_output_folder, err, one_line_errors, out
+from quadmodes.cli.common import check_output_folder, err, one_line_errors, out, progress_bars
 from quadmodes.sweeps.params import SweepError
 
 
@@ -49,11 +48,6 @@ def load_sweep_case(name_or_path: str):
     return run, list(params), bool(table.get("zip", False))
 
 
-def _progress_bar(enabled: bool):
-    return Progress(TextColumn("sweep points"), BarColumn(), MofNCompleteColumn(),
-                    TimeElapsedColumn(), console=err, disable=not enabled)  # fmt: skip
-
-
 def _plan(case: str, param: list[str], zipped: bool, time_run: bool, axis: str | None = None):
     from quadmodes.sweeps.run import plan_from_texts
 
@@ -68,16 +62,15 @@ def _write(plan, outcome, directory: Path, plots: bool = True, fmt: str | None =
     return write_sweep_files(plan, outcome, directory, command, plots, fmt)[1]
 
 
-def _full_order(cases, directory: Path, client, show: bool):
-    """The full-order markers at ``cases`` (:mod:`quadmodes.sweeps.full_order`), with a bar."""
+def _full_order(cases, directory: Path, client):
+    """The full-order markers at ``cases`` (:mod:`quadmodes.sweeps.full_order`), with
+    progress."""
     from quadmodes.sweeps.full_order import run_full_order
 
-    bar = Progress(TextColumn("full-order linearisations"), BarColumn(), MofNCompleteColumn(),
-                   TimeElapsedColumn(), console=err, disable=not show)  # fmt: skip
-    task = bar.add_task("full order", total=len(cases))
-    with bar:
+    with progress_bars(True) as bars:
         return run_full_order(cases, directory, client,
-                              lambda done, total: bar.update(task, completed=done))  # fmt: skip
+                              lambda done, total: bars("full-order linearisations",
+                                                       done / max(total, 1)))  # fmt: skip
 
 
 def _report(info: dict, directory: Path) -> None:
@@ -147,17 +140,17 @@ def sweep_command(
         plan = _plan(case, param, zipped, not no_time_run, axis)
         cases = full_order_cases(plan, full_spins) if full_spins else []
         check_output_folder(output_dir, "-o")
-    bar = _progress_bar(not as_json)
+    # progress on stderr whatever stdout carries (--json): bars on a terminal, time-stamped
+    # lines per 10 % otherwise
     with one_line_errors(), dask_client(workers, scheduler) as client:
         output_dir.mkdir(parents=True, exist_ok=True)
-        task = bar.add_task("points", total=len(plan.points))
         try:
-            with bar:
+            with progress_bars(True) as bars:
                 outcome = execute(plan, output_dir, client,
-                                  lambda done, total: bar.update(task, completed=done))  # fmt: skip
+                                  lambda done, total: bars("sweep points", done / max(total, 1)))  # fmt: skip
             if cases:
                 outcome.full_order, outcome.full_order_failures = _full_order(
-                    cases, output_dir, client, not as_json)
+                    cases, output_dir, client)
         except KeyboardInterrupt:
             err.print(f"interrupted: the finished points are in {escape(str(output_dir))}/points; "
                       "run the same command again to go on", highlight=False)  # fmt: skip

@@ -44,6 +44,7 @@ __all__ = [
     "build_reduced_model",
     "case_modes_model",
     "damping_ratio_of",
+    "labelled",
     "modal_model_for",
     "mode_spectrum",
     "reduced_model_for",
@@ -208,6 +209,20 @@ def _build_spinning(case: Case, n_modes: int, spin: float, progress) -> red.Redu
     )  # fmt: skip
 
 
+def labelled(progress: Progress | None, label: str) -> Progress | None:
+    """``progress`` with every stage named ``"<label>: <stage>"``, so the lines and bars of a
+    command that builds several models say which model each stage belongs to (and a stage of
+    the second build is a new stage, not one already at 100 %)."""
+    if progress is None:
+        return None
+    return lambda stage, fraction: progress(f"{label}: {stage}", fraction)
+
+
+def _spin_label(spin: float) -> str:
+    """" about 41 Hz" for a model about a spinning state (``spin`` rad/s), "" at rest."""
+    return f" about {spin / (2 * np.pi):.4g} Hz" if spin else ""
+
+
 def reduced_model_for(
     case: Case,
     n_modes: int = DEFAULT_MODES,
@@ -231,7 +246,9 @@ def reduced_model_for(
     return cache.find_or_build(
         path,
         lambda p: cache.find_model(case, n_modes, p, spin),
-        lambda: build_reduced_model(case, n_modes, progress, spin),
+        lambda: build_reduced_model(
+            case, n_modes, labelled(progress, f"{case.name} N={n_modes}{_spin_label(spin)}"), spin
+        ),
         cache.store_model,
         use_cache=use_cache, info=info, progress=progress,
         what=f"reduced model of {case.name} ({n_modes} modes)",
@@ -280,7 +297,9 @@ def mode_spectrum(
     return cache.find_or_build(
         cache.spectrum_path(case, count, spin),
         lambda p: cache.find_spectrum(p, count),
-        lambda: _compute_spectrum(case, count, progress, spin),
+        lambda: _compute_spectrum(
+            case, count, labelled(progress, f"{case.name} spectrum{_spin_label(spin)}"), spin
+        ),
         lambda spec, p: cache.store_spectrum(case, spec, p),
         use_cache=use_cache, progress=progress,
     )  # fmt: skip
