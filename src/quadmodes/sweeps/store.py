@@ -88,7 +88,7 @@ def write_dataset(ds: xr.Dataset, directory: Path, fmt: str) -> Path:
             ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
         return path
     with _atomic_folder(path) as tmp:
-        ds.to_zarr(tmp, mode="w", zarr_format=2, consolidated=True, encoding=cf.encoding(ds))
+        ds.to_zarr(tmp, mode="w", zarr_format=2, consolidated=True)
     return path
 
 
