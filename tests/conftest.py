@@ -66,3 +66,48 @@ def small_reduced_model(small_modal_model):
     """:class:`quadmodes.rom.reduced.ReducedModel` of the small capsule, N = 5, ζ = 2 %."""
     m = small_modal_model
     return reduce(m.structure, m.x, m.modes.frequencies_hz, m.modes.shapes, m.labels, 0.02)
+
+
+def udunits_reads_as_pint(units: str) -> bool:
+    """UDUNITS-2 (cf_units) reads ``units`` as pint does: the same SI base unit and factor.
+    Needs cf_units (the [test] extra; it bundles the UDUNITS-2 library)."""
+    import cf_units
+    import numpy as np
+
+    from quadmodes.case.units import ureg
+
+    try:
+        q = ureg.Quantity(1.0, units).to_base_units()
+    except Exception:  # pint refuses it: nothing to agree with
+        return False
+    powers = dict(q.unit_items())
+    if any(float(p) != int(p) for p in powers.values()):
+        return False  # a fractional power: no UDUNITS-2 unit has it
+    base = " ".join(f"{ureg.get_symbol(n)}^{int(p)}" for n, p in powers.items()) or "1"
+    try:
+        read = cf_units.Unit(units)
+    except ValueError:
+        return False
+    return read.is_convertible(base) and bool(
+        np.isclose(read.convert(1.0, cf_units.Unit(base)), q.magnitude, rtol=1e-12))
+
+
+def assert_cf_file(path) -> None:
+    """The NetCDF file ``path`` passes :func:`quadmodes.io.cf.file_problems` (Conventions, long
+    names, units pint parses and UDUNITS-2 reads alike in the one spelling, no _FillValue on
+    coordinates, no string dimension coordinate) and, where cf_units is installed, UDUNITS-2
+    itself reads every unit as pint does."""
+    import importlib.util
+
+    import xarray as xr
+
+    from quadmodes.io.cf import file_problems
+
+    problems = file_problems(path)
+    assert problems == [], f"{path}:\n" + "\n".join(problems)
+    if importlib.util.find_spec("cf_units") is None:
+        return
+    with xr.open_dataset(path, engine="h5netcdf") as ds:
+        bad = [f"{n}: {ds[n].attrs['units']!r}" for n in [*ds.coords, *ds.data_vars]
+               if not udunits_reads_as_pint(ds[n].attrs["units"])]  # fmt: skip
+    assert bad == [], f"{path}: UDUNITS-2 reads otherwise:\n" + "\n".join(bad)

@@ -15,7 +15,7 @@ import numpy as np
 import pint_xarray  # noqa: F401  (registers the .pint accessor)
 import pytest
 import xarray as xr
-from conftest import SMALL_CAPSULE
+from conftest import SMALL_CAPSULE, assert_cf_file
 
 import quadmodes as qm
 from quadmodes import api
@@ -157,8 +157,8 @@ def test_run_with_a_custom_model_records_it_and_writes_cf_results(seeded_cache, 
         assert ds.attrs["quadmodes_version"] == qm.__version__
         assert ds.attrs["model_hash"] == ds.attrs["reduced_model_key"] != ""
         assert unit_problems(ds) == []
-        assert set(ds.coords) >= {"time", "mode", "xyz", "quat"}
-        assert ds["modal_coordinates"].attrs["units"] == "kg^0.5 m"
+        assert set(ds.coords) >= {"time", "mode", "xyz_label", "quat_label"}
+        assert ds["modal_coordinates"].attrs["units"] == "m"  # modes normalised to 1 kg (io.cf)
         assert ds["angular_momentum"].attrs["units"] == "kg m^2/s"
         # pint-xarray turns every variable into a quantity with the unit its attribute names
         quantified = ds.pint.quantify()
@@ -169,6 +169,7 @@ def test_run_with_a_custom_model_records_it_and_writes_cf_results(seeded_cache, 
                    if ds[v].dtype.kind == "f")  # fmt: skip
         replay = run_case_from_toml(ds.attrs["case_toml"])
     assert replay.model_case() == seeded_cache and replay == result.run
+    assert_cf_file(tmp_path / "out" / "results.nc")
 
 
 # ----------------------------------------------------------------------------- examples
@@ -219,6 +220,7 @@ def test_campbell_and_spinup_files_are_cf_too(tmp_path):
         with xr.open_dataset(path, engine="h5netcdf") as ds:
             assert ds.attrs["Conventions"] == "CF-1.10" and ds.attrs["source"].startswith("quadmodes")
             assert unit_problems(ds) == [], path.name
+        assert_cf_file(path)
     with xr.open_dataset(tmp_path / "spinup" / "results.nc", engine="h5netcdf") as ds:
         assert run_case_from_toml(ds.attrs["case_toml"]) == run
         assert ds["hub_rate"].attrs["units"] == "rad/s"

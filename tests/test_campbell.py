@@ -5,6 +5,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import assert_cf_file
 from scipy.integrate import solve_ivp
 
 from quadmodes.analysis.campbell import campbell
@@ -190,6 +191,8 @@ def test_write_campbell_outputs(beam, tmp_path):
         assert ds["spin"].attrs["units"] == "rad/s"
         np.testing.assert_allclose(ds["frequency"].values, r.frequency)
         assert list(ds["branch_label"].values) == list(r.labels)
+        assert list(ds["branch"].values) == [1, 2] and ds["mode"].values[0] == 1
+    assert_cf_file(paths["nc"])
     lines = paths["csv"].read_text().splitlines()
     assert len(lines) == 1 + 7 * 2 and lines[0].startswith("spin_rad_s")
     fig = plot_campbell(r)

@@ -11,6 +11,7 @@ import types
 
 import numpy as np
 import pytest
+from conftest import assert_cf_file
 from typer.testing import CliRunner
 
 from quadmodes.analysis import compare as cm
@@ -92,7 +93,9 @@ def test_write_comparison_outputs(short_comparison, tmp_path):
 
     with xr.open_dataset(tmp_path / "comparison.nc", engine="h5netcdf") as ds:
         assert ds["cone_angle"].attrs["units"] == "rad"
-        assert list(ds["model"].values) == ["full", *cm.FORMULATIONS]
+        assert list(ds["model_label"].values) == ["full", *cm.FORMULATIONS]
+        assert ds["modal_amplitude"].attrs["units"] == "m"  # modes normalised to 1 kg (io.cf)
+    assert_cf_file(tmp_path / "comparison.nc")
     assert payload["full_order"]["wall_s"] > 0
 
 
@@ -203,7 +206,9 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
                      "quasi_steady_start"):  # fmt: skip
             ureg.Unit(ds[name].attrs["units"])
             assert ds[name].attrs["long_name"]
-        assert float(ds["dissipated_power_ratio"].sel(formulation="Q")) == pytest.approx(1.0)
+        ratio = ds["dissipated_power_ratio"].set_xindex("formulation_label")
+        assert float(ratio.sel(formulation_label="Q")) == pytest.approx(1.0)
+    assert_cf_file(out / "comparison.nc")
 
 
 def test_comparison_names_the_independent_reference_damping(short_comparison, tmp_path):

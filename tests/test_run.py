@@ -257,7 +257,8 @@ def test_results_file_units_and_conservation(workdir, small_reduced_model):
         "quaternion",
     ):
         assert name in ds, name
-    assert ds["modal_coordinates"].attrs["units"] == "kg^0.5 m"
+    assert ds["modal_coordinates"].attrs["units"] == "m"  # modes normalised to 1 kg (io.cf)
+    assert ds["modal_coordinates"].attrs["mass_normalised_units"] == "kg^0.5 m"
     assert list(ds["mode_label"].values) == list(small_reduced_model.labels)
     assert ds.attrs["complete"] == 1 and ds.attrs["method"] == "midpoint"
     assert ds.attrs["formulation"] == "Q" and "case_toml" in ds.attrs

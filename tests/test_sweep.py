@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import SMALL_CAPSULE
+from conftest import SMALL_CAPSULE, assert_cf_file
 from typer.testing import CliRunner
 
 from quadmodes.case import load_case, load_run_case
@@ -201,6 +201,8 @@ def test_spin_sweep_on_a_local_cluster_and_resume(folder):
     growth = ds["energy_sink_growth_rate"].values
     assert np.all(growth > 0) and np.all(np.diff(growth) > 0)  # minor-axis spinner: grows faster
     assert np.all(ds["complete"].values == 1)
+    assert ds.attrs["Conventions"].startswith("CF-") and ds["branch"].values[0] == 1
+    assert_cf_file(folder / "out" / "sweep.nc")
     page = (folder / "out" / "report.html").read_text()  # self-contained: no external resource
     assert "Critical speeds" in page and "Headline numbers per point" in page
     assert "data:image/png;base64," in page and "http://" not in page and "https://" not in page

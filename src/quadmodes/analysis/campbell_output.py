@@ -120,9 +120,9 @@ def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
                                         "MAC with the branch at the previous spin rate"),
             "min_rotating_stiffness": cf.variable(("spin",), result.min_stiffness, "1/s^2",
                                                   "smallest eigenvalue of the rotating stiffness"),
-            "equilibrium_modal_coordinates": cf.variable(
-                ("spin", "mode"), result.s_eq, "kg^0.5 m",
-                "modal coordinates of the relative equilibrium"),
+            "equilibrium_modal_coordinates": cf.modal_variable(
+                ("spin", "mode"), result.s_eq, "m", "kg^0.5 m",
+                "modal coordinates of the relative equilibrium (modes normalised to 1 kg)"),
             "equilibrium_spin_axis": cf.variable(("spin", "xyz"), result.spin_axis, "1",
                                                  "spin axis of the relative equilibrium, body frame"),
             "divergence_spin": cf.variable(("divergence",), result.divergence, "rad/s",
@@ -131,12 +131,15 @@ def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
         },
         coords={
             "spin": c("spin", result.spin, "rad/s", "spin rate"),
-            "branch": c("branch", np.arange(len(result.labels)), "1", "branch number"),
+            "branch": c("branch", np.arange(1, len(result.labels) + 1), "1",
+                        "branch number (from 1, as the CSV)"),
             "branch_label": c("branch", np.array(result.labels, dtype=object), "1", "branch label"),
-            "branch_start": c("branch", _starts(result), "1",
-                              "index of the first spin rate of the branch"),
-            "mode": c("mode", np.arange(result.s_eq.shape[1]), "1", "mode index"),
-            "xyz": c("xyz", np.array(["x", "y", "z"], dtype=object), "1", "Cartesian axis"),
+            "branch_start_spin": c("branch", result.spin[_starts(result)] if result.spin.size
+                                   else np.zeros(len(result.labels)), "rad/s",
+                                   "spin rate where the branch starts"),
+            "mode": c("mode", np.arange(1, result.s_eq.shape[1] + 1), "1",
+                      "retained mode number (from 1, as results.nc)"),
+            **cf.label_coordinate("xyz", ["x", "y", "z"], "Cartesian axis"),
         },
         attrs={
             **cf.provenance("Campbell diagram of a quadmodes reduced model"),
@@ -148,6 +151,7 @@ def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
             "mode_labels": "; ".join(result.mode_labels),
             "tracking": "MAC of state eigenvectors (energy inner product), optimal assignment; "
                         "degenerate roots by span; a branch with MAC < 0.8 ends (NaN after)",
+            "modal_normalisation": cf.MODAL_NORMALISATION,
         },
     )  # fmt: skip
     if markers is not None:
@@ -188,7 +192,7 @@ def write_csv(result: CampbellResult, path) -> Path:
                 w.writerow(
                     [
                         f"{om:.10g}",
-                        b,
+                        b + 1,
                         lab,
                         f"{result.frequency[i, b]:.10g}",
                         f"{result.frequency_hz[i, b]:.10g}",
@@ -209,7 +213,8 @@ def write_campbell(result: CampbellResult, directory, stem: str = "campbell",
     paths = {"png": out / f"{stem}.png", "nc": out / f"{stem}.nc", "csv": out / f"{stem}.csv"}
     plot_campbell(result, paths["png"], markers=markers)
     with atomic_path(paths["nc"]) as tmp:
-        to_dataset(result, markers).to_netcdf(tmp, engine="h5netcdf")
+        ds = to_dataset(result, markers)
+        ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
     write_csv(result, paths["csv"])
     return paths
 

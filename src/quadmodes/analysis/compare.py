@@ -340,7 +340,8 @@ def compare(
 # ---------------------------------------------------------------------------------------------
 
 _SERIES_VARS = {
-    "modal_amplitude": ("amplitude", "kg^0.5 m", "modal amplitude ‖s‖ over the retained modes"),
+    "modal_amplitude": ("amplitude", "m", "modal amplitude ‖s‖ over the retained modes (modes "
+                        "normalised to 1 kg modal mass)"),
     "cone_angle": ("cone_angle", "rad", "angle between H and the tracked minor principal axis"),
     "spin_rate": ("spin_rate", "rad/s", "angular velocity about the tracked principal axis"),
     "angular_momentum_norm": ("H_norm", "kg m^2/s", "|H| about the centre of mass"),
@@ -361,6 +362,7 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             _on(t, s.t, getattr(s, attr)) for s in series[1:]
         ]
         data[var] = xr.Variable(("model", "time"), np.vstack(rows), {"units": unit, "long_name": desc})
+    data["modal_amplitude"].attrs["mass_normalised_units"] = "kg^0.5 m"  # io.cf: the same numbers
     metrics = ["envelope_error", "cone_angle_error", "cone_angle_change_error", "spin_rate_error",
                "spin_rate_change_error"]  # fmt: skip
     names = list(cmp.reduced)
@@ -385,9 +387,9 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
         data,
         coords={
             "time": xr.Variable(("time",), t, {"units": "s", "long_name": "time"}),
-            "model": models,
-            "formulation": list(cmp.reduced),
-            "metric": metrics,
+            **cf.label_coordinate("model", models, "model: full order or reduced formulation"),
+            **cf.label_coordinate("formulation", list(cmp.reduced), "reduced formulation"),
+            **cf.label_coordinate("metric", metrics, "error metric"),
         },
         attrs={
             **cf.provenance(f"quadmodes comparison {cmp.run.name}"),
@@ -402,6 +404,7 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "full_order_damped_modes": int(cmp.full.stats.get("damped_modes", 0)),
             "full_order_damping_cutoff_hz": float(cmp.full.stats.get("damping_cutoff_hz", math.nan)),
             "notes": "\n".join(cmp.notes),
+            "modal_normalisation": cf.MODAL_NORMALISATION,
         },
     )
     return cf.complete(ds)

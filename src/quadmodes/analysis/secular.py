@@ -58,12 +58,12 @@ MIN_SAMPLES = 8
 
 #: (score, Series attribute, factor SI → reported, reported unit (pint), long name of the slope)
 QUANTITIES = (
-    ("cone_growth", "cone_angle", 180.0 / math.pi, "deg/s",
+    ("cone_growth", "cone_angle", 180.0 / math.pi, "degree/s",
      "secular cone-growth rate (least-squares slope of the cone angle over the quasi-steady part)"),
     ("dissipated_power", "E_d", 1.0, "W",
      "mean dissipated power (least-squares slope of the dissipated energy over the quasi-steady "
      "part)"),
-    ("spin_rate_slope", "spin_rate", 1.0, "rad/s**2",
+    ("spin_rate_slope", "spin_rate", 1.0, "rad/s^2",
      "spin-rate slope (least-squares slope of the spin rate over the quasi-steady part)"),
 )  # fmt: skip
 #: score → name of its ratio reduced / full order
@@ -295,7 +295,7 @@ def dataset_variables(scores: SecularScores, models: list[str], formulations: li
         what = "spin-rate change" if name == "spin_rate_slope" else long.split(" (")[0]
         data[key] = xr.Variable(
             ("formulation",), [scores.ratios[f][key] for f in formulations],
-            {"units": "dimensionless",
+            {"units": "1",
              "long_name": f"{what}, reduced / full order (NaN: full order not distinguishable "
                           f"from 0)"})  # fmt: skip
     length = scores.interval.end_s - scores.interval.start_s

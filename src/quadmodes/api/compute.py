@@ -172,7 +172,7 @@ def _checkpointed(run, model, progress, model_case, check_deformation, path: Pat
 def results_dataset(result):
     """The ``results.nc`` dataset (xarray, CF attributes: ``long_name``, ``units``) of a
     :func:`simulate` result; time in s, angles in rad, rates in rad/s, modal coordinates in
-    kg^0.5 m."""
+    m for modes normalised to 1 kg (the numbers of kg^0.5 m; ``mass_normalised_units``)."""
     from quadmodes.runs import results
 
     if hasattr(result, "diagnostics"):
@@ -195,7 +195,7 @@ def write_results(result, folder: str | os.PathLike[str], plots: bool = True, *,
                   animate_frame: str = "inertial", note=None) -> dict:  # fmt: skip
     """Write what ``quadmodes run`` writes for a :func:`simulate` result into ``folder``
     (created): ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
-    rad/s, J, kg m^2/s, kg^0.5 m) and ``summary.json``, all or nothing (staged in a hidden
+    rad/s, J, kg m^2/s, m: :mod:`quadmodes.io.cf`) and ``summary.json``, all or nothing (staged in a hidden
     folder beside ``folder``, then moved in; figures of an earlier run there are removed), then
     (if ``plots``) the PNG figures, with ``animate`` frames the motion (``motion.xdmf`` +
     ``motion.h5`` in the ``animate_frame``: "inertial" or "body"), and ``report.html``.

@@ -27,6 +27,7 @@ import xarray as xr
 
 from quadmodes.case import Case
 from quadmodes.fe.model import Structure
+from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
 from quadmodes.models import cache
 from quadmodes.models.cache_entries import entry_name
@@ -118,17 +119,18 @@ def save_damping_modes(path: Path, freqs, shapes, labels, cutoff_hz: float, key:
             "frequency": xr.Variable(("mode",), np.asarray(freqs, float), {
                 "units": "Hz", "long_name": "prestressed natural frequency of the damped mode"}),
             "shape": xr.Variable(("mode", "node", "component"), np.asarray(shapes, float), {
-                "units": "kg^-0.5", "long_name": "mass-normalised mode shape (phi^T M phi = 1)"}),
+                "units": "1", "long_name": "mode shape (modal mass 1 kg)",
+                "mass_normalised_units": "kg^-0.5"}),
             "label": xr.Variable(("mode",), np.asarray(list(labels), dtype=str), {
                 "units": "1", "long_name": "mode label"}),
         },
         attrs={"cutoff_hz": float(cutoff_hz), "content_key": key,
                "format_version": DAMPING_FORMAT_VERSION,
                "title": "full-order independent damping modes below the cutoff",
-               "Conventions": "CF-1.10"},
+               "Conventions": cf.CONVENTIONS, "modal_normalisation": cf.MODAL_NORMALISATION},
     )  # fmt: skip
     with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf")
+        ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
 
 
 def load_damping_modes(path: Path, key: str, n: int):

@@ -84,21 +84,36 @@ class FullOrderRecorder:
 
 
 def render_motion(motion: Motion, path: Path, note: Callable[[str], None]) -> Path | None:
-    """Render ``motion`` off screen to the GIF ``path`` with pyvista (``[viz]`` extra),
-    coloured by |u|; without pyvista, imageio or a GL back end: ``note`` one line, None."""
-    try:
-        import pyvista as pv
-    except ImportError:
-        note(f"note: {path.name} not rendered: pyvista is not installed "
-             "(pip install 'quadmodes[viz]'); open motion.xdmf in ParaView")  # fmt: skip
+    """Render ``motion`` off screen to the GIF ``path`` with pyvista and imageio (``[viz]``
+    extra), coloured by |u|; without them or a GL back end: ``note`` one line, None."""
+    import importlib.util
+
+    missing = [m for m in ("pyvista", "imageio") if importlib.util.find_spec(m) is None]
+    if missing:
+        note(f"note: {path.name} not rendered: {' and '.join(missing)} "
+             f"{'is' if len(missing) == 1 else 'are'} not installed (pip install "
+             "'quadmodes[viz]'); open motion.xdmf in ParaView")  # fmt: skip
         return None
     try:
+        _quiet_vtk()
+        import pyvista as pv
+
         return _render_gif(pv, motion, path)
     except Exception as exc:  # no GL back end, no imageio, ...: the XDMF file is enough
         first = " ".join(str(exc).split())[:160]
         note(f"note: {path.name} not rendered (pyvista: {type(exc).__name__}: {first}); "
              "open motion.xdmf in ParaView")  # fmt: skip
         return None
+
+
+def _quiet_vtk() -> None:
+    """Silence VTK's log on stderr: off screen without a display it warns "bad X server
+    connection" (with raw ANSI colour codes, even into a pipe or a log file) before it falls
+    back to EGL or OSMesa by itself; a back end that really fails still raises, and the caller
+    turns that into its one-line note."""
+    from vtkmodules.vtkCommonCore import vtkLogger
+
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)
 
 
 def _render_gif(pv, motion: Motion, path: Path) -> Path:  # pragma: no cover - needs pyvista

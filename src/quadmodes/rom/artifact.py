@@ -22,6 +22,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes._version import __version__
+from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
 from quadmodes.rom.reduced import ReducedModel
 
@@ -36,39 +37,45 @@ class ArtifactError(ValueError):
     """A reduced-model file that cannot be used; one-line message naming the file and the fix."""
 
 
-# name -> (dims, units (pint syntax), long_name)
-_VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
-    "frequencies_hz": (("mode",), "Hz", "natural frequencies of the retained modes"),
-    "damping_ratio": (("mode",), "1", "modal damping ratio"),
-    "J0": (("xyz", "xyz2"), "kg m^2", "reference inertia J(X, X) about the origin of X"),
-    "J1": (("mode", "xyz", "xyz2"), "kg^0.5 m", "2 J(X, u^k): first-order inertia"),
-    "J2u": (("mode", "mode2", "xyz", "xyz2"), "1", "J(u^m, u^n): spin softening"),
-    "J2g": (("mode", "mode2", "xyz", "xyz2"), "1", "2 J(X, g^mn): spin stiffening"),
-    "c": (("mode", "xyz"), "kg^0.5 m", "C(X, u^k): rigid-elastic coupling"),
-    "Cuu": (("mode", "mode2", "xyz"), "1", "C(u^m, u^n): gyroscopic coupling"),
-    "Cxg": (("mode", "mode2", "xyz"), "1", "C(X, g^mn)"),
-    "S1": (("mode", "xyz"), "kg^0.5", "sum_j w_j u^k_j (centre-of-mass check)"),
-    "S2": (("mode", "mode2", "xyz"), "kg^-0.5", "sum_j w_j g^mn_j (centre-of-mass check)"),
-    "mu": (("mode", "mode2"), "1", "modal mass Phi^T M Phi"),
-    "Lam": (("mode", "mode2"), "s^-2", "modal stiffness Phi^T K Phi"),
-    "C": (("mode", "mode2"), "s^-1", "modal damping matrix"),
-    "X": (("dof", "xyz"), "m", "prestressed reference vector DOFs"),
-    "translational": (("dof",), "1", "1 where the vector DOF is a position, 0 for a slope"),
-    "weights": (("dof",), "kg", "nodal mass weights w = M_s t"),
-    "Phi": (("mode", "dof", "xyz"), "kg^-0.5", "mass-normalised mode shapes u^k"),
-    "G": (("mode", "mode2", "dof", "xyz"), "kg^-1", "quadratic modes g^mn"),
+# name -> (dims, units, long_name, mass-normalised units). ``units`` are UDUNITS-2 and pint
+# alike, for modes normalised to a modal mass of 1 kg (phi dimensionless; quadmodes.io.cf); the
+# fourth entry, when given, is the unit of the same number for phi^T M phi = 1 (phi in kg^-0.5,
+# s in kg^0.5 m: the units of the code), stored as ``mass_normalised_units``.
+_VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
+    "frequencies_hz": (("mode",), "Hz", "natural frequencies of the retained modes", ""),
+    "damping_ratio": (("mode",), "1", "modal damping ratio", ""),
+    "J0": (("xyz", "xyz2"), "kg m^2", "reference inertia J(X, X) about the origin of X", ""),
+    "J1": (("mode", "xyz", "xyz2"), "kg m", "2 J(X, u^k): first-order inertia", "kg^0.5 m"),
+    "J2u": (("mode", "mode2", "xyz", "xyz2"), "kg", "J(u^m, u^n): spin softening", "1"),
+    "J2g": (("mode", "mode2", "xyz", "xyz2"), "kg", "2 J(X, g^mn): spin stiffening", "1"),
+    "c": (("mode", "xyz"), "kg m", "C(X, u^k): rigid-elastic coupling", "kg^0.5 m"),
+    "Cuu": (("mode", "mode2", "xyz"), "kg", "C(u^m, u^n): gyroscopic coupling", "1"),
+    "Cxg": (("mode", "mode2", "xyz"), "kg", "C(X, g^mn)", "1"),
+    "S1": (("mode", "xyz"), "kg", "sum_j w_j u^k_j (centre-of-mass check)", "kg^0.5"),
+    "S2": (("mode", "mode2", "xyz"), "kg/m", "sum_j w_j g^mn_j (centre-of-mass check)", "1/m"),
+    "mu": (("mode", "mode2"), "kg", "modal mass Phi^T M Phi", "1"),
+    "Lam": (("mode", "mode2"), "kg/s^2", "modal stiffness Phi^T K Phi", "1/s^2"),
+    "C": (("mode", "mode2"), "kg/s", "modal damping matrix", "1/s"),
+    "X": (("dof", "xyz"), "m", "prestressed reference vector DOFs", ""),
+    "translational": (("dof",), "1", "1 where the vector DOF is a position, 0 for a slope", ""),
+    "weights": (("dof",), "kg", "nodal mass weights w = M_s t", ""),
+    "Phi": (("mode", "dof", "xyz"), "1", "mode shapes u^k (modal mass 1 kg)", "kg^-0.5"),
+    "G": (("mode", "mode2", "dof", "xyz"), "1/m", "quadratic modes g^mn", "1/(kg m)"),
     "V3": (
         ("mode", "mode2", "mode3"),
-        "J kg^-1.5 m^-3",
+        "J/m^3",
         "cubic manifold-potential coefficients (symmetric): V3_mnp s_m s_n s_p",
+        "J/(kg^1.5 m^3)",
     ),
     "V4": (
         ("mode", "mode2", "mode3", "mode4"),
-        "J kg^-2 m^-4",
+        "J/m^4",
         "quartic manifold-potential coefficients (symmetric): V4_mnpq s_m s_n s_p s_q",
+        "J/(kg^2 m^4)",
     ),
-    "F1": (("mode",), "J kg^-0.5 m^-1", "linear potential coefficient Phi^T f(X) (spinning reference)"),
-    "reference_axis": (("xyz",), "1", "spin axis of the reference state (body frame)"),
+    "F1": (("mode",), "J/m", "linear potential coefficient Phi^T f(X) (spinning reference)",
+           "J/(kg^0.5 m)"),
+    "reference_axis": (("xyz",), "1", "spin axis of the reference state (body frame)", ""),
 }
 
 
@@ -80,14 +87,21 @@ def content_key(text: str) -> str:
 def to_dataset(model: ReducedModel) -> xr.Dataset:
     """The model as an xarray Dataset with units and long names."""
     data = {}
-    for name, (dims, units, desc) in _VARIABLES.items():
+    for name, (dims, units, desc, normalised) in _VARIABLES.items():
         value = np.asarray(getattr(model, name))
         if value.dtype == bool:
             value = value.astype(np.int8)
-        data[name] = xr.Variable(dims, value, attrs={"units": units, "long_name": desc})
-    ds = xr.Dataset(data, coords={"mode": np.arange(model.n_modes) + 1})
-    ds["label"] = xr.Variable(("mode",), np.array(model.labels, dtype=object))
+        attrs = {"units": units, "long_name": desc}
+        if normalised:
+            attrs["mass_normalised_units"] = normalised
+        data[name] = xr.Variable(dims, value, attrs=attrs)
+    mode = xr.Variable(("mode",), np.arange(model.n_modes) + 1,
+                       {"units": "1", "long_name": "retained mode number"})  # fmt: skip
+    ds = xr.Dataset(data, coords={"mode": mode})
+    ds["label"] = xr.Variable(("mode",), np.array(model.labels, dtype=object),
+                              {"units": "1", "long_name": "mode label"})  # fmt: skip
     attrs = {
+        **cf.provenance("quadmodes reduced model"),
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "quadmodes_version": __version__,
@@ -95,7 +109,9 @@ def to_dataset(model: ReducedModel) -> xr.Dataset:
         "free": int(model.free),
         "manifold_potential": int(model.manifold_potential),
         "reference_spin_rad_s": float(model.reference_spin),
-        "conventions": "SI; modal coordinates s in kg^0.5 m",
+        "conventions": "SI; modal coordinates s in m for modes normalised to a modal mass of 1 kg "
+        "(kg^0.5 m for phi^T M phi = 1: the same numbers)",
+        "modal_normalisation": cf.MODAL_NORMALISATION,
     }
     attrs.update({f"provenance_{k}": str(v) for k, v in model.provenance.items()})
     ds.attrs.update(attrs)
@@ -106,7 +122,8 @@ def save_reduced_model(model: ReducedModel, path: str | os.PathLike) -> Path:
     """Write ``model`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
     path = Path(path)
     with atomic_path(path) as tmp:
-        to_dataset(model).to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False)
+        ds = to_dataset(model)
+        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False, encoding=cf.encoding(ds))
     return path
 
 

@@ -2,7 +2,9 @@
 
 ``results.nc`` (xarray, written with h5netcdf) follows the CF conventions as far as they fit
 (:mod:`quadmodes.io.cf`): a ``time`` coordinate (s), ``long_name`` and ``units`` (parsed by pint)
-on every variable and coordinate, ``Conventions = "CF-1.10"``; global attributes carry the
+on every variable and coordinate, ``Conventions = "CF-1.10"``, the modal coordinates in m for
+modes normalised to a modal mass of 1 kg (``mass_normalised_units = "kg^0.5 m"``: the same numbers,
+:mod:`quadmodes.io.cf`), axis labels as auxiliary coordinates; global attributes carry the
 provenance (the run case TOML ``case_toml``, which embeds a model built in Python, the model
 case TOML, ``model_hash``, ``source`` and the package version), the method, step, formulation,
 status and work counters and ``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
@@ -40,7 +42,6 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
     amplitude of the bending pair ``pair`` (0-based mode indices; none if empty)."""
     t = ("time",)
     tx = ("time", "xyz")
-    tm = ("time", "mode")
     data = {
         "angular_momentum": _var(
             tx, d.H, "kg m^2/s", "angular momentum about the centre of mass, inertial frame"
@@ -68,8 +69,7 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
         "transverse_inertia": _var(
             t, d.I_t, "kg m^2", "mean of the other two principal moments of inertia"
         ),
-        "modal_coordinates": _var(tm, s, "kg^0.5 m", "modal coordinates s (mass-normalised)"),
-        "modal_velocities": _var(tm, sd, "kg^0.5 m/s", "modal velocities ds/dt"),
+        **_modal_variables(s, sd),
         "omega_body": _var(tx, w, "rad/s", "angular velocity, body frame"),
         "quaternion": _var(
             ("time", "quat"), q, "1", "attitude quaternion (scalar first), body to inertial"
@@ -77,20 +77,34 @@ def _run_variables(d, q, w, s, sd, pair: tuple[int, ...]) -> dict[str, xr.Variab
     }
     if pair:
         amp = np.sqrt(np.sum(s[:, list(pair)] ** 2, axis=1))
-        data["bending_amplitude"] = _var(
-            t, amp, "kg^0.5 m", "first bending pair amplitude sqrt(s_b1^2 + s_b2^2)"
+        data["bending_amplitude"] = cf.modal_variable(
+            t, amp, "m", "kg^0.5 m", "first bending pair amplitude sqrt(s_b1^2 + s_b2^2) (modes "
+            "normalised to 1 kg)"
         )
     return data
 
 
+def _modal_variables(s, sd) -> dict[str, xr.Variable]:
+    """Modal coordinates s and velocities ṡ (nt, N), stated for modes normalised to a modal mass
+    of 1 kg (m, m/s; the same numbers as kg^0.5 m, kg^0.5 m/s: :mod:`quadmodes.io.cf`)."""
+    tm = ("time", "mode")
+    return {
+        "modal_coordinates": cf.modal_variable(
+            tm, s, "m", "kg^0.5 m", "modal coordinates s (modes normalised to 1 kg modal mass)"),
+        "modal_velocities": cf.modal_variable(
+            tm, sd, "m/s", "kg^0.5 m/s", "modal velocities ds/dt (modes normalised to 1 kg)"),
+    }  # fmt: skip
+
+
 def _mode_coords(time: np.ndarray, labels: list[str], freqs: np.ndarray) -> dict:
-    """Coordinates: time (s), xyz, quat, and the retained modes (number, label, frequency Hz)."""
+    """Coordinates: time (s), the labels of the xyz and quat dimensions (``xyz_label``,
+    ``quat_label``), and the retained modes (number from 1, label, frequency Hz)."""
     n = len(freqs)
     c = cf.coordinate
     return {
         "time": c("time", np.asarray(time, float), "s", "time"),
-        "xyz": c("xyz", XYZ, "1", "Cartesian axis"),
-        "quat": c("quat", QUAT, "1", "quaternion component"),
+        **cf.label_coordinate("xyz", XYZ, "Cartesian axis"),
+        **cf.label_coordinate("quat", QUAT, "quaternion component"),
         "mode": c("mode", np.arange(1, n + 1), "1", "retained mode number"),
         "mode_label": c("mode", np.array(labels, dtype=object), "1", "mode label"),
         "mode_frequency_hz": c("mode", freqs, "Hz", "natural frequency (not spinning)"),
@@ -137,11 +151,13 @@ def _run_attrs(result, n: int) -> dict:
         "wall_s": float(result.wall_s),
         "spin_axis_body": np.asarray(result.initial.spin_axis, float),
         "bending_modes": np.asarray([k + 1 for k in pair], np.int64),
-        "comment": "SI units; modal coordinates s in kg^0.5 m (mass-normalised); time in s",
+        "comment": "SI units; modal coordinates s in m for modes normalised to a modal mass of "
+        "1 kg (kg^0.5 m for quadmodes' phi^T M phi = 1: the same numbers); time in s",
+        "modal_normalisation": cf.MODAL_NORMALISATION,
     }
     if pair:
         attrs["bending_displacement_per_unit"] = largest_nodal_displacement(model, pair[0])
-        attrs["bending_displacement_per_unit_units"] = "m per kg^0.5 m (largest node)"
+        attrs["bending_displacement_per_unit_units"] = "1"  # m per m of modal coordinate
     attrs.update(validity_attrs(getattr(result, "validity", None)))
     attrs.update(mode_choice_attrs(getattr(result, "mode_choice", None)))
     if not result.complete:
@@ -245,13 +261,9 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     completed (:func:`quadmodes.io.cf.complete`)."""
     path = Path(path)
     cf.complete(ds)
-    encoding = {
-        name: {"zlib": True, "complevel": 4, "shuffle": True}
-        for name, var in ds.data_vars.items()
-        if var.dtype.kind == "f" and var.size > 0
-    }
     with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False, encoding=encoding)
+        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False,
+                     encoding=cf.encoding(ds, compress=True))  # fmt: skip
     return path
 
 
@@ -381,7 +393,6 @@ def spinup_dataset(run) -> xr.Dataset:
     model = r.model
     n = r.s.shape[1]
     t = ("time",)
-    tm = ("time", "mode")
     data = {
         "hub_rate": _var(t, r.rate, "rad/s", "prescribed hub rate Omega(t) about z"),
         "tip_displacement": _var(
@@ -392,11 +403,10 @@ def spinup_dataset(run) -> xr.Dataset:
             t, r.tip[:, 1], "m", "in-plane tip deflection v (hub y; negative = lag)"
         ),
         "tip_outofplane": _var(t, r.tip[:, 2], "m", "out-of-plane tip deflection (hub z)"),
-        "modal_coordinates": _var(tm, r.s, "kg^0.5 m", "modal coordinates s (mass-normalised)"),
-        "modal_velocities": _var(tm, r.sdot, "kg^0.5 m/s", "modal velocities ds/dt"),
+        **_modal_variables(r.s, r.sdot),
     }
     coords = _mode_coords(r.time, list(model.labels[:n]), np.asarray(model.frequencies_hz[:n]))
-    del coords["quat"]
+    del coords["quat_label"]
     ds = xr.Dataset(data, coords=coords)
     sp = run.run.spinup
     attrs = {
@@ -424,6 +434,7 @@ def spinup_dataset(run) -> xr.Dataset:
         "n_steps": int(r.n_steps),
         "wall_s": float(run.wall_s),
         "comment": "SI units; hub frame, beam along +x, rotation about +z",
+        "modal_normalisation": cf.MODAL_NORMALISATION,
     }
     attrs.update(validity_attrs(run.validity))
     if not run.complete:

@@ -1,6 +1,7 @@
 """The sweep's results as one xarray dataset (``sweep.nc``): a dimension per swept parameter
 named after the last key of its path, its coordinate in SI with units; every variable with
-``units`` and ``long_name``.
+``units`` and ``long_name``, ``Conventions`` and the CF attributes of :mod:`quadmodes.io.cf`
+(the modal amplitude in m for modes normalised to 1 kg, branches numbered from 1).
 
 Per point: the time run's headline scalars, the energy-sink estimate, the stability scalars;
 per point and rotating-frame ``branch`` (padded with NaN / "" where a point has fewer): label,
@@ -17,6 +18,7 @@ import xarray as xr
 
 from quadmodes._version import __version__
 from quadmodes.analysis.full_order_markers import marker_attrs, marker_variables
+from quadmodes.io import cf
 from quadmodes.sweeps.engine import SweepOutcome, SweepPlan
 
 FORMAT = "quadmodes-sweep"
@@ -34,7 +36,8 @@ SCALARS = (
     ("dissipated_power", "W", "mean dissipated power of the time run (slope of the dissipated "
      "energy over the quasi-steady part)"),
     ("spin_rate_change", "rad/s", "fitted spin-rate change over the quasi-steady part"),
-    ("max_modal_amplitude", "kg**0.5*m", "largest modal amplitude |s_k(t)| of the time run"),
+    ("max_modal_amplitude", "m", "largest modal amplitude |s_k(t)| of the time run (modes "
+     "normalised to 1 kg modal mass)"),
     ("cone_angle_end", "rad", "cone angle at the end of the time run"),
     ("complete", "1", "time run complete (1) or stopped early (0)"),
     ("valid", "1", "rotating-frame stiffness positive definite up to the spin (1) or not (0)"),
@@ -53,7 +56,7 @@ SCALARS = (
     ("quasi_rigid", "1", "energy-sink estimate quasi-rigid (elastic momentum ratio <= 0.1)"),
     ("nutation_growth_rate", "1/s", "real part of the nutation root of the damped linearisation "
      "about the relative equilibrium"),
-    ("min_rotating_stiffness", "1/s**2", "smallest eigenvalue of the rotating-frame stiffness "
+    ("min_rotating_stiffness", "1/s^2", "smallest eigenvalue of the rotating-frame stiffness "
      "Lambda - omega^T J2 omega"),
     ("unstable_undamped", "1", "undamped linearisation has a root with positive real part"),
     ("n_modes", "1", "number of elastic modes of the reduced model"),
@@ -75,7 +78,7 @@ def _dims(plan: SweepPlan) -> tuple[list[str], dict, list[int]]:
         return [], {}, []
     def coord(p, dim):
         values = np.asarray(p.values)
-        attrs = {"units": p.path.unit or "1", "long_name": f"{p.path.text} (swept)",
+        attrs = {"units": cf.spelling(p.path.unit), "long_name": f"{p.path.text} (swept)",
                  "path": p.path.text}  # fmt: skip
         return xr.Variable((dim,), values, attrs)
     if plan.zipped:
@@ -135,7 +138,7 @@ def _critical_variables(plan: SweepPlan, critical: list[dict]) -> dict:
             continue
         vals = [c["values"].get(p.name, np.nan) for c in critical]
         data[f"{p.name}_at_critical"] = xr.Variable(dim, np.asarray(vals), {
-            "units": p.path.unit or "1", "long_name": f"{p.path.text} of the critical speed"})
+            "units": cf.spelling(p.path.unit), "long_name": f"{p.path.text} of the critical speed"})
     return data
 
 
@@ -147,6 +150,7 @@ def sweep_dataset(plan: SweepPlan, outcome: SweepOutcome, command: str = "") -> 
     for key, units, long in SCALARS:
         data[key] = xr.Variable(dims, _scalar_array(plan, results, key, shape),
                                 {"units": units, "long_name": long})
+    data["max_modal_amplitude"].attrs["mass_normalised_units"] = "kg^0.5 m"  # io.cf
     failed = np.zeros(shape, np.int8)
     for p, r in zip(plan.points, results, strict=True):
         failed[_position(plan, p.where)] = r is None
@@ -157,7 +161,9 @@ def sweep_dataset(plan: SweepPlan, outcome: SweepOutcome, command: str = "") -> 
     for key, units, long in BRANCHES:
         data[key] = xr.Variable(dims + ["branch"], arrays[key], {"units": units, "long_name": long})
     data.update(_critical_variables(plan, outcome.critical))
-    attrs = {"format": FORMAT, "format_version": FORMAT_VERSION, "quadmodes_version": __version__,
+    attrs = {**cf.provenance(f"quadmodes sweep of {plan.run.name}"),
+             "modal_normalisation": cf.MODAL_NORMALISATION,
+             "format": FORMAT, "format_version": FORMAT_VERSION, "quadmodes_version": __version__,
              "run_case_toml": plan.run.to_toml(), "model_case_toml": plan.model_case.to_toml(),
              "parameters": json.dumps([{"path": p.path.text, "name": p.name,
                                         "values": list(p.values), "units": p.path.unit}
@@ -170,7 +176,9 @@ def sweep_dataset(plan: SweepPlan, outcome: SweepOutcome, command: str = "") -> 
         attrs.update(marker_attrs(outcome.full_order))
     if outcome.full_order_failures:
         attrs["full_order_failures"] = json.dumps(outcome.full_order_failures)
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    coords["branch"] = cf.coordinate("branch", np.arange(1, labels.shape[-1] + 1), "1",
+                                     "branch number (from 1, as campbell.nc)")
+    return cf.complete(xr.Dataset(data, coords=coords, attrs=attrs))
 
 
 def _finite_or_none(x) -> float | None:

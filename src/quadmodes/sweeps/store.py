@@ -21,6 +21,7 @@ from pathlib import Path
 
 import xarray as xr
 
+from quadmodes.io import cf
 from quadmodes.sweeps.params import SweepError
 
 #: Formats of ``--format``.
@@ -84,7 +85,7 @@ def write_dataset(ds: xr.Dataset, directory: Path, fmt: str) -> Path:
     path = Path(directory) / FILE_NAMES[fmt]
     if fmt == "netcdf":
         with atomic_path(path) as tmp:
-            ds.to_netcdf(tmp, engine="h5netcdf")
+            ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
         return path
     with _atomic_folder(path) as tmp:
         ds.to_zarr(tmp, mode="w", zarr_format=2, consolidated=True)
