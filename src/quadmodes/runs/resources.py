@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 from quadmodes.case import Case, CaseError
 from quadmodes.mesh.estimate import revolution_node_count
+from quadmodes.mesh.flat import disc_node_count
 from quadmodes.structure.pipeline import revolution_profile
 
 #: Above this many nodes a model is refused unless ``--yes`` (the built-in cases have < 5000).
@@ -46,6 +47,9 @@ def estimate_size(case: Case) -> SizeEstimate | None:
         nodes, field = 1 + sum(int(b.elements) for b in case.boom), "boom.elements"
     elif getattr(case.geometry, "shape", "file") == "file":
         return None
+    elif case.geometry.shape == "disc":
+        nodes = disc_node_count(0.5 * case.geometry.diameter, case.mesh.edge_length)
+        field = "mesh.edge_length"
     else:
         try:
             profile, refine = revolution_profile(case)
@@ -117,7 +121,7 @@ MAX_MODES = 60
 def check_pressure(case: Case) -> None:
     """Raise :class:`CaseError` (``pressure.value``) if the pressure of a membrane of
     revolution is too low to tension it (strain scale below :data:`MIN_STRAIN`)."""
-    if case.kind != "membrane" or case.geometry.shape == "file":
+    if case.kind != "membrane" or case.geometry.shape == "file" or case.pressure is None:
         return
     g, m, p = case.geometry, case.material, case.pressure.value
     radius = max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0)
