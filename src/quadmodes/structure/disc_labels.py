@@ -69,7 +69,7 @@ def disc_mode_numbers(points, disp, weights, axis, centre) -> tuple[int, int, fl
 
 
 def disc_label(points, disp, weights, axis, centre) -> str:
-    """"disc (n=…, s=…)" for a mode mostly out of the plane, else "in-plane"."""
+    """ "disc (n=…, s=…)" for a mode mostly out of the plane, else "in-plane"."""
     n, s, share = disc_mode_numbers(points, disp, weights, axis, centre)
     if share < 0.5:
         return "in-plane"
