@@ -6,6 +6,13 @@ import re
 
 import numpy as np
 import pytest
+from reference.spinning_disc import (
+    frequency_ratio,
+    hoop_stress,
+    mode_shape,
+    radial_displacement,
+    radial_stress,
+)
 
 from quadmodes.case import CaseError, load_case
 from quadmodes.case.editing import edit
@@ -13,13 +20,6 @@ from quadmodes.fe.membrane import MembraneSet
 from quadmodes.mesh.flat import disc_node_count, disc_surface
 from quadmodes.mesh.surface import boundary_edges, min_angle_deg
 from quadmodes.structure.pipeline import build_modal_model
-from tests.reference.spinning_disc import (
-    frequency_ratio,
-    hoop_stress,
-    mode_shape,
-    radial_displacement,
-    radial_stress,
-)
 
 RADIUS = 1.0  # m: a 2 m disc keeps the centrifugal strain below 1e-5 (linear theory holds)
 
@@ -174,3 +174,19 @@ def test_reduced_model_about_the_spinning_state():
         np.testing.assert_allclose(w[0], rom.frequencies_hz[rom.labels.index(label)] * 2 * np.pi,
                                    rtol=1e-6)  # fmt: skip
         np.testing.assert_allclose(w[1] / 2.0, w[0], rtol=1e-4)
+
+
+def test_run_about_the_spinning_state():
+    """A reduced run of the disc spinning about its normal with a 5° cone (the built-in run case
+    on a coarse mesh, 5 modes, 5 s): undamped, the cone, the spin rate and the energy keep."""
+    import quadmodes as qm
+    from quadmodes.case import load_run_case
+
+    changes = {"reduced.modes": 5, "integration.duration": "5 s"}
+    run = edit(load_run_case("spinning-disc-nutation"), changes, "test")
+    result = qm.simulate(run, model_case=disc_case(RADIUS / 6))
+    s = qm.summary(result)
+    assert s["reference"] == "spinning" and s["n_modes"] == 5
+    assert abs(s["cone_angle_end_deg"] - 5.0) < 1e-6 and abs(s["cone_angle_max_deg"] - 5.0) < 1e-6
+    assert abs(s["spin_rate_end_hz"] * 2 * np.pi - 1.0) < 1e-9
+    assert s["energy_balance_relative_error"] < 1e-10
