@@ -14,7 +14,7 @@ from reference.spinning_disc import (
     radial_stress,
 )
 
-from quadmodes.case import CaseError, load_case
+from quadmodes.case import CaseError, case_from_toml, load_case
 from quadmodes.case.editing import edit
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.mesh.flat import disc_node_count, disc_surface
@@ -144,6 +144,7 @@ def test_rotating_frame_roots_are_the_stiffness_modes(disc12):
 def test_case_rules():
     disc = load_case("spinning-disc")
     assert disc.pressure is None and disc.spin.rate == 1.0
+    assert case_from_toml(disc.to_toml()) == disc
     with pytest.raises(CaseError, match=r"needs a \[spin\] table"):
         edit(disc, {"spin": None}, "test")
     with pytest.raises(CaseError, match="an open membrane holds no pressure"):
