@@ -176,6 +176,17 @@ def shift_targets(lam_ref: np.ndarray, spin: float) -> list[float]:
     )
 
 
+def nutation_like(full: FullOrderPoint) -> np.ndarray:
+    """(k,) True for a "tilt" root (rigid, at exactly Ω) that carries an angular-velocity
+    change: a nutation that coincides with the tilt (a thin disc, I_e = 2 I_⊥: nutation at
+    (I_e/I_⊥ − 1)Ω = Ω). A pure tilt is a change of attitude with δω = (λ + Ω[e]×)θ = 0 and no
+    reduced counterpart; a nutation has |δω|²_J ≈ 4Ω² θᴴJθ, against |λ|² θᴴJθ ≈ |λ|² captured."""
+    tilt = np.array([k == "tilt" for k in full.roots.kind], bool)
+    rot = np.sum(np.abs(full.vectors[:, :3]) ** 2, axis=1)
+    scale = np.abs(full.roots.lam) ** 2 * np.maximum(full.captured, 1e-300)
+    return tilt & (rot > scale)
+
+
 def _assign(
     rr: ReducedRoots, full: FullOrderPoint, eligible: np.ndarray, model, spin: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -187,7 +198,8 @@ def _assign(
     dw, ds = np.nan_to_num(rr.delta_omega), np.nan_to_num(rr.ds)
     vec = comparison_vectors(lam, dw, ds, model.J0, np.diag(model.Lam))
     rom_ok = present & (np.abs(lam) > 1e-9 * max(1.0, spin))
-    idx, mac = match_branches(vec[rom_ok], lam[rom_ok], full.vectors, full.roots.lam, eligible)
+    idx, mac = match_branches(vec[rom_ok], lam[rom_ok], full.vectors, full.roots.lam, eligible,
+                              full.captured)  # fmt: skip
     full_idx, full_mac = np.full(lam.size, -1), np.zeros(lam.size)
     full_idx[rom_ok], full_mac[rom_ok] = idx, mac
     return full_idx, full_mac
@@ -312,7 +324,7 @@ def _rows_at_spin(
     one the reference whose assignment fixes the full-order root of each branch."""
     formulations = tuple(reduced)
     spin = 2.0 * np.pi * spin_hz
-    eligible = np.array([k == "elastic" for k in full.roots.kind])
+    eligible = np.array([k == "elastic" for k in full.roots.kind]) | nutation_like(full)
     assigned = {f: _assign(reduced[f], full, eligible, model, spin) for f in formulations}
     ref_idx = assigned[formulations[0]][0]
     present = np.isfinite(reduced[formulations[0]].lam)

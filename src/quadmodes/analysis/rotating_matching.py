@@ -79,10 +79,14 @@ def match_branches(
     full_vectors: np.ndarray,
     full_lam: np.ndarray,
     eligible: np.ndarray,
+    captured: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Optimal assignment of reduced-model roots (nb) to eligible full-order roots by MAC of the
     comparison vectors, with a small frequency-distance tie-break. Returns ``(index (nb,) into the
-    full-order roots, or −1; MAC (nb,))``."""
+    full-order roots, or −1; MAC (nb,))``. ``captured`` (k,): the share of each full-order root's
+    kinetic energy in the reduced coordinates; its MAC counts only in that proportion in the
+    assignment (a root outside the basis has a near-zero comparison vector whose MAC is
+    round-off, e.g. a mode above the retained ones next to an exactly degenerate pair)."""
     idx = np.flatnonzero(eligible)
     nb = rom_vectors.shape[0]
     out, macs = np.full(nb, -1), np.zeros(nb)
@@ -91,7 +95,8 @@ def match_branches(
     mac = mac_matrix(rom_vectors, full_vectors[idx])
     scale = max(float(np.abs(rom_lam).max(initial=1.0)), 1.0)
     dist = np.abs(rom_lam[:, None] - full_lam[idx][None, :]) / scale
-    rows, cols = linear_sum_assignment(-(mac - 0.1 * dist))
+    weight = 1.0 if captured is None else np.clip(captured[idx], 0.0, 1.0)[None, :]
+    rows, cols = linear_sum_assignment(-(mac * weight - 0.1 * dist))
     out[rows] = idx[cols]
     macs[rows] = mac[rows, cols]
     return out, macs

@@ -1,7 +1,8 @@
 """A model case: the top level of a membrane or beam case file, and its TOML text.
 
 A membrane case (``kind = "membrane"``) has ``[geometry]``, ``[mesh]``, ``[material]``,
-``[pressure]`` and any ``[[end_body]]`` tables; a beam case (``kind = "beam"``) has ``[beam]``;
+``[pressure]`` and any ``[[end_body]]`` tables (a flat ``disc`` has ``[spin]`` instead of
+``[pressure]``); a beam case (``kind = "beam"``) has ``[beam]``;
 a spacecraft case (``kind = "spacecraft"``) has ``[hub]`` and ``[[boom]]`` tables; all may have
 ``[modes]``. :func:`case_to_toml` writes a case in SI units; the text loads back
 to an equal case.
@@ -24,6 +25,7 @@ from quadmodes.case.model_sections import (
     Mesh,
     Modes,
     Pressure,
+    Spin,
 )
 from quadmodes.case.toml_writing import section_lines, toml_document
 
@@ -42,6 +44,7 @@ class Case(Section):
     material: Material | None = None
     pressure: Pressure | None = None
     end_body: tuple[EndBody, ...] = ()
+    spin: Spin | None = None
     beam: Beam | None = None
     hub: Hub | None = None
     boom: tuple[Boom, ...] = ()
@@ -62,6 +65,7 @@ class Case(Section):
             self._check_beam_tables()
         else:
             self._check_spacecraft_tables()
+        self._check_spin_table()
         if self.kind != "spacecraft":
             for section in ("hub", "boom"):
                 if getattr(self, section):
@@ -81,7 +85,7 @@ class Case(Section):
                 '"quadmodes show-case hub-booms")',
                 missing,
             )
-        for section in (*_MEMBRANE_SECTIONS, "end_body", "beam"):
+        for section in (*_MEMBRANE_SECTIONS, "end_body", "beam", "spin"):
             if getattr(self, section):
                 raise field_error(
                     "case_rule",
@@ -97,9 +101,47 @@ class Case(Section):
                     f"boom[{i}].name",
                 )
 
+    def _check_spin_table(self) -> None:
+        """A flat disc has no stiffness at rest: no ``[pressure]`` (it is open), a ``[spin]``
+        table and no end bodies (yet); every other body has no ``[spin]`` table."""
+        disc = self.kind == "membrane" and self.geometry.shape == "disc"
+        if not disc:
+            if self.spin is not None:
+                raise field_error(
+                    "case_rule",
+                    'only used for a membrane without pressure (geometry.shape = "disc"); '
+                    "remove it",
+                    "spin",
+                )
+            return
+        see = 'see "quadmodes show-case spinning-disc"'
+        if self.pressure is not None:
+            raise field_error(
+                "case_rule",
+                'not used for shape = "disc": an open membrane holds no pressure; remove the '
+                f"[pressure] table ({see})",
+                "pressure",
+            )
+        if self.spin is None:
+            raise field_error(
+                "case_rule",
+                'missing; shape = "disc" has no stiffness at rest and needs a [spin] table, '
+                f'e.g. rate = "1 rad/s" ({see})',
+                "spin",
+            )
+        if self.end_body:
+            raise field_error(
+                "case_rule",
+                'not supported for shape = "disc" yet; remove the [[end_body]] tables',
+                "end_body",
+            )
+
     def _check_membrane_tables(self) -> None:
         see = 'see "quadmodes show-case paper-membrane"'
+        disc = self.geometry is not None and self.geometry.shape == "disc"
         for section in _MEMBRANE_SECTIONS:
+            if section == "pressure" and disc:
+                continue  # checked by _check_spin_table
             if getattr(self, section) is None:
                 raise field_error(
                     "case_rule",
@@ -120,7 +162,7 @@ class Case(Section):
                 'missing; kind = "beam" needs a [beam] table (see "quadmodes show-case kane-beam")',
                 "beam",
             )
-        for section in (*_MEMBRANE_SECTIONS, "end_body"):
+        for section in (*_MEMBRANE_SECTIONS, "end_body", "spin"):
             if getattr(self, section):
                 table = "[[end_body]] tables" if section == "end_body" else f"[{section}] table"
                 raise field_error(
@@ -203,7 +245,7 @@ def case_tables(case: Case, prefix: str = "") -> list[tuple[str, list[str]]]:
         tables.append((f"[{prefix}]", [f"{k} = {toml_value(v)}" for k, v in top.items()]))
     tables += [
         (f"[{head}{name}]", section_lines(getattr(case, name)))
-        for name in ("geometry", "mesh", "material", "pressure", "beam", "hub", "modes")
+        for name in ("geometry", "mesh", "material", "pressure", "spin", "beam", "hub", "modes")
         if getattr(case, name) is not None
     ]
     tables += [(f"[[{head}end_body]]", section_lines(body)) for body in case.end_body]

@@ -1,7 +1,7 @@
 """The tables of a model case: ``[geometry]``, ``[mesh]``, ``[material]``, ``[pressure]``,
-``[[end_body]]`` (membrane cases), ``[beam]`` (beam cases) and ``[modes]``.
+``[[end_body]]``, ``[spin]`` (membrane cases), ``[beam]`` (beam cases) and ``[modes]``.
 
-Quantities are stored in SI units: m, kg, Pa, kg/m^3, kg m^2, m^2, m^4.
+Quantities are stored in SI units: m, kg, Pa, kg/m^3, kg m^2, m^2, m^4, rad/s.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
     "sphere": ("diameter",),
     "capsule": ("length", "diameter"),
     "flat-cylinder": ("length", "diameter"),
+    "disc": ("diameter",),
     "file": ("file",),
 }
 
@@ -46,9 +47,11 @@ class Geometry(Section):
     ``length`` is the overall pole-to-pole length. A sphere-cone is two spherical caps joined
     by a tangent cone; a capsule is a cylinder with hemispherical ends; a flat-cylinder has
     flat end discs; ``file`` is a mesh file (relative paths are taken from the case file).
+    A ``disc`` is an open flat membrane in the plane normal to the axis (no pressure: it is
+    held taut by its spin, ``[spin]``).
     """
 
-    shape: choice("sphere-cone", "sphere", "capsule", "flat-cylinder", "file")
+    shape: choice("sphere-cone", "sphere", "capsule", "flat-cylinder", "disc", "file")
     length: quantity("length", "60 in", positive, "in", optional=True) = None
     front_cap_diameter: quantity("length", "5 in", positive, "in", optional=True) = None
     rear_cap_diameter: quantity("length", "20 in", positive, "in", optional=True) = None
@@ -185,6 +188,15 @@ class Pressure(Section):
 
 
 _INERTIA = quantity("inertia", "1e-5 kg m^2", nonnegative, "kg*m^2", optional=True)
+
+
+class Spin(Section):
+    """The spin of the reference state (rad/s) of a membrane without pressure (a disc, a sail):
+    it has no stiffness out of its plane at rest, so its modes are those of the rotating-frame
+    stiffness about the centrifugal relative equilibrium at this spin about its normal
+    (:mod:`quadmodes.structure.flat_spin`)."""
+
+    rate: quantity("angular_rate", "1 rad/s", positive)
 
 
 class EndBody(Section):

@@ -88,7 +88,9 @@ def _print_modes_summary(name: str, summary: dict) -> None:
     """The ``modes`` report: frequencies, rigid-body frequencies, mass, inertia, prestress."""
     out.print(_mode_table(f"{name}: elastic modes", summary["frequencies_hz"], summary["labels"],
                           summary.get("slack_onset_m")))  # fmt: skip
-    rigid = ", ".join(f"{f:.2e}" for f in summary["rigid_frequencies_hz"]) or "none (clamped)"
+    spinning = summary.get("spinning_reference")
+    none = "none (removed by the frame conditions)" if spinning else "none (clamped)"
+    rigid = ", ".join(f"{f:.2e}" for f in summary["rigid_frequencies_hz"]) or none
     out.print(f"rigid-body frequencies (Hz): {rigid}")
     out.print(f"mass: {summary['mass_kg']:.5g} kg")
     inertia = np.array(summary["inertia_kg_m2"])
@@ -103,6 +105,18 @@ def _print_modes_summary(name: str, summary: dict) -> None:
             f"{100 * p['volume_change']:.3f} %, stress resultants "
             f"{p['stress_resultant_min_n_per_m']:.3g}–{p['stress_resultant_max_n_per_m']:.3g} N/m, "
             f"{p['elements_in_compression']} elements in compression"
+        )
+    if spinning:
+        out.print(
+            f"rotating-frame modes about the spinning state at {spinning['spin_rad_s']:.4g} rad/s "
+            f"({spinning['spin_hz']:.4g} Hz); ω/Ω: "
+            + ", ".join(f"{r:.4f}" for r in spinning["frequency_ratios"])
+        )
+        out.print(
+            f"spinning state: stress resultants {spinning['stress_resultant_min_n_per_m']:.3g}–"
+            f"{spinning['stress_resultant_max_n_per_m']:.3g} N/m, "
+            f"{spinning['elements_in_compression']} elements in compression, largest "
+            f"displacement {spinning['max_displacement_m']:.3g} m"
         )
     for warning in summary.get("warnings", ()):
         err.print(f"[bold yellow]warning:[/] {escape(warning)}", highlight=False, soft_wrap=True)

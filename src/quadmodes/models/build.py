@@ -48,6 +48,7 @@ __all__ = [
     "modal_model_for",
     "mode_spectrum",
     "reduced_model_for",
+    "reference_spin",
     "splits_pair",
 ]
 
@@ -132,7 +133,10 @@ def modal_model_for(case: Case, count: int, progress: Progress | None = None):
         old = last[1]
         if progress:
             progress("modes", 0.0)
-        modes = compute_modes(old.structure, old.x, count)
+        if old.spinning is not None:  # no modes at rest: those about its spinning state
+            modes = pipeline.rotating_frame_modes(old.structure, old.spinning, count)
+        else:
+            modes = compute_modes(old.structure, old.x, count)
         if progress:
             progress("modes", 1.0)
         labels = label_modes(old.structure, old.x, modes.shapes)
@@ -159,7 +163,7 @@ def build_reduced_model(
 
     Raises :class:`CaseError` (field ``reduced.modes``) if the model has fewer modes or the cut
     splits a degenerate pair."""
-    n_modes = int(n_modes)
+    n_modes, spin = int(n_modes), reference_spin(case, spin)
     if n_modes < 1:
         raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
     if spin:
@@ -186,6 +190,22 @@ def build_reduced_model(
     )
 
 
+def reference_spin(case: Case, spin: float = 0.0) -> float:
+    """The spin (rad/s) a reduced model of ``case`` is expanded about: ``spin``, or for a
+    membrane without stiffness at rest (a ``[spin]`` table) its spin when ``spin`` is 0 (its
+    state at rest has no modes: the spinning state is its only reference)."""
+    if not spin and getattr(case, "spin", None) is not None:
+        return float(case.spin.rate)
+    return float(spin)
+
+
+def _spinning_modes_of(modal, count: int, spin: float):
+    """:func:`~quadmodes.rom.spinning_reduction.spinning_modes` of a modal model at ``spin``
+    (rad/s): from its state at rest about the minor axis, or continued from its own spinning
+    reference (a membrane without stiffness at rest)."""
+    return spinning_modes(modal.structure, modal.x, count, spin, start=modal.spinning)
+
+
 def _build_spinning(case: Case, n_modes: int, spin: float, progress) -> red.ReducedModel:
     """:func:`build_reduced_model` about the centrifugal relative equilibrium at ``spin``
     (rad/s) about the minor principal axis (:mod:`quadmodes.rom.spinning_reduction`)."""
@@ -193,7 +213,7 @@ def _build_spinning(case: Case, n_modes: int, spin: float, progress) -> red.Redu
     if progress:
         progress("spinning state", 0.0)
     try:
-        eq, modes, labels = spinning_modes(modal.structure, modal.x, n_modes + 1, spin)
+        eq, modes, labels = _spinning_modes_of(modal, n_modes + 1, spin)
     except ValueError as exc:
         raise CaseError(str(exc), field="reduced.reference") from None
     if progress:
@@ -240,7 +260,7 @@ def reduced_model_for(
     saving. ``info`` (optional dict) receives ``cache`` ("hit", "miss", "rebuilt", "off" or
     "not saved (...)") and ``path``."""
     check_count(REDUCED_MODES, n_modes, "n_modes (reduced.modes)", "use fewer modes")
-    info = {} if info is None else info
+    info, spin = ({} if info is None else info), reference_spin(case, spin)
     path = cache.cache_path(case, n_modes, spin)
     info["path"] = str(path)
     return cache.find_or_build(
@@ -257,13 +277,17 @@ def reduced_model_for(
 
 def case_modes_model(case: Case, progress: Progress | None = None) -> red.ReducedModel:
     """Reduced model of every mode ``case`` computes (``modes.count``), with its damping ratio,
-    built afresh (not cached; the Campbell diagram's model); the degenerate y/z pairs of a
+    built afresh (not cached; the Campbell diagram's model; a membrane without stiffness at
+    rest: about its spinning state at ``spin.rate``); the degenerate y/z pairs of a
     straight beam are split into pure planes (:func:`quadmodes.models.beam.split_planes`)."""
     from quadmodes.models.beam import split_planes
     from quadmodes.structure.labels import label_modes
 
     mm = pipeline.build_modal_model(case, progress)
     shapes, labels = mm.modes.shapes, list(mm.labels)
+    if mm.spinning is not None:  # no modes at rest: expanded about its spinning state
+        return reduce_spinning(mm.structure, mm.x, mm.spinning, mm.modes.frequencies_hz, shapes,
+                               labels, damping_ratio_of(case), progress, {"case": case.name})  # fmt: skip
     if case.kind == "beam":
         shapes, _, _ = split_planes(mm.structure, mm.modes.frequencies_hz, shapes)
         labels = label_modes(mm.structure, mm.x, shapes)
@@ -293,7 +317,7 @@ def mode_spectrum(
     spinning state (:func:`~quadmodes.rom.spinning_reduction.spinning_modes`) —: from the cache
     file if present, else computed (and saved, under the file's lock as for
     :func:`reduced_model_for`)."""
-    count = max(int(count), case.modes.count)
+    count, spin = max(int(count), case.modes.count), reference_spin(case, spin)
     return cache.find_or_build(
         cache.spectrum_path(case, count, spin),
         lambda p: cache.find_spectrum(p, count),
@@ -311,7 +335,7 @@ def _compute_spectrum(case: Case, count: int, progress, spin: float) -> Spectrum
         return _spectrum_of(modal_model_for(case, count, progress))
     modal = modal_model_for(case, 1, progress)
     try:
-        _, modes, labels = spinning_modes(modal.structure, modal.x, count, spin)
+        _, modes, labels = _spinning_modes_of(modal, count, spin)
     except ValueError as exc:
         raise CaseError(str(exc), field="reduced.reference") from None
     return Spectrum(tuple(float(f) for f in modes.frequencies_hz), tuple(str(s) for s in labels))

@@ -47,19 +47,31 @@ def minor_axis(structure: Structure, x: np.ndarray) -> np.ndarray:
 
 
 def spinning_modes(
-    structure: Structure, x_rest: np.ndarray, count: int, spin: float, axis=None
-) -> tuple[SpinningEquilibrium, ModalResult, list[str]]:
+    structure: Structure, x_rest: np.ndarray, count: int, spin: float, axis=None,
+    start: SpinningEquilibrium | None = None,
+) -> tuple[SpinningEquilibrium, ModalResult, list[str]]:  # fmt: skip
     """The relative equilibrium of the free ``structure`` at ``spin`` (rad/s) about ``axis``
     (default :func:`minor_axis` of ``x_rest`` (n,3) m, the prestressed state at rest), and the
     lowest ``count`` modes of its rotating-frame stiffness ``K_T(x_Ω) − Ω²MP̂`` with the frame
-    conditions (no Coriolis term: that is the reduced equations' own), with their labels."""
+    conditions (no Coriolis term: that is the reduced equations' own), with their labels.
+
+    ``start``: a relative equilibrium at another (or the same) spin to continue from instead of
+    ``x_rest`` (a membrane without stiffness at rest: :mod:`quadmodes.structure.flat_spin`); its
+    axis is then the spin axis."""
     if not structure.is_free:
         raise ValueError(
             'reduced.reference = "spinning" is for free bodies; a hub-driven body is expanded '
             'about its state at rest (use reference = "rest")'
         )
-    e = minor_axis(structure, x_rest) if axis is None else np.asarray(axis, float)
-    eq = relative_equilibrium(structure, x_rest, spin, e)
+    if start is not None:
+        e = start.axis
+        eq = start if start.spin == spin else relative_equilibrium(
+            structure, start.x, spin, e, start_spin=start.spin, reference=x_rest,
+            rtol=max(1e-10, 10.0 * start.residual),
+        )  # fmt: skip
+    else:
+        e = minor_axis(structure, x_rest) if axis is None else np.asarray(axis, float)
+        eq = relative_equilibrium(structure, x_rest, spin, e)
     modes = compute_modes(structure, eq.x, count, softening=centrifugal_softening(structure, spin, e))
     if np.any(modes.frequencies_hz <= 0.0):
         raise ValueError(

@@ -19,6 +19,7 @@ from quadmodes.case import Case, CaseError
 from quadmodes.case.plausibility import MIN_STRAIN, check_mass, check_strain_scale
 from quadmodes.limits import OUTPUT_BYTES, REDUCED_MODES, LimitError
 from quadmodes.mesh.estimate import revolution_node_count
+from quadmodes.mesh.flat import disc_node_count
 from quadmodes.structure.pipeline import revolution_profile
 
 __all__ = ["MIN_STRAIN", "MAX_NODES", "check_model_size", "check_reduced_size", "estimate_size"]
@@ -51,6 +52,9 @@ def estimate_size(case: Case) -> SizeEstimate | None:
         nodes, field = 1 + sum(int(b.elements) for b in case.boom), "boom.elements"
     elif getattr(case.geometry, "shape", "file") == "file":
         return None
+    elif case.geometry.shape == "disc":
+        nodes = disc_node_count(0.5 * case.geometry.diameter, case.mesh.edge_length)
+        field = "mesh.edge_length"
     else:
         try:
             profile, refine = revolution_profile(case)
@@ -121,7 +125,7 @@ def check_pressure(case: Case) -> None:
     tension it (names ``pressure.value``) or implausibly high, or if a beam's mass is
     implausible (:mod:`quadmodes.case.plausibility`; mesh files are checked once read)."""
     check_mass(case)
-    if case.kind != "membrane" or case.geometry.shape == "file":
+    if case.kind != "membrane" or case.geometry.shape == "file" or case.pressure is None:
         return
     g = case.geometry
     check_strain_scale(case, max(g.cap_radius("front") or 0.0, g.cap_radius("rear") or 0.0))

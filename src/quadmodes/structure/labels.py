@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor
+from quadmodes.structure.disc_labels import disc_label
 
 #: Two modes with the same label within this relative frequency gap form a (degenerate) pair.
 PAIR_TOLERANCE = 0.05
@@ -193,6 +194,14 @@ def _beam_label(points, disp, axis, spin_axis=None) -> str:
     return f"bending {plane} ({crossings} nodes)"
 
 
+def _is_flat(points: np.ndarray, axis: np.ndarray) -> bool:
+    """True for a flat membrane normal to ``axis`` (a disc, a sail): its extent along the
+    axis is below 1e-6 of its extent across (its modes are named by
+    :func:`quadmodes.structure.disc_labels.disc_label`)."""
+    h = points @ axis
+    return bool(np.ptp(h) <= 1e-6 * float(np.ptp(points, axis=0).max()))
+
+
 def label_modes(
     structure: Structure, x: np.ndarray, shapes: np.ndarray, spin_axis=None
 ) -> list[str]:
@@ -215,7 +224,8 @@ def label_modes(
         if label is None:
             if "membrane" in structure.groups:
                 idx = structure.groups["membrane"]
-                label = _shell_label(x[idx], shape[idx], weights[idx], axis, centre)
+                shell = disc_label if _is_flat(x[idx], axis) else _shell_label
+                label = shell(x[idx], shape[idx], weights[idx], axis, centre)
             else:
                 idx = np.flatnonzero(structure.translational)
                 label = _beam_label(x[idx], shape[idx], axis, spin_axis)

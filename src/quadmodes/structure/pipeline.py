@@ -25,6 +25,7 @@ from quadmodes.fe.build import (
     build_membrane_structure,
 )
 from quadmodes.fe.hub import BoomSpec, HubSpec, build_hub_structure
+from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
@@ -33,6 +34,7 @@ from quadmodes.fe.model import (
     with_tension_field,
 )
 from quadmodes.fe.pressure import PressureSet
+from quadmodes.mesh.flat import disc_surface
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
     capsule_profile,
@@ -51,9 +53,11 @@ from quadmodes.mesh.surface import (
     surface_area,
 )
 from quadmodes.structure.boom_labels import boom_labels
+from quadmodes.structure.flat_spin import flat_spinning_equilibrium
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import ModalResult, compute_modes
 from quadmodes.structure.prestress import PrestressedState, inflate
+from quadmodes.structure.spinning import SpinningEquilibrium, centrifugal_softening
 
 Progress = Callable[[str, float], None]
 
@@ -91,7 +95,9 @@ def revolution_profile(case: Case):
 def surface_for_case(case: Case) -> TriangleSurface:
     """The stress-free membrane surface of a membrane case (m)."""
     revolution = revolution_profile(case)
-    if revolution is not None:
+    if case.geometry.shape == "disc":
+        surface = disc_surface(0.5 * case.geometry.diameter, case.mesh.edge_length)
+    elif revolution is not None:
         profile, refine = revolution
         surface = mesh_revolution(profile, case.mesh.edge_length, case.mesh.elements_per_radius,
                                   refine)  # fmt: skip
@@ -186,17 +192,23 @@ def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> St
         youngs_modulus=m.youngs_modulus,
         poisson_ratio=m.poisson_ratio,
         density=m.density,
-        pressure=case.pressure.value,
-        gas_law_exponent=case.pressure.gas_law_exponent,
+        pressure=case.pressure.value if case.pressure is not None else 0.0,
+        gas_law_exponent=case.pressure.gas_law_exponent if case.pressure is not None else 0.0,
         lumped_mass=case.mesh.mass_matrix == "lumped",
         tension_field=m.wrinkling == "tension-field",
     )
     return build_membrane_structure(surface.points, surface.triangles, spec, end_body_specs(case))
 
 
+#: Spin axis of a flat membrane: its normal, the body axis z of every built-in shape.
+FLAT_SPIN_AXIS = np.array([0.0, 0.0, 1.0])
+
+
 @dataclass(frozen=True)
 class ModalModel:
-    """Everything the modal stage produced for a case."""
+    """Everything the modal stage produced for a case. ``spinning``: for a membrane without
+    stiffness at rest (a ``disc``), the relative equilibrium at the case's ``[spin]`` that ``x``
+    is, about which ``modes`` are those of the rotating-frame stiffness; else None."""
 
     case: Case
     structure: Structure
@@ -204,15 +216,22 @@ class ModalModel:
     x: np.ndarray
     modes: ModalResult
     labels: list[str]
+    spinning: SpinningEquilibrium | None = None
 
 
 def reference_state(
     case: Case, structure: Structure, progress: Progress | None = None
-) -> tuple[np.ndarray, PrestressedState | None]:
-    """Prestressed equilibrium of a membrane case, or the stress-free state of a beam or a
-    spacecraft."""
+) -> tuple[np.ndarray, PrestressedState | SpinningEquilibrium | None]:
+    """Prestressed equilibrium of a membrane case (inflated, or for a membrane without pressure
+    its spinning relative equilibrium at ``spin.rate`` about its normal,
+    :func:`quadmodes.structure.flat_spin.flat_spinning_equilibrium`), or the stress-free state
+    of a beam or a spacecraft."""
     if case.kind != "membrane":
         return structure.reference, None
+    if case.pressure is None:  # a flat membrane: taut only when it spins
+        eq = flat_spinning_equilibrium(structure, structure.reference, case.spin.rate,
+                                       FLAT_SPIN_AXIS)  # fmt: skip
+        return eq.x, eq
     # Membrane strain scale p R / (E t): below ~1e-8 the prestress is lost in round-off and the
     # membrane has no meaningful stiffness out of its plane.
     m = case.material
@@ -257,13 +276,26 @@ def build_modal_model(case: Case, progress: Progress | None = None) -> ModalMode
     structure = structure_for_case(case)
     x, state = reference_state(case, structure, progress)
     structure = with_gas_law(case, structure, x)
+    spinning = state if isinstance(state, SpinningEquilibrium) else None
     if progress:
         progress("modes", 0.0)
-    modes = compute_modes(structure, x, case.modes.count)
+    if spinning is not None:
+        modes = rotating_frame_modes(structure, spinning, case.modes.count)
+    else:
+        modes = compute_modes(structure, x, case.modes.count)
     if progress:
         progress("modes", 1.0)
     labeller = boom_labels if case.kind == "spacecraft" else label_modes
-    return ModalModel(case, structure, state, x, modes, labeller(structure, x, modes.shapes))
+    labels = labeller(structure, x, modes.shapes)
+    prestress = None if spinning is not None else state
+    return ModalModel(case, structure, prestress, x, modes, labels, spinning)
+
+
+def rotating_frame_modes(structure: Structure, eq: SpinningEquilibrium, count: int) -> ModalResult:
+    """The lowest ``count`` modes of the rotating-frame stiffness ``K_T − Ω² M P̂`` about the
+    relative equilibrium ``eq``, with a free body's frame conditions (no Coriolis term)."""
+    soft = centrifugal_softening(structure, eq.spin, eq.axis)
+    return compute_modes(structure, eq.x, count, softening=soft)
 
 
 def modes_summary(model: ModalModel) -> dict:
@@ -295,7 +327,29 @@ def modes_summary(model: ModalModel) -> dict:
         if warning:
             out["warnings"] = [warning]
         out["slack_onset_m"] = mode_slack_onsets(s, x, model.modes.shapes)
+    if model.spinning is not None:
+        out["spinning_reference"] = spinning_summary(s, model.spinning, model.modes)
     return out
+
+
+def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: ModalResult) -> dict:
+    """JSON-ready figures of a spinning reference state: spin (rad/s, Hz), the modes'
+    frequency ratios ω/Ω (rotating frame), the principal stress resultants (N/m) and the
+    largest displacement from the stress-free state (m)."""
+    resultants = np.concatenate([
+        e.principal_stress_resultants(eq.x) for e in structure.elements
+        if isinstance(e, MembraneSet)
+    ])  # fmt: skip
+    return {
+        "spin_rad_s": float(eq.spin),
+        "spin_hz": float(eq.spin) / (2.0 * np.pi),
+        "frequency_ratios": [float(2.0 * np.pi * f / eq.spin) for f in modes.frequencies_hz],
+        "stress_resultant_min_n_per_m": float(resultants.min()),
+        "stress_resultant_max_n_per_m": float(resultants.max()),
+        "elements_in_compression": int(np.sum(resultants[:, 0] <= 0.0)),
+        "max_displacement_m": float(np.linalg.norm(eq.x - structure.reference, axis=1).max()),
+        "relative_residual": float(eq.residual),
+    }
 
 
 def mode_slack_onsets(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> list:

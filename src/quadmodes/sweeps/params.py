@@ -38,7 +38,7 @@ class SweepError(ValueError):
 
 #: Tables of a run case a path may start with; the other first keys address the model case.
 RUN_TABLES = ("reduced", "initial", "integration")
-MODEL_TABLES = ("geometry", "mesh", "material", "pressure", "end_body", "beam", "modes")
+MODEL_TABLES = ("geometry", "mesh", "material", "pressure", "spin", "end_body", "beam", "modes")
 
 
 @dataclass(frozen=True)
