@@ -89,6 +89,9 @@ def _report(info: dict, directory: Path) -> None:
                   f"matched branches within {100 * worst:.3g} %", highlight=False)  # fmt: skip
     for message in info["failures"].values():
         err.print(f"warning: point failed: {escape(message)}", highlight=False, soft_wrap=True)
+    for worker in info.get("lost_workers", []):
+        err.print(f"note: worker {escape(worker)} left the cluster during the sweep; its points "
+                  "were rerun on the others", highlight=False, soft_wrap=True)  # fmt: skip
     for spin, message in info.get("full_order_failures", {}).items():
         err.print(f"warning: full order at {escape(spin)} failed: {escape(message)}",
                   highlight=False, soft_wrap=True)  # fmt: skip

@@ -213,4 +213,5 @@ def summary(ds: xr.Dataset, outcome: SweepOutcome) -> dict:
             "critical_speeds": crit, "wall_s": outcome.wall_s,
             "full_order": _full_order_summary(ds),
             "full_order_failures": outcome.full_order_failures,
+            "lost_workers": list(getattr(outcome, "lost_workers", [])),
             "dimensions": {k: int(v) for k, v in ds.sizes.items()}}  # fmt: skip

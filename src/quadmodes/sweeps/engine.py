@@ -25,7 +25,6 @@ import functools
 import hashlib
 import json
 import math
-import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,17 +32,15 @@ from pathlib import Path
 from quadmodes._version import __version__
 from quadmodes.case import Case, RunCase
 from quadmodes.io.atomic import write_text
-from quadmodes.models.cache import cache_dir, fingerprint_files
+from quadmodes.models.cache import fingerprint_files
 from quadmodes.sweeps import critical as crit
+from quadmodes.sweeps.cluster import lost_workers
 from quadmodes.sweeps.overrides import PointCase, apply_values
 from quadmodes.sweeps.params import SweepError, SweepParameter, grid
 from quadmodes.sweeps.points import model_for_group, run_point, structural_key
 
 FORMAT = "quadmodes-sweep-point"
 FORMAT_VERSION = 1
-#: Environment of local workers: one BLAS/OpenMP thread each (one worker per core).
-WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-              "NUMBA_NUM_THREADS": "1"}  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,33 +162,13 @@ def load_done(directory: Path, plan: SweepPlan) -> dict[int, dict]:
 @contextlib.contextmanager
 def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator:
     """A :class:`distributed.Client` on ``scheduler`` (an address; :class:`SweepError` if it
-    cannot be reached within 5 s) or on a new LocalCluster with ``workers`` processes (default
-    one per core), one thread each, BLAS threads limited, the package's cache folder shared."""
-    import dask
-    from distributed import Client, LocalCluster
+    cannot be reached within 5 s or its workers run another version) or on a new private
+    LocalCluster with ``workers`` processes (default one per core): :mod:`quadmodes.sweeps.
+    cluster`."""
+    from quadmodes.sweeps import cluster
 
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout="5s", set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
-            reason = " ".join(str(exc).split()) or type(exc).__name__
-            raise SweepError(f"--scheduler {scheduler}: cannot reach the scheduler ({reason}); "
-                             "start one with `dask scheduler` and workers with `dask worker "
-                             "ADDRESS`, or drop --scheduler for a local cluster") from None  # fmt: skip
-        with client:
-            yield client
-        return
-    n = workers or os.cpu_count() or 1
-    env = {**WORKER_ENV, "QUADMODES_CACHE": str(cache_dir())}
-    if "PYTHONPATH" in os.environ:
-        env["PYTHONPATH"] = os.environ["PYTHONPATH"]
-    with dask.config.set({"distributed.scheduler.allowed-failures": 1,
-                          "distributed.nanny.pre-spawn-environ": env}):  # fmt: skip
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                          dashboard_address=":0",
-                          worker_dashboard_address=None, env=env) as cluster, \
-                Client(cluster, set_as_default=False) as client:  # fmt: skip
-            yield client
+    with (cluster.external_client(scheduler) if scheduler else cluster.local_client(workers)) as c:
+        yield c
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,7 +198,8 @@ class SweepOutcome:
     (records of :func:`quadmodes.sweeps.critical.critical_speed_record`), how many points were
     taken from earlier files, and the wall time of the execution (s); with ``--full-order`` the
     full-order markers (:class:`quadmodes.analysis.full_order_markers.FullOrderMarkers`) and the
-    failures of their spins."""
+    failures of their spins; the workers that left the cluster during the sweep (their points
+    were rerun elsewhere)."""
 
     results: list[dict | None]
     failures: dict[int, str] = field(default_factory=dict)
@@ -230,6 +208,7 @@ class SweepOutcome:
     wall_s: float = 0.0
     full_order: object | None = None
     full_order_failures: dict[str, str] = field(default_factory=dict)
+    lost_workers: list[str] = field(default_factory=list)
 
 
 def _message(future) -> str:
@@ -318,6 +297,7 @@ def execute(plan: SweepPlan, directory: Path, client,
     total = len(plan.points)
     if progress:
         progress(len(done), total)
+    workers_at_start = set(client.nthreads())
     submit_more()
     for fut in pending:
         p = futures[fut]
@@ -329,6 +309,7 @@ def execute(plan: SweepPlan, directory: Path, client,
         submit_more()
         if progress:
             progress(sum(r is not None for r in results) + len(outcome.failures), total)
+    outcome.lost_workers = lost_workers(workers_at_start, client)
     outcome.critical = _critical_speeds(plan, results, groups, client)
     outcome.wall_s = time.perf_counter() - start
     return outcome
