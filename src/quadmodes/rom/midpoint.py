@@ -67,6 +67,7 @@ class MidpointStep:
         self.sys = sys
         self.quartic = sys.nonlinear  # Q4's tensors and/or a nonlinear potential
         self.exact_gradient = sys.nonlinear_potential is not None
+        self._last = (None, None)  # (s₁, 𝕄(s₁)) of the last advance: the next begin's 𝕄(s₀)
 
     def momenta(self, x, s):
         """𝕄(s) ν (3+N,): (h, p_s) at ν = x, s."""
@@ -77,7 +78,9 @@ class MidpointStep:
     def begin(self, x0, s0):
         """Per-step constants from the state at t0: ν₀, momenta, parts of s₁ and s½."""
         self.x0 = x0
-        mom0 = self.momenta(x0, s0)
+        s_last, m_last = self._last
+        # the driver passes back the s₁ of advance: its 𝕄 is known (bit for bit the same)
+        mom0 = m_last @ x0 if s0 is s_last else self.momenta(x0, s0)
         self.s_base1 = s0 + self.hdt * x0[3:]  # s1 = s_base1 + ½Δt ṡ1
         self.s_basem = s0 + 0.25 * self.dt * x0[3:]  # s½ = s_basem + ¼Δt ṡ1
         self.h0 = mom0[:3]
@@ -97,6 +100,7 @@ class MidpointStep:
         z = self.z1
         z[1:] = s1
         m1 = self.mass.matrix(z)
+        self._last = (s1, m1)
         phi = (0.5 * self.dt) * (self.x0[:3] + x1[:3])  # used for both h and q: R₁h₁ = R₀h₀
         target = rotate(-phi, self.h0)
         x1 = x1.copy()
