@@ -45,7 +45,9 @@ def _run(sys, y0, dt, n_steps, dense, kernel):
 
         out = midpoint_kernel.fixed_run(sys, y0, n_steps, dt, idx, 1e-13, 25, 0.0, "m", dense)
     else:
-        out = run_fixed(MidpointStep(sys, dt, dense), sys, y0, n_steps, dt, idx, 1e-13, 25, 0.0, "m")
+        out = run_fixed(
+            MidpointStep(sys, dt, dense), sys, y0, n_steps, dt, idx, 1e-13, 25, 0.0, "m"
+        )
     assert out[4] == 0, out[5]
     return out[0], out[3]
 

@@ -156,8 +156,8 @@ def _quat_step(q, phi):
 
 @_jit
 def _mass_matrix(mt, z, out):
-    """Dense reference: ``out = 𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` (3+N, 3+N); mt ((N+1)², (3+N)²) the flattened mass
-    tensor (``FlatTensors.Mt`` layout), z (N+1,) = (1, s).
+    """Dense reference: ``out = 𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` (3+N, 3+N); mt ((N+1)², (3+N)²)
+    the flattened mass tensor (``FlatTensors.Mt`` layout), z (N+1,) = (1, s).
 
     Mt is symmetric in (i, j), so only i ≤ j is visited (off-diagonal pairs counted twice). The
     inner loop runs over the (3+N)² contiguous entries of a block: independent multiply-adds
@@ -176,8 +176,9 @@ def _mass_matrix(mt, z, out):
 
 @_jit
 def _y_times(mt, z, v, y, out):
-    """Dense reference: ``out[k] = Y_k v`` (N, 3+N) with ``Y_k = Σ_j z_j Mt[j, k+1]`` (= ½ ∂𝕄/∂s_k); z (N+1,),
-    v (3+N,), y ((3+N)²,) work array. Forming Y_k first keeps the inner loops contiguous."""
+    """Dense reference: ``out[k] = Y_k v`` (N, 3+N) with ``Y_k = Σ_j z_j Mt[j, k+1]``
+    (= ½ ∂𝕄/∂s_k); z (N+1,), v (3+N,), y ((3+N)²,) work array. Forming Y_k first keeps the
+    inner loops contiguous."""
     nz = z.shape[0]
     m3 = v.shape[0]
     mm = m3 * m3
@@ -197,8 +198,8 @@ def _y_times(mt, z, v, y, out):
 
 @_jit
 def _second_derivative(mte, v, vv, out):
-    """Dense reference: ``out[k, j] = vᵀ MtE[k+1, j+1] v`` (N, N) = ½ ∂²(vᵀ𝕄_E v)/∂s_k∂s_j; v (3+N,), vv
-    ((3+N)²,) work array (receives v vᵀ)."""
+    """Dense reference: ``out[k, j] = vᵀ MtE[k+1, j+1] v`` (N, N) = ½ ∂²(vᵀ𝕄_E v)/∂s_k∂s_j;
+    v (3+N,), vv ((3+N)²,) work array (receives v vᵀ)."""
     n = out.shape[0]
     nz = n + 1
     m3 = v.shape[0]
@@ -217,8 +218,8 @@ def _second_derivative(mte, v, vv, out):
 
 @_jit
 def _block_mass_matrix(mass, z, g, out):
-    """``out = 𝕄(s)`` (3+N, 3+N) by blocks, O(N²) (:func:`quadmodes.rom.structured_mass.mass_matrix`);
-    mass = (𝕄(0) (m3, m3), J1 (N, 9), J2_rot, J2 (N², 9), D_rot, D (N², 3), …) of
+    """``out = 𝕄(s)`` (3+N, 3+N) by blocks, O(N²)
+    (:func:`quadmodes.rom.structured_mass.mass_matrix`); mass = (𝕄(0) (m3, m3), J1 (N, 9), J2_rot, J2 (N², 9), D_rot, D (N², 3), …) of
     :func:`_arrays` (row k·N + m of J2 is J2_km, row k·N + n of D is D_kn), z (N+1,) = (1, s),
     g (≥ 9,) work array."""
     m0, j1, j2r, dr, de = mass[0], mass[1], mass[2], mass[4], mass[5]
