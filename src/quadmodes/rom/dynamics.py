@@ -16,9 +16,9 @@ written as ``𝕄(s) ν̇ = b`` with ``ν = (ω, ṡ)``, ``𝕄 = [[J̃, Aᵀ], 
 
 (``D_km − D_mk = 2 Cuu_km`` because Cuu is antisymmetric and Cxg symmetric in (m, n).)
 
-Implementation: T = ½ νᵀ𝕄(s)ν with 𝕄(s) = Σ_ij z_i z_j Mt_ij, z = (1, s), the mass tensor of
-:class:`~quadmodes.rom.system.FlatTensors`, so that with P[k] = ½ (∂𝕄/∂s_k) ν (one matrix
-product) ``b = [−ω × h, P·ν − Λs − Cṡ] − 2 ṡ·P`` (the last term is −𝕄̇ν). No loops over modes.
+Implementation: T = ½ νᵀ𝕄(s)ν with 𝕄(s) evaluated by blocks (:mod:`quadmodes.rom.structured_mass`,
+O(N²)), so that with P[k] = ½ (∂𝕄/∂s_k) ν ``b = [−ω × h, P·ν − Λs − Cṡ] − 2 ṡ·P`` (the last
+term is −𝕄̇ν). No loops over modes.
 
 Formulation "Q4": the modal force is ``−∂V/∂s = −Λs − 3 V3·ss − 4 V4·sss`` in place of ``−Λs``,
 its Jacobian ``−(Λ + 6 V3·s + 12 V4·ss)``; E (with this V) and H are conserved by the continuous
@@ -37,6 +37,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from quadmodes.rom import structured_mass as sm
 from quadmodes.rom.system import ReducedSystem, split_state, sym_tensor
 from quadmodes.rotations import quat_rate, rotation_matrix
 
@@ -265,11 +266,7 @@ def mass_matrix(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     """Generalised mass matrix 𝕄(s) (3+N, 3+N) = [[J̃, Aᵀ], [A, μ]] at s (N,).
 
     For "P" the rotational rows use the P arrays and the modal rows the Q arrays (unsymmetric)."""
-    m3 = 3 + sys.n_modes
-    z = np.empty(m3 - 2)
-    z[0] = 1.0
-    z[1:] = s
-    return ((z[:, None] * z).ravel() @ sys.flat.Mt).reshape(m3, m3)
+    return sm.mass_matrix(sys.mass_blocks, np.asarray(s, float))
 
 
 def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
@@ -278,24 +275,17 @@ def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
     With T = ½ νᵀ𝕄(s)ν (Q) the Euler–Poincaré equations read
     ``𝕄ν̇ = [−ω × h, ∂T/∂s − Λs − Cṡ] − 𝕄̇ν``, h = (𝕄ν)[:3], 𝕄̇ = Σ_k ṡ_k ∂𝕄/∂s_k.
     Optional external body-frame torque τ (3,) N m and modal force Q (N,) √kg·m/s²."""
-    n = sys.n_modes
-    m3 = 3 + n
-    z = np.empty(n + 1)
-    z[0] = 1.0
-    z[1:] = s
-    nu = np.empty(m3)
-    nu[:3] = w
-    nu[3:] = sd
-    m = ((z[:, None] * z).ravel() @ sys.flat.Mt).reshape(m3, m3)
-    # P[k] = ½ ∂𝕄/∂s_k ν  (N, 3+N)
-    p = ((z @ sys.flat.Yt).reshape(n * m3, m3) @ nu).reshape(n, m3)
+    mb = sys.mass_blocks
+    nu = np.concatenate([w, sd])
+    m = sm.mass_matrix(mb, s)
+    p = sm.half_derivative_products(mb, s, nu, energy=False)  # P[k] = ½ ∂𝕄/∂s_k ν (N, 3+N)
     b = -2.0 * (sd @ p)  # −𝕄̇ν
     hx, hy, hz = (m[:3] @ nu).tolist()
     wx, wy, wz = w.tolist()
     b[0] -= wy * hz - wz * hy
     b[1] -= wz * hx - wx * hz
     b[2] -= wx * hy - wy * hx
-    pe = p if sys.same_rows else ((z @ sys.flat.YtE).reshape(n * m3, m3) @ nu).reshape(n, m3)
+    pe = p if sys.same_rows else sm.half_derivative_products(mb, s, nu)
     b[3:] += pe @ nu - sys.Lam @ s - sys.F1 - sys.C @ sd  # ∂T/∂s_k = νᵀ (½∂𝕄/∂s_k) ν
     if sys.nonlinear:
         b[3:] -= potential_nonlinear_force(sys, s)

@@ -22,6 +22,7 @@ from quadmodes.rom.dynamics import (
     potential_nonlinear_force,
 )
 from quadmodes.rom.fixed_step import ImplicitStepper
+from quadmodes.rom.structured_mass import mass_evaluation
 from quadmodes.rom.system import ReducedSystem
 from quadmodes.rotations import cross_matrix, rotate, so3_left_jacobian
 
@@ -29,9 +30,13 @@ from quadmodes.rotations import cross_matrix, rotate, so3_left_jacobian
 class MidpointStep(ImplicitStepper):
     """Residual and analytic Jacobian of one Lie-group midpoint step, unknowns x = ν₁ = (ω₁, ṡ₁).
 
-    With z = (1, s) and the mass tensor of :class:`~quadmodes.rom.system.FlatTensors`,
-    momenta are ``𝕄(s)ν`` (one matrix product) and ``F_s = P(z, ν)·ν − Λs − Cṡ`` with
-    ``P[k] = ½ ∂𝕄_E/∂s_k ν`` (T = ½νᵀ𝕄_Eν).
+    Momenta are ``𝕄(s)ν`` and ``F_s = P(z, ν)·ν − Λs − Cṡ`` with ``P[k] = ½ ∂𝕄_E/∂s_k ν``
+    (T = ½νᵀ𝕄_Eν), z = (1, s), 𝕄 evaluated by blocks
+    (:class:`~quadmodes.rom.structured_mass.BlockMass`, O(N²)) or, ``dense=True``, from the dense
+    mass tensor (:class:`~quadmodes.rom.structured_mass.DenseMass`, O(N⁴): the reference the
+    blocks are checked and timed against); the same results to round-off. The default
+    (``dense=None``) uses the dense tensor below
+    :data:`~quadmodes.rom.structured_mass.NUMPY_BLOCKS_FROM` modes, where it is the cheaper.
 
     Formulation "Q4" (quartic manifold potential): the potential force is the average vector
     field ``∫₀¹ ∂V/∂s(s₀ + τ(s₁ − s₀)) dτ``, exact by Simpson's rule since ∂V/∂s is cubic:
@@ -53,13 +58,12 @@ class MidpointStep(ImplicitStepper):
     name = "midpoint"
     order = 2
 
-    def __init__(self, sys: ReducedSystem, dt: float):
+    def __init__(self, sys: ReducedSystem, dt: float, dense: bool | None = None):
         self.n = n = sys.n_modes
         self.m3 = 3 + n
         self.dt = dt
         self.hdt = 0.5 * dt
-        flat = sys.flat
-        self.Mt, self.Yt, self.YtE, self.WtE = flat.Mt, flat.Yt, flat.YtE, flat.WtE
+        self.mass = mass_evaluation(sys, dense)
         self.LC = np.hstack([sys.Lam, sys.C])  # F_s contribution −[Λ C]·(s, ṡ)
         self.C, self.Lam, self.F1 = sys.C, sys.Lam, sys.F1
         self.hC = 0.5 * dt * sys.C
@@ -69,18 +73,20 @@ class MidpointStep(ImplicitStepper):
         self.sys = sys
         self.quartic = sys.nonlinear  # Q4's tensors and/or a nonlinear potential
         self.exact_gradient = sys.nonlinear_potential is not None
+        self._last = (None, None)  # (s₁, 𝕄(s₁)) of the last advance: the next begin's 𝕄(s₀)
 
     def momenta(self, x, s):
         """𝕄(s) ν (3+N,): (h, p_s) at ν = x, s."""
         z = self.z1
         z[1:] = s
-        m3 = self.m3
-        return ((z[:, None] * z).ravel() @ self.Mt).reshape(m3, m3) @ x
+        return self.mass.matrix(z) @ x
 
     def begin(self, x0, s0):
         """Per-step constants from the state at t0: ν₀, momenta, parts of s₁ and s½."""
         self.x0 = x0
-        mom0 = self.momenta(x0, s0)
+        s_last, m_last = self._last
+        # the driver passes back the s₁ of advance: its 𝕄 is known (bit for bit the same)
+        mom0 = m_last @ x0 if s0 is s_last else self.momenta(x0, s0)
         self.s_base1 = s0 + self.hdt * x0[3:]  # s1 = s_base1 + ½Δt ṡ1
         self.s_basem = s0 + 0.25 * self.dt * x0[3:]  # s½ = s_basem + ¼Δt ṡ1
         self.h0 = mom0[:3]
@@ -96,11 +102,11 @@ class MidpointStep(ImplicitStepper):
 
         ω₁ is first projected (one 3×3 solve) so that h(s₁, ω₁, ṡ₁) = exp(−Δt ω̂½) h₀ holds to
         round-off rather than to the Newton tolerance: |H| is then conserved to round-off."""
-        m3 = self.m3
         s1 = self.s_base1 + self.hdt * x1[3:]
         z = self.z1
         z[1:] = s1
-        m1 = ((z[:, None] * z).ravel() @ self.Mt).reshape(m3, m3)
+        m1 = self.mass.matrix(z)
+        self._last = (s1, m1)
         phi = (0.5 * self.dt) * (self.x0[:3] + x1[:3])  # used for both h and q: R₁h₁ = R₀h₀
         target = rotate(-phi, self.h0)
         x1 = x1.copy()
@@ -110,11 +116,11 @@ class MidpointStep(ImplicitStepper):
 
     def residual(self, x, jac=False):
         """Residual (3+N,) and, if ``jac``, its Jacobian (3+N, 3+N) with respect to x."""
-        n, m3, dt, hdt = self.n, self.m3, self.dt, self.hdt
+        n, dt, hdt = self.n, self.dt, self.hdt
         z1, zm = self.z1, self.zm
         sd1 = x[3:]
         z1[1:] = self.s_base1 + hdt * sd1
-        m1 = ((z1[:, None] * z1).ravel() @ self.Mt).reshape(m3, m3)
+        m1 = self.mass.matrix(z1)
         r = m1 @ x
         numid = 0.5 * (self.x0 + x)
         rh0 = rotate(-dt * numid[:3], self.h0)  # exp(−Δt ω̂½) h0
@@ -126,7 +132,7 @@ class MidpointStep(ImplicitStepper):
         ym = self.y_m
         ym[:n] = zm[1:]
         ym[n:] = numid[3:]
-        pm = ((zm @ self.YtE).reshape(n * m3, m3) @ numid).reshape(n, m3)
+        pm = self.mass.products(zm, numid)
         f = pm @ numid - self.LC @ ym - self.F1
         if self.quartic:  # average vector field of the cubic and quartic potential (Simpson)
             nl = potential_nonlinear_force
@@ -152,14 +158,14 @@ class MidpointStep(ImplicitStepper):
     def _jacobian(self, x, m1, numid, rh0, pm):
         """∂r/∂x (3+N, 3+N) from the intermediates of :meth:`residual` at the same x: 𝕄(s₁),
         ν½, exp(−Δt ω̂½) h₀ and P_E(z½, ν½)."""
-        n, m3, dt, hdt = self.n, self.m3, self.dt, self.hdt
+        n, dt, hdt = self.n, self.dt, self.hdt
         z1, zm = self.z1, self.zm
         jm = m1.copy()
-        p1 = ((z1 @ self.Yt).reshape(n * m3, m3) @ x).reshape(n, m3)
+        p1 = self.mass.products(z1, x, energy=False)
         jm[:, 3:] += dt * p1.T  # ∂(𝕄(s1)ν1)/∂s1 · ∂s1/∂ṡ1
         jl = so3_left_jacobian(-dt * numid[:3])
         jm[:3, :3] -= hdt * (cross_matrix(*rh0) @ jl)
-        w2 = (self.WtE @ (numid[:, None] * numid).ravel()).reshape(n, n)  # ∂²T/∂s∂s
+        w2 = self.mass.second(numid)  # ∂²T/∂s∂s
         jm[3:] -= dt * pm
         jm[3:, 3:] += self.hC - (0.25 * dt * dt) * (w2 - self.LC[:, :n])
         if self.quartic:  # ∂s½/∂ṡ₁ = ¼Δt, ∂s₁/∂ṡ₁ = ½Δt

@@ -20,16 +20,19 @@ thousands of steps). The only deliberate difference: the chord iteration solves 
 factorisation of the Newton matrix (partial pivoting) instead of multiplying by its inverse;
 both are backward stable, and the converged steps differ at round-off level.
 
-Generic over the formulations (Q, P, L, rigid) through the mass tensors of
-:class:`~quadmodes.rom.system.ReducedSystem`: ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` with z = (1, s),
-Mt (N+1, N+1, 3+N, 3+N). ``Mt`` (rotational rows from the formulation's arrays, modal rows from
-the energy arrays) gives the momenta; ``MtE`` (energy arrays) gives ∂T/∂s. For "P" they differ;
-for the others they are the same array. N = 0 (rigid) is the same code with empty loops.
+Generic over the formulations (Q, P, L, rigid) through the blocks of the mass matrix
+𝕄(s) = [[J̃(s), A_rot(s)ᵀ], [A(s), μ]] (:mod:`quadmodes.rom.structured_mass`): 𝕄(0), J1, J2 and
+D, the rotational rows from the formulation's arrays (J2_rot, D_rot), the modal rows and ∂T/∂s
+from the energy arrays (J2, D); for "P" they differ, for the others they are the same arrays.
+Every product with 𝕄 and its derivatives costs O(N²) (:func:`_block_mass_matrix`,
+:func:`_block_products`, :func:`_block_second`), so a step costs O(N³) (the LU of the Newton
+matrix). The dense mass tensor ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]``, z = (1, s), Mt flattened as
+((N+1)², (3+N)²) (the ``FlatTensors.Mt`` layout, O(N⁴) work per product) is kept as the
+reference (``fixed_run(..., dense=True)``; benchmarks/performance/bench_step_scaling.py).
+N = 0 (rigid) is the same code with empty loops.
 Formulation "Q4" adds the cubic/quartic potential through ``v3g = 3 V3`` (N, N²) and
-``v4g = 4 V4`` (N, N³) (the ``ReducedSystem._V3g/_V4g`` layout; other formulations pass
+``v4g = 4 V4`` (N, N³) (the ``FlatTensors.V3g/V4g`` layout; other formulations pass
 (N, 0) arrays and skip it), with the average-vector-field force of :class:`~quadmodes.rom.midpoint.MidpointStep`.
-The kernel takes the tensors flattened as ((N+1)², (3+N)²) (the ``FlatTensors.Mt`` layout)
-so that its inner loops run over contiguous blocks and vectorise.
 
 Units: SI. ω (rad/s), s (√kg·m), ṡ (√kg·m/s), h (kg m²/s), energies (J), Δt (s).
 
@@ -43,8 +46,8 @@ clear the cache (``*.nbi``/``*.nbc`` in ``__pycache__`` or ``$NUMBA_CACHE_DIR``)
 machine code is loaded; ``LEAVES_DIGEST`` below and its test make sure this file is edited
 then. For the same reason the kernel stays in this one file.
 
-Layout: the scalar rotation leaves; products with the mass tensor and the quartic potential;
-dense LU; one step (:func:`_residual`, :func:`_jacobian`, :func:`_linearise`, :func:`_chord`,
+Layout: the scalar rotation leaves; products with the mass matrix (by blocks, and the dense
+reference) and the quartic potential; dense LU; one step (:func:`_residual`, :func:`_jacobian`, :func:`_linearise`, :func:`_chord`,
 :func:`_advance`); the loop :func:`run_midpoint`; the Python wrapper :func:`fixed_run`.
 """
 
@@ -147,14 +150,14 @@ def _quat_step(q, phi):
 
 
 # ---------------------------------------------------------------------------------------------
-# products with the mass tensor, and the quartic potential
+# products with the mass matrix (dense reference, then by blocks), and the quartic potential
 # ---------------------------------------------------------------------------------------------
 
 
 @_jit
 def _mass_matrix(mt, z, out):
-    """``out = 𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` (3+N, 3+N); mt ((N+1)², (3+N)²) the flattened mass
-    tensor (``FlatTensors.Mt`` layout), z (N+1,) = (1, s).
+    """Dense reference: ``out = 𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` (3+N, 3+N); mt ((N+1)², (3+N)²)
+    the flattened mass tensor (``FlatTensors.Mt`` layout), z (N+1,) = (1, s).
 
     Mt is symmetric in (i, j), so only i ≤ j is visited (off-diagonal pairs counted twice). The
     inner loop runs over the (3+N)² contiguous entries of a block: independent multiply-adds
@@ -173,8 +176,9 @@ def _mass_matrix(mt, z, out):
 
 @_jit
 def _y_times(mt, z, v, y, out):
-    """``out[k] = Y_k v`` (N, 3+N) with ``Y_k = Σ_j z_j Mt[j, k+1]`` (= ½ ∂𝕄/∂s_k); z (N+1,),
-    v (3+N,), y ((3+N)²,) work array. Forming Y_k first keeps the inner loops contiguous."""
+    """Dense reference: ``out[k] = Y_k v`` (N, 3+N) with ``Y_k = Σ_j z_j Mt[j, k+1]``
+    (= ½ ∂𝕄/∂s_k); z (N+1,), v (3+N,), y ((3+N)²,) work array. Forming Y_k first keeps the
+    inner loops contiguous."""
     nz = z.shape[0]
     m3 = v.shape[0]
     mm = m3 * m3
@@ -194,8 +198,8 @@ def _y_times(mt, z, v, y, out):
 
 @_jit
 def _second_derivative(mte, v, vv, out):
-    """``out[k, j] = vᵀ MtE[k+1, j+1] v`` (N, N) = ½ ∂²(vᵀ𝕄_E v)/∂s_k∂s_j; v (3+N,), vv
-    ((3+N)²,) work array (receives v vᵀ)."""
+    """Dense reference: ``out[k, j] = vᵀ MtE[k+1, j+1] v`` (N, N) = ½ ∂²(vᵀ𝕄_E v)/∂s_k∂s_j;
+    v (3+N,), vv ((3+N)²,) work array (receives v vᵀ)."""
     n = out.shape[0]
     nz = n + 1
     m3 = v.shape[0]
@@ -210,6 +214,115 @@ def _second_derivative(mte, v, vv, out):
                 acc += row[e] * vv[e]
             out[k, j] = acc
             out[j, k] = acc
+
+
+@_jit
+def _block_mass_matrix(mass, z, g, out):
+    """``out = 𝕄(s)`` (3+N, 3+N) by blocks, O(N²)
+    (:func:`quadmodes.rom.structured_mass.mass_matrix`); mass = (𝕄(0) (m3, m3), J1 (N, 9), J2_rot, J2 (N², 9), D_rot, D (N², 3), …) of
+    :func:`_arrays` (row k·N + m of J2 is J2_km, row k·N + n of D is D_kn), z (N+1,) = (1, s),
+    g (≥ 9,) work array."""
+    m0, j1, j2r, dr, de = mass[0], mass[1], mass[2], mass[4], mass[5]
+    n = z.shape[0] - 1
+    m3 = n + 3
+    for a in range(m3):
+        for b in range(m3):
+            out[a, b] = m0[a, b]
+    for k in range(n):
+        # J̃ − J0 = Σ_k s_k (J1_k + G_k),  G_k = Σ_m s_m J2_km
+        for e in range(9):
+            g[e] = j1[k, e]
+        for m in range(n):
+            sm = z[m + 1]
+            row = j2r[k * n + m]
+            for e in range(9):
+                g[e] += sm * row[e]
+        sk = z[k + 1]
+        for a in range(3):
+            for b in range(3):
+                out[a, b] += sk * g[3 * a + b]
+        # rotational columns Σ_k s_k D_rot,kn and modal rows Σ_k s_k D_kn
+        for c in range(n):
+            r = k * n + c
+            for a in range(3):
+                out[a, 3 + c] += sk * dr[r, a]
+                out[3 + c, a] += sk * de[r, a]
+
+
+@_jit
+def _block_products(mass, energy, z, v, g, out):
+    """``out[k] = ½ (∂𝕄/∂s_k) v`` (N, 3+N) by blocks, O(N²)
+    (:func:`quadmodes.rom.structured_mass.half_derivative_products`): ``(½J1_k + G_k) ω +
+    ½ Σ_n D_kn ṡ_n`` in the rotational columns (J2, D of the energy if ``energy``, else the
+    rotational-row J2_rot, D_rot), ``½ D_kn·ω`` in the modal ones; v = (ω, ṡ) (3+N,)."""
+    j1, de = mass[1], mass[5]
+    j2 = mass[3] if energy else mass[2]
+    drow = mass[5] if energy else mass[4]
+    n = out.shape[0]
+    w0, w1, w2 = v[0], v[1], v[2]
+    for k in range(n):
+        for e in range(9):
+            g[e] = 0.5 * j1[k, e]
+        for m in range(n):
+            sm = z[m + 1]
+            row = j2[k * n + m]
+            for e in range(9):
+                g[e] += sm * row[e]
+        for a in range(3):
+            acc = 0.0
+            for c in range(n):
+                acc += drow[k * n + c, a] * v[3 + c]
+            out[k, a] = g[3 * a] * w0 + g[3 * a + 1] * w1 + g[3 * a + 2] * w2 + 0.5 * acc
+        for c in range(n):
+            r = k * n + c
+            out[k, 3 + c] = 0.5 * (de[r, 0] * w0 + de[r, 1] * w1 + de[r, 2] * w2)
+
+
+@_jit
+def _block_second(j2e, v, out):
+    """``out[k, j] = ωᵀ J2_kj ω`` (N, N) = ½ vᵀ(∂²𝕄_E/∂s_k∂s_j)v, O(N²); j2e (N², 9) the energy
+    J2 (symmetric in k, j), v = (ω, ṡ)."""
+    n = out.shape[0]
+    w0, w1, w2 = v[0], v[1], v[2]
+    for k in range(n):
+        for j in range(k, n):
+            row = j2e[k * n + j]
+            acc = w0 * (row[0] * w0 + row[1] * w1 + row[2] * w2)
+            acc += w1 * (row[3] * w0 + row[4] * w1 + row[5] * w2)
+            acc += w2 * (row[6] * w0 + row[7] * w1 + row[8] * w2)
+            out[k, j] = acc
+            out[j, k] = acc
+
+
+@_jit
+def _mass(mass, z, y, out):
+    """``out = 𝕄(s)``: by blocks, or from the dense tensor Mt = mass[6] when it is given (not
+    (0, 0): the reference); y work array ((3+N)²,)."""
+    if mass[6].shape[0] > 0:
+        _mass_matrix(mass[6], z, out)
+    else:
+        _block_mass_matrix(mass, z, y, out)
+
+
+@_jit
+def _products(mass, energy, z, v, y, out):
+    """``out[k] = ½ (∂𝕄/∂s_k) v`` (N, 3+N), energy or momenta arrays: by blocks, or from the
+    dense tensors (MtE = mass[7], Mt = mass[6]) when given; y work array ((3+N)²,)."""
+    mt = mass[7] if energy else mass[6]
+    if mt.shape[0] > 0:
+        _y_times(mt, z, v, y, out)
+    else:
+        _block_products(mass, energy, z, v, y, out)
+
+
+@_jit
+def _second(mass, v, y, out):
+    """``out[k, j] = ½ vᵀ(∂²𝕄_E/∂s_k∂s_j)v`` (N, N): by blocks, or from the dense MtE = mass[7]
+    when given; y work array ((3+N)²,)."""
+    if mass[7].shape[0] > 0:
+        _second_derivative(mass[7], v, y, out)
+    else:
+        _block_second(mass[3], v, out)
 
 
 @_jit
@@ -344,11 +457,11 @@ def _residual(x, arrays, dt, consts, wk, r):
     """Residual r (3+N,) of the step equations at ν₁ = x (3+N,). Returns False if the iterate
     is non-finite. Mirrors :meth:`quadmodes.rom.midpoint.MidpointStep.residual`.
 
-    ``arrays`` = (Mt, MtE, Λ, C, 3V3, 4V4, F1) of :func:`_arrays`; ``consts`` = (ν₀, h₀, p₀, sb1,
+    ``arrays`` = (mass, Λ, C, 3V3, 4V4, F1) of :func:`_arrays`; ``consts`` = (ν₀, h₀, p₀, sb1,
     sbm, n0) of the step (n0 (N,) = 3V3·s₀s₀ + 4V4·s₀s₀s₀ for Q4, ``v3g.shape[1] > 0``); ``wk``
     of :func:`_work_arrays`: on return it holds z₁, z½, 𝕄(s₁), ν½, θ = −Δt ω½, exp(θ̂) h₀ and
     P_E(z½, ν½) for :func:`_jacobian`."""
-    mt, mte, lam, cmat, v3g, v4g, _ = arrays
+    mass, lam, cmat, v3g, v4g, _ = arrays
     x0, h0, p0, sb1, sbm, n0 = consts
     z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y, nm, n1, hm, h1 = wk
     quartic = v3g.shape[1] > 0
@@ -360,7 +473,7 @@ def _residual(x, arrays, dt, consts, wk, r):
     for k in range(n):
         z1[k + 1] = sb1[k] + hdt * x[3 + k]
         zm[k + 1] = sbm[k] + 0.25 * dt * x[3 + k]
-    _mass_matrix(mt, z1, m1)
+    _mass(mass, z1, y, m1)
     for a in range(m3):
         acc = 0.0
         for b in range(m3):
@@ -375,7 +488,7 @@ def _residual(x, arrays, dt, consts, wk, r):
     for a in range(3):
         r[a] -= rh0[a]
     # modal rows: p₁ − p₀ − Δt F_s(½),  F_s = P_E(z½, ν½)·ν½ − Λs½ − Cṡ½
-    _y_times(mte, zm, numid, y, pm)
+    _products(mass, True, zm, numid, y, pm)
     if quartic:  # average vector field (Simpson, exact for the cubic ∂V/∂s)
         _nl_force(v3g, v4g, zm, nm)
         _nl_force(v3g, v4g, z1, n1)
@@ -395,7 +508,7 @@ def _residual(x, arrays, dt, consts, wk, r):
 def _jacobian(x, arrays, dt, wk, jm):
     """Jacobian ``jm`` (3+N, 3+N) of the residual with respect to ν₁ = x, from the intermediates
     that :func:`_residual` left in ``wk`` at the same x."""
-    mt, mte, lam, cmat, v3g, v4g, _ = arrays
+    mass, lam, cmat, v3g, v4g, _ = arrays
     z1, zm, m1, numid, theta, rh0, pm, p1, w2, jl, y, nm, n1, hm, h1 = wk
     n = lam.shape[0]
     m3 = n + 3
@@ -404,7 +517,7 @@ def _jacobian(x, arrays, dt, wk, jm):
         for b in range(m3):
             jm[a, b] = m1[a, b]
     # ∂(𝕄(s₁)ν₁)/∂s₁ · ∂s₁/∂ṡ₁ = 2 P(z₁, ν₁)ᵀ · ½Δt
-    _y_times(mt, z1, x, y, p1)
+    _products(mass, False, z1, x, y, p1)
     for a in range(m3):
         for k in range(n):
             jm[a, 3 + k] += dt * p1[k, a]
@@ -419,7 +532,7 @@ def _jacobian(x, arrays, dt, wk, jm):
         jm[1, b] -= hdt * c1
         jm[2, b] -= hdt * c2
     # modal rows: −Δt ∂F_s/∂ν₁ (ν½ = ½(ν₀+ν₁), s½ = sbm + ¼Δt ṡ₁)
-    _second_derivative(mte, numid, y, w2)
+    _second(mass, numid, y, w2)
     qdt2 = 0.25 * dt * dt
     for k in range(n):
         for a in range(m3):
@@ -443,7 +556,7 @@ def _linearise(m, z, x_prev, s, xg, arrays, dt, consts, wk, r, jm, piv):
     Jacobian."""
     x, h0, p0, sb1, sbm, n0 = consts
     _begin(m, dt, x, s, h0, p0, sb1, sbm)
-    v3g, v4g, f1 = arrays[4], arrays[5], arrays[6]
+    v3g, v4g, f1 = arrays[3], arrays[4], arrays[5]
     for k in range(f1.shape[0]):  # the constant potential force F1 folded into p₀ − Δt F1
         p0[k] -= dt * f1[k]
     if v3g.shape[1] > 0:
@@ -516,19 +629,20 @@ def _state_scale(x, xg, s, wt, lam):
 
 
 @_jit
-def _advance(mt, cmat, dt, x0, x1, h0, sb1, s1, phi, z, m1, lu3, piv3, tgt):
+def _advance(mass, cmat, dt, x0, x1, h0, sb1, s1, phi, z, m1, g, lu3, piv3, tgt):
     """Finish a converged step in place: s₁ (N,), the rotation vector φ = Δt ω½ (3,) of the
     step, and ω₁ projected (one 3×3 solve) onto ``h(s₁, ω₁, ṡ₁) = exp(−φ̂) h₀`` so that R h is
     conserved to round-off, not only to the Newton tolerance. Returns the energy dissipated in
     the step, Δt ṡ½ᵀCṡ½ (J): the exact discrete balance of the quadratic part. ``m1`` receives
-    𝕄(s₁) (3+N, 3+N), which the next step's :func:`_begin` reuses as its 𝕄(s₀)."""
+    𝕄(s₁) (3+N, 3+N), which the next step's :func:`_begin` reuses as its 𝕄(s₀); g work array
+    ((3+N)²,); mass as in :func:`_arrays`."""
     n = s1.shape[0]
     hdt = 0.5 * dt
     z[0] = 1.0
     for k in range(n):
         s1[k] = sb1[k] + hdt * x1[3 + k]
         z[k + 1] = s1[k]
-    _mass_matrix(mt, z, m1)
+    _mass(mass, z, g, m1)
     for a in range(3):
         phi[a] = hdt * (x0[a] + x1[a])  # the same φ moves q: R₁h₁ = R₀h₀ exactly
     for a in range(3):
@@ -574,11 +688,12 @@ def _store(out, ed_out, k, q, x, s, e_d):
 
 
 @_jit
-def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, max_newton,
+def run_midpoint(mass, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, max_newton,
                  out, ed_out, last, info, finfo, v3g, v4g, f1):  # fmt: skip
     """Run ``n_steps`` midpoint steps of size ``dt`` (s) from ``y0`` (7+2N,) = [q, ω, s, ṡ].
 
-    Inputs: mt, mte ((N+1)², (3+N)²) flattened mass tensors (momenta, energy); lam (N,N) 1/s²,
+    Inputs: mass, the blocks of the mass matrix (and the dense reference tensors, or (0, 0)
+    arrays) of :func:`_arrays`; lam (N,N) 1/s²,
     cmat (N,N) 1/s; wt (3+N,) = √diag(J0, μ) weights of the convergence test; save_idx (K,)
     int64 increasing step indices to sample (save_idx[0] = 0); newton_tol relative; max_newton.
     Outputs: out (K, 7+2N) samples, ed_out (K,) dissipated energy (J) at the samples, last
@@ -591,7 +706,7 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     """
     n = lam.shape[0]
     m3 = n + 3
-    arrays = (mt, mte, lam, cmat, v3g, v4g, f1)
+    arrays = (mass, lam, cmat, v3g, v4g, f1)
     # state: q, s, ν = (ω, ṡ) and the previous ν for the linear-extrapolation predictor
     q = y0[0:4].copy()
     s = y0[7 : 7 + n].copy()
@@ -608,7 +723,7 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
     phi, tgt, lu3, piv3 = np.empty(3), np.empty(3), np.empty((3, 3)), np.empty(3, np.int64)
     z[0] = 1.0
     z[1:] = s
-    _mass_matrix(mt, z, m)
+    _mass(mass, z, wk[10], m)
     _store(out, ed_out, 0, q, x, s, 0.0)
     k_save = 1
     next_save = save_idx[1] if save_idx.shape[0] > 1 else -1
@@ -633,7 +748,7 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
             status, fail_step, fail_its, fail_err = NOT_CONVERGED, i, its, err
             break
         h0, sb1 = consts[1], consts[3]
-        e_d += _advance(mt, cmat, dt, x, xg, h0, sb1, s, phi, z, m, lu3, piv3, tgt)
+        e_d += _advance(mass, cmat, dt, x, xg, h0, sb1, s, phi, z, m, wk[10], lu3, piv3, tgt)
         _quat_step(q, phi)
         for a in range(m3):
             x_prev[a] = x[a]
@@ -655,18 +770,33 @@ def run_midpoint(mt, mte, lam, cmat, wt, y0, n_steps, dt, save_idx, newton_tol, 
 # ---------------------------------------------------------------------------------------------
 
 
-def _arrays(sys):
+def _arrays(sys, dense=False):
     """Arrays of ``sys`` (a ReducedSystem) in the kernel's layout, always with the same types and
-    ranks, so one compiled specialisation serves every formulation and N: Mt, MtE ((N+1)²,
-    (3+N)²); Λ, C (N,N); weights √diag(J0, μ) (3+N,) of the Newton convergence test; 3V3
+    ranks, so one compiled specialisation serves every formulation and N: ``mass`` = (𝕄(0)
+    (3+N, 3+N), J1 (N, 9), J2_rot, J2 (N², 9), D_rot, D (N², 3), Mt, MtE) (row k·N + m of J2 is
+    J2_km, row k·N + n of D is D_kn; the rotational-row and energy arrays are the same arrays
+    unless "P"; Mt, MtE the dense mass tensors ((N+1)², (3+N)²) if ``dense``, else (0, 0)
+    arrays); Λ, C (N,N); weights √diag(J0, μ) (3+N,) of the Newton convergence test; 3V3
     (N, N²) and 4V4 (N, N³) for "Q4", else (N, 0) arrays; F1 (N,)."""
     f = np.ascontiguousarray
     n = sys.n_modes
     quartic = getattr(sys, "quartic", False)
-    flat = sys.flat
+    flat, mb = sys.flat, sys.mass_blocks
+    none = np.zeros((0, 0))
+    j2 = f(sys.J2.reshape(n * n, 9), dtype=np.float64)
+    d = f(sys.D.reshape(n * n, 3), dtype=np.float64)
+    mass = (
+        f(mb.M0f.reshape(3 + n, 3 + n), dtype=np.float64),
+        f(sys.J1.reshape(n, 9), dtype=np.float64),
+        j2 if sys.same_rows else f(sys.J2_rot.reshape(n * n, 9), dtype=np.float64),
+        j2,
+        d if sys.same_rows else f(sys.D_rot.reshape(n * n, 3), dtype=np.float64),
+        d,
+        f(flat.Mt, dtype=np.float64) if dense else none,
+        f(flat.MtE, dtype=np.float64) if dense else none,
+    )
     return (
-        f(flat.Mt, dtype=np.float64),
-        f(flat.MtE, dtype=np.float64),
+        mass,
         f(sys.Lam, dtype=np.float64),
         f(sys.C, dtype=np.float64),
         f(newton_weights(sys)),
@@ -676,14 +806,18 @@ def _arrays(sys):
     )
 
 
-def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="midpoint"):
-    """Compiled equivalent of ``fixed_step.run_fixed(MidpointStep(sys, dt), ...)``.
+def fixed_run(
+    sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="midpoint", dense=False
+):
+    """Compiled equivalent of ``fixed_step.run_fixed(MidpointStep(sys, dt, dense), ...)``.
 
     sys: ReducedSystem; y0 (7+2N,) with q normalised; n_steps; dt (s); save_idx: increasing step
-    indices to sample, starting at 0; newton_tol; max_newton; t0 (s, for messages). Returns
+    indices to sample, starting at 0; newton_tol; max_newton; t0 (s, for messages); ``dense``:
+    the products with 𝕄 from the dense mass tensor (the O(N⁴) reference) instead of by blocks
+    (the same results to round-off). Returns
     ``(ys (K, 7+2N), dissipated (K,), steps done, stats, status, message)`` with the same
     sampling, counters and failure messages as the numpy driver."""
-    mt, mte, lam, cmat, wt, v3g, v4g, f1 = _arrays(sys)
+    mass, lam, cmat, wt, v3g, v4g, f1 = _arrays(sys, dense)
     y0 = np.ascontiguousarray(y0, dtype=np.float64)
     idx = np.ascontiguousarray(save_idx, dtype=np.int64)
     out = np.empty((len(idx), len(y0)))
@@ -691,7 +825,7 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name="
     last = np.empty(len(y0))
     info = np.zeros(7, np.int64)
     finfo = np.zeros(2)
-    k_save = run_midpoint(mt, mte, lam, cmat, wt, y0, int(n_steps), float(dt), idx,
+    k_save = run_midpoint(mass, lam, cmat, wt, y0, int(n_steps), float(dt), idx,
                           float(newton_tol), int(max_newton), out, ed_out, last, info,
                           finfo, v3g, v4g, f1)  # fmt: skip
     status, step, its, n_newton, n_jac, n_res, done = (int(v) for v in info)
@@ -712,11 +846,12 @@ def warm_up() -> float:
     """Compile the kernel (or load it from the on-disk cache) by running two steps of a rigid
     body; returns the wall time (s) this took. Later calls in the process cost microseconds."""
     start = time.perf_counter()
-    mt = np.diag([1.0, 2.0, 3.0]).reshape(1, 9)
     e = np.zeros((0, 0))
+    m0, j1, j2, d = np.diag([1.0, 2.0, 3.0]), np.zeros((0, 9)), np.zeros((0, 9)), np.zeros((0, 3))
+    mass = (m0, j1, j2, j2, d, d, e, e)
     y0 = np.array([1.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3])
     idx = np.array([0, 2], np.int64)
-    run_midpoint(mt, mt, e, e, np.ones(3), y0, 2, 1e-3, idx, 1e-13, 25, np.empty((2, 7)),
+    run_midpoint(mass, e, e, np.ones(3), y0, 2, 1e-3, idx, 1e-13, 25, np.empty((2, 7)),
                  np.empty(2), np.empty(7), np.zeros(7, np.int64), np.zeros(2), e, e,
                  np.zeros(0))  # fmt: skip
     return time.perf_counter() - start

@@ -21,9 +21,11 @@ Formulations (``reduced_system(model, formulation)``):
   ``V(s) = ½ sᵀΛs + V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q`` (tensors of
   :func:`quadmodes.rom.reduced.manifold_potential_tensors`).
 
-The mass tensor: T = ½ νᵀ𝕄(s)ν with ν = (ω, ṡ), 𝕄(s) = [[J̃, Aᵀ], [A, μ]] = Σ_ij z_i z_j Mt_ij,
-z = (1, s), Mt (N+1, N+1, 3+N, 3+N) precomputed once (:class:`FlatTensors`), so that momenta
-and the equations of motion (:mod:`quadmodes.rom.dynamics`) are single matrix products.
+The mass matrix: T = ½ νᵀ𝕄(s)ν with ν = (ω, ṡ), 𝕄(s) = [[J̃, Aᵀ], [A, μ]], evaluated by blocks
+(:mod:`quadmodes.rom.structured_mass`, ``ReducedSystem.mass_blocks``: O(N²) per evaluation) for
+momenta and the equations of motion (:mod:`quadmodes.rom.dynamics`). The same matrix as a dense
+mass tensor, 𝕄(s) = Σ_ij z_i z_j Mt_ij, z = (1, s), Mt (N+1, N+1, 3+N, 3+N) (O(N⁴) numbers,
+built on first use: :class:`FlatTensors`), serves the backward-Euler step and as the reference.
 
 State vector ``y = [q (4), ω (3), s (N), ṡ (N)]``, length ``7 + 2N``: q a unit quaternion,
 scalar first, rotating body-frame vectors into the inertial frame; ω (rad/s) body-frame angular
@@ -34,10 +36,12 @@ mass) and not part of y. SI units throughout: J in kg m², h in kg m²/s, energi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from quadmodes.rom.reduced import ReducedModel
+from quadmodes.rom.structured_mass import MassBlocks, mass_blocks
 
 FORMULATIONS = ("Q", "P", "L", "rigid", "Q4")
 
@@ -49,11 +53,15 @@ class FlatTensors:
 
     J1f (N, 9): J1. J2s (N, 9N): ``G(s)_k = Σ_m s_m J2_mk = (s @ J2s).reshape(N, 9)``.
     J2w (N², 9): J2. Ds (N, 3N): D. Dsk (N², 3): ``D_km − D_mk``.
+    V3g (N, N²) = 3 V3, V4g (N, N³) = 4 V4: ``∂V/∂s − Λs = V3g @ (s⊗s) + V4g @ (s⊗s⊗s)``.
+
+    The dense mass tensors, O(N⁴) numbers each, built on first use from ``system`` (the steps
+    evaluate 𝕄 by blocks, :attr:`ReducedSystem.mass_blocks`; these serve backward Euler and the
+    reference :class:`~quadmodes.rom.structured_mass.DenseMass`):
     Mt, MtE ((N+1)², m3²): mass tensor ``𝕄(s) = Σ_ij z_i z_j Mt[i, j]`` of the momenta
     (rotational rows from J2_rot/D_rot) and of the energy (J2/D; the same array unless "P").
     Yt, YtE (N+1, N·m3²): ``Y(z)[k] = Σ_j z_j Mt[k+1, j] = ½ ∂𝕄/∂s_k = (z @ Yt).reshape(N·m3, m3)``.
     WtE (N², m3²), Wt (N, N·m3²): ``∂²𝕄/∂s_k∂s_j = 2 Mt[k+1, j+1]`` (energy, momenta).
-    V3g (N, N²) = 3 V3, V4g (N, N³) = 4 V4: ``∂V/∂s − Λs = V3g @ (s⊗s) + V4g @ (s⊗s⊗s)``.
     """
 
     J1f: np.ndarray
@@ -61,14 +69,56 @@ class FlatTensors:
     J2w: np.ndarray
     Ds: np.ndarray
     Dsk: np.ndarray
-    Mt: np.ndarray
-    Yt: np.ndarray
-    MtE: np.ndarray
-    YtE: np.ndarray
-    WtE: np.ndarray
-    Wt: np.ndarray
     V3g: np.ndarray
     V4g: np.ndarray
+    system: ReducedSystem = field(repr=False)
+
+    @cached_property
+    def _tensors(self) -> tuple[np.ndarray, np.ndarray]:
+        """(momenta, energy) mass tensors (N+1, N+1, 3+N, 3+N) (the same array unless "P")."""
+        sys = self.system
+        # 𝕄(s) = Σ_ij z_i z_j Mt[i, j], z = (1, s): symmetric in (i, j). Rows 0–2 (rotational)
+        # from J2_rot/D_rot, rows 3… (modal) from J2/D.
+        mom = _mass_tensor(sys, sys.J2_rot, sys.D_rot, sys.D)
+        en = mom if sys.same_rows else _mass_tensor(sys, sys.J2, sys.D, sys.D)
+        return mom, en
+
+    def _flat(self, energy: bool, rows: slice, cols: slice, shape: tuple) -> np.ndarray:
+        return np.ascontiguousarray(self._tensors[1 if energy else 0][rows, cols].reshape(shape))
+
+    def _sizes(self) -> tuple[int, int]:
+        n = self.system.n_modes
+        return n, (3 + n) ** 2
+
+    @cached_property
+    def Mt(self) -> np.ndarray:
+        n, mm = self._sizes()
+        return self._flat(False, slice(None), slice(None), ((n + 1) ** 2, mm))
+
+    @cached_property
+    def MtE(self) -> np.ndarray:
+        n, mm = self._sizes()
+        return self._flat(True, slice(None), slice(None), ((n + 1) ** 2, mm))
+
+    @cached_property
+    def Yt(self) -> np.ndarray:
+        n, mm = self._sizes()
+        return self._flat(False, slice(None), slice(1, None), (n + 1, n * mm))
+
+    @cached_property
+    def YtE(self) -> np.ndarray:
+        n, mm = self._sizes()
+        return self._flat(True, slice(None), slice(1, None), (n + 1, n * mm))
+
+    @cached_property
+    def WtE(self) -> np.ndarray:
+        n, mm = self._sizes()
+        return self._flat(True, slice(1, None), slice(1, None), (n * n, mm))
+
+    @cached_property
+    def Wt(self) -> np.ndarray:
+        n, mm = self._sizes()
+        return self._flat(False, slice(1, None), slice(1, None), (n, n * mm))
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,7 +141,8 @@ class ReducedSystem:
     ``nonlinear_force(s)`` = ∂N/∂s (N,) and ``nonlinear_hessian(s)`` = ∂²N/∂s² (N,N), N = O(|s|³)
     (e.g. :class:`quadmodes.experimental.condensed_potential.CondensedPotential`, the condensed
     energy of a wrinkling membrane); integrated by the numpy steppers only.
-    ``flat``: the :class:`FlatTensors` for fast matrix products.
+    ``flat``: the :class:`FlatTensors` for fast matrix products; ``mass_blocks``: the
+    :class:`~quadmodes.rom.structured_mass.MassBlocks` of 𝕄(s).
     """
 
     formulation: str
@@ -117,6 +168,7 @@ class ReducedSystem:
     nonlinear: bool = field(init=False)
     same_rows: bool = field(init=False, repr=False)
     flat: FlatTensors = field(init=False, repr=False)
+    mass_blocks: MassBlocks = field(init=False, repr=False)
 
     def __post_init__(self):
         n = self.J1.shape[0]
@@ -132,6 +184,8 @@ class ReducedSystem:
         put(self, "reference_omega", np.zeros(3) if w is None else np.asarray(w, float))
         put(self, "same_rows", self.J2_rot is self.J2 and self.D_rot is self.D)
         put(self, "flat", flat_tensors(self))
+        put(self, "mass_blocks", mass_blocks(self.J0, self.J1, self.J2, self.D, self.c,
+                                             self.mu, self.J2_rot, self.D_rot))  # fmt: skip
 
     @property
     def n_state(self) -> int:
@@ -142,12 +196,7 @@ class ReducedSystem:
 def flat_tensors(sys: ReducedSystem) -> FlatTensors:
     """The :class:`FlatTensors` of ``sys`` (its V3, V4 already arrays)."""
     n = sys.n_modes
-    m3 = 3 + n
     c = np.ascontiguousarray
-    # 𝕄(s) = Σ_ij z_i z_j Mt[i, j], z = (1, s): mass tensor (N+1, N+1, 3+N, 3+N), symmetric
-    # in (i, j). Rows 0–2 (rotational) from J2_rot/D_rot, rows 3… (modal) from J2/D.
-    mom = _mass_tensor(sys, sys.J2_rot, sys.D_rot, sys.D)
-    en = mom if sys.same_rows else _mass_tensor(sys, sys.J2, sys.D, sys.D)
     dsk = sys.D - sys.D.transpose(1, 0, 2)  # D_km − D_mk
     return FlatTensors(
         J1f=c(sys.J1.reshape(n, 9)),
@@ -155,14 +204,9 @@ def flat_tensors(sys: ReducedSystem) -> FlatTensors:
         J2w=c(sys.J2.reshape(n * n, 9)),
         Ds=c(sys.D.reshape(n, n * 3)),
         Dsk=c(dsk.reshape(n * n, 3)),
-        Mt=c(mom.reshape((n + 1) ** 2, m3 * m3)),
-        Yt=c(mom[:, 1:].reshape(n + 1, n * m3 * m3)),
-        MtE=c(en.reshape((n + 1) ** 2, m3 * m3)),
-        YtE=c(en[:, 1:].reshape(n + 1, n * m3 * m3)),
-        WtE=c(en[1:, 1:].reshape(n * n, m3 * m3)),
-        Wt=c(mom[1:, 1:].reshape(n, n * m3 * m3)),
         V3g=c(3.0 * sys.V3.reshape(n, n * n)),
         V4g=c(4.0 * sys.V4.reshape(n, n * n * n)),
+        system=sys,
     )
 
 
