@@ -107,11 +107,13 @@ def make_inputs(d: Path) -> None:
     (d / "zero.vtu").write_bytes(b"")
     (d / "afile").write_text("not a folder")
     (d / "afolder").mkdir()
-    # compare's checkpoints sit beside the output folder: .<name>.fullorder-checkpoint.npz
-    (d / ".garbage.fullorder-checkpoint.npz").write_bytes(b"this is not a zip archive\n")
+    # compare's checkpoint sits inside its output folder: <folder>/.fullorder-checkpoint.npz
+    (d / "garbage").mkdir()
+    (d / "garbage" / ".fullorder-checkpoint.npz").write_bytes(b"this is not a zip archive\n")
     np.savez(d / "whole.npz", version=1, step=3, x=np.zeros(2000))
     truncated = (d / "whole.npz").read_bytes()[:400]
-    (d / ".truncated.fullorder-checkpoint.npz").write_bytes(truncated)
+    (d / "truncated").mkdir()
+    (d / "truncated" / ".fullorder-checkpoint.npz").write_bytes(truncated)
     (d / "whole.npz").unlink()
 
 

@@ -105,7 +105,8 @@ def reduced_model(
 
 def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,
              check_deformation: bool = True, checkpoint: str | os.PathLike[str] | None = None,
-             resume: bool = False, checkpoint_every: QuantityLike = "10 s"):  # fmt: skip
+             resume: bool = False, checkpoint_every: QuantityLike = "10 s",
+             allow_coarse_step: bool = False):  # fmt: skip
     """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
     spin-up (``[spinup]``).
 
@@ -117,7 +118,12 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         Run this model instead of the one the run names; it is recorded in the result's run case
         (``result.run.model``), so its TOML (``case_toml`` of ``results.nc``) replays it.
     model
-        An already reduced model to use (else from the cache).
+        An already reduced model to use (else from the cache); one built from another case
+        than the run's model case is refused (``CaseError`` naming ``model``).
+    allow_coarse_step
+        Run a time step of fewer than 2 steps per period of the spin or of the highest
+        retained mode (refused otherwise, as ``quadmodes run`` without ``--yes``); under 10
+        steps a period the run's notes say so.
     check_deformation
         As ``quadmodes run``: set an initial modal deformation beside the FE model's condensed
         energy before integrating (one static solve on the FE model; stage "initial deformation
@@ -145,13 +151,15 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         return sim.simulate_spinup(run, model, model_case=model_case)
     if checkpoint is None:
         return sim.simulate(run, model, progress, model_case=model_case,
-                            check_deformation=check_deformation)  # fmt: skip
+                            check_deformation=check_deformation,
+                            allow_coarse_step=allow_coarse_step)  # fmt: skip
     return _checkpointed(run, model, progress, model_case, check_deformation, Path(checkpoint),
-                         resume, si(checkpoint_every, "time", "checkpoint_every"))  # fmt: skip
+                         resume, si(checkpoint_every, "time", "checkpoint_every"),
+                         allow_coarse_step)  # fmt: skip
 
 
 def _checkpointed(run, model, progress, model_case, check_deformation, path: Path, resume: bool,
-                  every_s: float):  # fmt: skip
+                  every_s: float, allow_coarse_step: bool = False):  # fmt: skip
     """:func:`simulate` of a free-body run checkpointed into ``path`` (see there)."""
     from quadmodes.runs import simulate as sim
     from quadmodes.runs.run_checkpoint import CheckpointError, RunCheckpoint
@@ -161,7 +169,8 @@ def _checkpointed(run, model, progress, model_case, check_deformation, path: Pat
     if not resume:
         path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
     setup = sim.prepare(run, model, progress, model_case=model_case,
-                        check_deformation=check_deformation)  # fmt: skip
+                        check_deformation=check_deformation,
+                        allow_coarse_step=allow_coarse_step)  # fmt: skip
     start = RunCheckpoint(path, setup).load() if resume else None
     result = sim.execute(setup, progress, checkpoint=RunCheckpoint(path, setup, every_s),
                          resume=start)  # fmt: skip

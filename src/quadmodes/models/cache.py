@@ -173,12 +173,13 @@ class Spectrum:
 def find_model(
     case: Case, n_modes: int, path: Path, spin: float = 0.0
 ) -> tuple[ReducedModel | None, str]:
-    """The model in the cache file ``path`` and "hit" if it is there, readable and matches the
-    key; else None and "miss" (no file) or "rebuilt" (corrupt or mismatching)."""
+    """The model in the cache file ``path`` and "hit" if it is there, readable, its arrays match
+    their checksum and it matches the key; else None and "miss" (no file) or "rebuilt" (corrupt,
+    damaged or mismatching: a foreign file under the entry's name)."""
     if not path.is_file():
         return None, "miss"
     try:
-        model = artifact.load_reduced_model(path)
+        model = artifact.load_reduced_model(path, require_checksum=True)
     except artifact.ArtifactError:
         return None, "rebuilt"
     key = reduced_key(case, n_modes, spin)

@@ -22,7 +22,8 @@ import numpy as np
 import xarray as xr
 
 from quadmodes.io import cf
-from quadmodes.io.atomic import atomic_path, write_text
+from quadmodes.io.atomic import write_text
+from quadmodes.io.outputs import write_netcdf
 from quadmodes.signals import log_decrement
 
 FORMAT = "quadmodes-run-results"
@@ -250,9 +251,7 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
         for name, var in ds.data_vars.items()
         if var.dtype.kind == "f" and var.size > 0
     }
-    with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False, encoding=encoding)
-    return path
+    return write_netcdf(ds, path, invalid_netcdf=False, encoding=encoding)  # ENOSPC: clean
 
 
 def load_results(path: str | os.PathLike) -> xr.Dataset:
