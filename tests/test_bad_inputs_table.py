@@ -115,6 +115,16 @@ def make_inputs(d: Path) -> None:
     (d / "truncated").mkdir()
     (d / "truncated" / ".fullorder-checkpoint.npz").write_bytes(truncated)
     (d / "whole.npz").unlink()
+    # ---- issue 24 items 1-2 (output folders, wrong numbers): the user's own files and links
+    (d / "proj" / "modes").mkdir(parents=True)
+    (d / "proj" / "modes" / "mine.txt").write_text("the user's notes")
+    (d / "theirs" / "paper-0.5hz").mkdir(parents=True)
+    (d / "theirs" / "paper-0.5hz" / "results.nc").write_bytes(b"the user's own results")
+    (d / "links").mkdir()
+    (d / "links" / "paper-0.5hz").symlink_to(d / "afolder", target_is_directory=True)
+    (d / "dangling").symlink_to(d / "nowhere-folder")
+    _write(d, "long-name-run.toml", run_case(d / "sphere.toml").replace(
+        'name = "my-run"', f'name = "{"r" * 250}"'))  # fmt: skip
 
 
 LONG = "x" * 250
@@ -207,6 +217,14 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("show-case-unknown", "show-case nope", ("unknown case",)),
     ("cache-clear-without-yes", "cache clear", ("--yes",)),
     ("validate-write-is-folder", "validate --quick --write {d}/afolder", ("--write", "is a folder")),
+    # ---- issue 24 items 1-2: nothing a user owns is touched, no wrong number is silent
+    ("modes-o-user-modes-folder", "modes kane-beam -o {d}/proj", ("-o", "proj/modes", "did not write")),
+    ("run-user-results-file", "run paper-0.5hz -o {d}/theirs", ("-o", "results.nc", "did not write")),
+    ("run-case-folder-is-symlink", "run paper-0.5hz -o {d}/links", ("-o", "symbolic link")),
+    ("run-o-dangling-symlink", "run paper-0.5hz -o {d}/dangling", ("-o", "dangling")),
+    ("compare-o-dangling-symlink", "compare paper-41hz-coarse -o {d}/dangling", ("-o", "dangling")),
+    ("run-name-250-chars", "run {d}/long-name-run.toml -o {d}/out", ("-o", "too long")),
+    ("run-dt-8-turns-a-step", "run paper-41hz-coarse --dt '0.2 s' -o {d}/out", ("integration.dt", "spin", "--yes")),
 ]
 
 

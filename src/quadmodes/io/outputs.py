@@ -210,12 +210,24 @@ def is_disk_full(exc: BaseException) -> bool:
     return isinstance(exc, OSError) and ("no space left" in text or "disk quota" in text)
 
 
+def _local_scheduler():
+    """A context in which xarray sees no distributed dask scheduler: inside a sweep's worker
+    it would take a cluster-wide lock named after the in-memory target, which the scheduler
+    does not know (the arrays here are in memory; nothing is computed by dask)."""
+    try:
+        import dask
+    except ImportError:
+        return contextlib.nullcontext()
+    return dask.config.set(scheduler="sync")
+
+
 def write_netcdf(ds, path: str | os.PathLike, **options) -> Path:
     """Write the xarray Dataset ``ds`` to ``path`` (NetCDF4 via h5netcdf, ``options`` as for
     ``to_netcdf``) atomically: serialised in memory first, then written with plain file writes,
     so that a full disk is a clean ``OSError`` (ENOSPC) with the temporary file removed, never
     a failure inside the HDF5 library half-way through a file."""
-    data = ds.to_netcdf(engine="h5netcdf", **options)
+    with _local_scheduler():
+        data = ds.to_netcdf(engine="h5netcdf", **options)
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write(data)
     return Path(path)

@@ -183,7 +183,9 @@ def find_model(
     except artifact.ArtifactError:
         return None, "rebuilt"
     key = reduced_key(case, n_modes, spin)
-    if model.provenance.get("content_key") == key and model.n_modes == n_modes:
+    built_from = model.provenance.get("case_toml", case.to_toml())  # another case's: foreign
+    if (model.provenance.get("content_key") == key and model.n_modes == n_modes
+            and built_from == case.to_toml()):  # fmt: skip
         return model, "hit"
     return None, "rebuilt"
 
