@@ -304,3 +304,17 @@ def test_netcdf_written_in_one_plain_write(tmp_path, monkeypatch):
     monkeypatch.undo()
     assert outputs.is_disk_full(exc.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.nc"]
+
+
+def test_disk_full_storing_a_cache_entry_is_not_an_error(tmp_path, monkeypatch, small_reduced_model):
+    """The cache entry cannot be written: the model is returned, the entry is "not saved" and no
+    file (temporary or partial) is left."""
+    monkeypatch.setattr(artifact, "write_netcdf", _disk_full)
+    info: dict = {}
+    path = tmp_path / "entry.nc"
+    model = model_cache.find_or_build(path, lambda p: (None, "miss"), lambda: small_reduced_model,
+                                      model_cache.store_model, info=info)  # fmt: skip
+    assert model is small_reduced_model
+    assert info["cache"].startswith("not saved") and "No space" in info["cache"]
+    assert [p.name for p in tmp_path.iterdir() if not p.name.endswith(".lock")] == []
+

@@ -27,7 +27,7 @@ import xarray as xr
 
 from quadmodes.case import Case
 from quadmodes.fe.model import Structure
-from quadmodes.io.atomic import atomic_path
+from quadmodes.io.outputs import write_netcdf
 from quadmodes.models import cache
 from quadmodes.models.cache_entries import entry_name
 from quadmodes.rom import artifact
@@ -127,8 +127,7 @@ def save_damping_modes(path: Path, freqs, shapes, labels, cutoff_hz: float, key:
                "title": "full-order independent damping modes below the cutoff",
                "Conventions": "CF-1.10"},
     )  # fmt: skip
-    with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf")
+    write_netcdf(ds, path)  # in memory first: a full disk is a clean OSError
 
 
 def load_damping_modes(path: Path, key: str, n: int):
