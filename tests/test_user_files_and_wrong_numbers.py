@@ -318,3 +318,21 @@ def test_disk_full_storing_a_cache_entry_is_not_an_error(tmp_path, monkeypatch, 
     assert info["cache"].startswith("not saved") and "No space" in info["cache"]
     assert [p.name for p in tmp_path.iterdir() if not p.name.endswith(".lock")] == []
 
+
+def test_compare_refuses_a_folder_without_room(tmp_path, monkeypatch):
+    """The comparison's output (checkpoint, data, figures) is estimated from the full order's
+    set-up and checked against the free space before the runs."""
+    from types import SimpleNamespace
+
+    from quadmodes.analysis import full_order_runs
+
+    setup = SimpleNamespace(notes=(), sample_interval=1e-3, structure=SimpleNamespace(n=400))
+    assert 5e6 < runner.comparison_output_bytes(setup, 1.0) < 50e6
+    monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: setup)
+    monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(outputs.shutil, "disk_usage", lambda p: type("U", (), {"free": 1e5})())
+    out = tmp_path / "cmp"
+    line = _one_error_line(_cli("compare", "paper-41hz-coarse", "--window", "0.2 s",
+                                "--formulations", "rigid", "--no-plots", "-o", str(out)))  # fmt: skip
+    assert "-o" in line and "MB free" in line and not out.exists()
+

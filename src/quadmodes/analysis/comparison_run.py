@@ -113,6 +113,18 @@ def check_checkpoint(checkpoint: Path, *, resume: bool, restart: bool,
     return checkpoint
 
 
+def comparison_output_bytes(setup, window_s: float, n_formulations: int = 5) -> float:
+    """A generous estimate (bytes) of what a comparison writes into its folder: the full-order
+    checkpoint (x, v and the predictor's body positions, (n,3) float64 each, with its sampled
+    series), the comparison files (every formulation's samples) and 5 MB of figures and report."""
+    interval, structure = getattr(setup, "sample_interval", None), getattr(setup, "structure", None)
+    if interval is None or structure is None:  # not a full-order setup: nothing to estimate
+        return 0.0
+    samples = window_s / max(float(interval), 1e-12) + 1
+    checkpoint = 3 * structure.n * 3 * 8 + samples * 16 * 8
+    return 2 * checkpoint + 3 * (n_formulations + 1) * samples * 12 * 8 + 5e6
+
+
 def check_checkpoint_key(checkpoint: Path, setup, option: str = "--resume") -> None:
     """Before the runs of a resume: raise :class:`CheckpointError` if ``checkpoint`` was
     written for another run case or model than ``setup``'s (the case edited since)."""

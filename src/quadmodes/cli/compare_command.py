@@ -294,6 +294,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
     """The body of :func:`compare_command`: returns (payload, plan, output folder);
     ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
     from quadmodes.analysis import comparison_run as runner
+    from quadmodes.io.outputs import check_free_space
     from quadmodes.models.cache import caching_disabled
     from quadmodes.runs.run_folder import OutputsInterrupted
 
@@ -319,6 +320,8 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         run, setup = runner.prepare_comparison(plan.run, plan.window_s, plan.damping_cutoff_hz)
         if resume:
             runner.check_checkpoint_key(checkpoint, setup)
+        check_free_space(target, runner.comparison_output_bytes(setup, plan.window_s,
+                                                                len(plan.formulations)))  # fmt: skip
         _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
         recorder = runner.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
         result = _run_comparison(
