@@ -336,3 +336,24 @@ def test_compare_refuses_a_folder_without_room(tmp_path, monkeypatch):
                                 "--formulations", "rigid", "--no-plots", "-o", str(out)))  # fmt: skip
     assert "-o" in line and "MB free" in line and not out.exists()
 
+
+def test_api_write_results_has_the_same_guards(workdir, small_reduced_model, tmp_path):  # noqa: F811
+    import quadmodes as qm
+
+    run = simulate.apply_overrides(load_run_case(workdir / "small-run.toml"), duration="0.002 s")
+    result = qm.simulate(run, model=_own_model(workdir, small_reduced_model),
+                         check_deformation=False)  # fmt: skip
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "summary.json").write_text("{}")
+    with pytest.raises(outputs.OutputPathError, match="summary.json"):
+        qm.write_results(result, theirs, plots=False)
+    assert sorted(p.name for p in theirs.iterdir()) == ["summary.json"]
+    link = tmp_path / "link"
+    link.symlink_to(tmp_path / "elsewhere")
+    with pytest.raises(outputs.OutputPathError, match="dangling"):
+        qm.write_results(result, link, plots=False)
+    qm.write_results(result, tmp_path / "mine", plots=False)
+    qm.write_results(result, tmp_path / "mine", plots=False)  # its own files: replaced
+    assert {"results.nc", "summary.json"} <= outputs.owned(tmp_path / "mine")
+

@@ -205,15 +205,19 @@ def write_results(result, folder: str | os.PathLike[str], plots: bool = True, *,
     """Write what ``quadmodes run`` writes for a :func:`simulate` result into ``folder``
     (created): ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
     rad/s, J, kg m^2/s, kg^0.5 m) and ``summary.json``, all or nothing (staged in a hidden
-    folder beside ``folder``, then moved in; figures of an earlier run there are removed), then
+    folder beside ``folder``, then moved in; figures an earlier run wrote there are removed,
+    never a file quadmodes did not write, which is refused with ``OutputPathError``), then
     (if ``plots``) the PNG figures, with ``animate`` frames the motion (``motion.xdmf`` +
     ``motion.h5`` in the ``animate_frame``: "inertial" or "body"), and ``report.html``.
 
     ``extra``: summary keys to add (e.g. ``{"dt_convergence": dt_convergence(run)}``);
     ``note(text)``: receives the one-line notes (default: the ``logging`` module).
     Returns the summary (:func:`summary`, with ``extra``)."""
-    from quadmodes.runs.run_folder import Animation, write_run_outputs
+    from quadmodes.io.outputs import check_output_path, check_replaceable
+    from quadmodes.runs.run_folder import DATA_FILES, EXTRA_FILES, Animation, write_run_outputs
 
+    check_output_path(Path(folder), "folder")  # a link, a dangling link, too long: refused
+    check_replaceable(Path(folder), (*DATA_FILES, *EXTRA_FILES), "folder")  # the user's files
     animation = None if animate is None else Animation(animate_frame, int(animate))
     return write_run_outputs(result, Path(folder), extra=extra, plots=plots, animation=animation,
                              note=note)  # fmt: skip
@@ -319,6 +323,8 @@ def compare(
     dt = None if full_order_dt is None else si(full_order_dt, "time", "full_order_dt")
     cutoff = None if damping_cutoff is None else si(damping_cutoff, "frequency", "damping_cutoff")
     path = None if checkpoint is None else Path(checkpoint)
+    if output_dir is not None:  # before any work, as ``compare -o``: no link, no user file
+        runner.check_comparison_folder(Path(output_dir), "output_dir")
     if resume and (path is None or not path.is_file()):
         raise runner.CheckpointError(f"resume: no checkpoint at {path}; run without resume")
     if resume:
