@@ -139,12 +139,24 @@ def make_inputs(d: Path) -> None:
     (d / "zero.vtu").write_bytes(b"")
     (d / "afile").write_text("not a folder")
     (d / "afolder").mkdir()
-    # compare's checkpoints sit beside the output folder: .<name>.fullorder-checkpoint.npz
-    (d / ".garbage.fullorder-checkpoint.npz").write_bytes(b"this is not a zip archive\n")
+    # compare's checkpoint sits inside its output folder: <folder>/.fullorder-checkpoint.npz
+    (d / "garbage").mkdir()
+    (d / "garbage" / ".fullorder-checkpoint.npz").write_bytes(b"this is not a zip archive\n")
     np.savez(d / "whole.npz", version=1, step=3, x=np.zeros(2000))
     truncated = (d / "whole.npz").read_bytes()[:400]
-    (d / ".truncated.fullorder-checkpoint.npz").write_bytes(truncated)
+    (d / "truncated").mkdir()
+    (d / "truncated" / ".fullorder-checkpoint.npz").write_bytes(truncated)
     (d / "whole.npz").unlink()
+    # ---- issue 24 items 1-2 (output folders, wrong numbers): the user's own files and links
+    (d / "proj" / "modes").mkdir(parents=True)
+    (d / "proj" / "modes" / "mine.txt").write_text("the user's notes")
+    (d / "theirs" / "paper-0.5hz").mkdir(parents=True)
+    (d / "theirs" / "paper-0.5hz" / "results.nc").write_bytes(b"the user's own results")
+    (d / "links").mkdir()
+    (d / "links" / "paper-0.5hz").symlink_to(d / "afolder", target_is_directory=True)
+    (d / "dangling").symlink_to(d / "nowhere-folder")
+    _write(d, "long-name-run.toml", run_case(d / "sphere.toml").replace(
+        'name = "my-run"', f'name = "{"r" * 250}"'))  # fmt: skip
 
 
 LONG = "x" * 250
@@ -263,6 +275,14 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("thickness-1e-300-reduce", "reduce {d}/t-1e-300.toml", ("material.thickness", "strain scale")),
     ("youngs-modulus-1e-30", "modes {d}/e-1e-30.toml -o {d}/out", ("material.youngs_modulus", "strain scale")),
     ("density-huge", "modes {d}/rho-huge.toml -o {d}/out", ("material.density", "mass")),
+    # ---- issue 24 items 1-2: nothing a user owns is touched, no wrong number is silent
+    ("modes-o-user-modes-folder", "modes kane-beam -o {d}/proj", ("-o", "proj/modes", "did not write")),
+    ("run-user-results-file", "run paper-0.5hz -o {d}/theirs", ("-o", "results.nc", "did not write")),
+    ("run-case-folder-is-symlink", "run paper-0.5hz -o {d}/links", ("-o", "symbolic link")),
+    ("run-o-dangling-symlink", "run paper-0.5hz -o {d}/dangling", ("-o", "dangling")),
+    ("compare-o-dangling-symlink", "compare paper-41hz-coarse -o {d}/dangling", ("-o", "dangling")),
+    ("run-name-250-chars", "run {d}/long-name-run.toml -o {d}/out", ("-o", "too long")),
+    ("run-dt-8-turns-a-step", "run paper-41hz-coarse --dt '0.2 s' -o {d}/out", ("integration.dt", "spin", "--yes")),
 ]
 
 

@@ -275,7 +275,7 @@ def test_compare_interrupted_resumes_to_the_uninterrupted_numbers(workdir, monke
     import quadmodes.cli.compare_command as cc
 
     case = str(workdir / "small-run.toml")
-    checkpoint = workdir / ".cmp.fullorder-checkpoint.npz"
+    checkpoint = workdir / "cmp" / ".fullorder-checkpoint.npz"  # inside -o
     marker = workdir / "checkpointed"
     proc = _start(workdir, ["compare", case, "-o", "cmp", *COMPARE], QM_FULL_ORDER_EVERY="20",
                   QM_BLOCK_FULL_ORDER="1", QM_MARKER=str(marker))  # fmt: skip
@@ -283,7 +283,7 @@ def test_compare_interrupted_resumes_to_the_uninterrupted_numbers(workdir, monke
     assert _finish(proc, signal.SIGINT) == 130
     stderr = (workdir / "stderr.txt").read_text()
     assert "--resume" in stderr and str(checkpoint) in stderr and "Traceback" not in stderr
-    assert checkpoint.is_file() and not (workdir / "cmp").exists()
+    assert checkpoint.is_file() and [p.name for p in (workdir / "cmp").iterdir()] == [checkpoint.name]
     monkeypatch.setattr(cc, "FULL_ORDER_CHECKPOINT_EVERY", 20)
     refused = _cli("compare", case, "-o", str(workdir / "cmp"), *COMPARE)
     assert refused.exit_code == 2 and checkpoint.is_file()
@@ -324,7 +324,8 @@ def test_compare_never_scores_an_incomplete_reference(tmp_path, monkeypatch, mes
 
 def test_compare_restart_discards_the_checkpoint(tmp_path, monkeypatch):
     _fake_full_order(monkeypatch, types.SimpleNamespace(status=1, message="interrupted at t = 0"))
-    checkpoint = tmp_path / ".cmp.fullorder-checkpoint.npz"
+    checkpoint = tmp_path / "cmp" / ".fullorder-checkpoint.npz"  # inside -o
+    checkpoint.parent.mkdir()
     checkpoint.write_bytes(b"old")
     args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots",
             "-o", str(tmp_path / "cmp")]  # fmt: skip

@@ -349,7 +349,9 @@ def test_absurd_step_stops_the_run_cleanly(workdir, small_reduced_model):
     # 50 ms steps at 50 Hz spin (2.5 turns per step) with 150 Hz modes: Newton cannot converge
     text = run_toml(spin='"50 Hz"', amplitude='"2 in"', dt='"50 ms"', duration='"1 s"')
     run = run_case_from_toml(text, base_dir=workdir)
-    result = simulate.simulate(run, small_reduced_model)
+    with pytest.raises(CaseError, match="integration.dt"):  # refused up front (issue 24)
+        simulate.simulate(run, small_reduced_model)
+    result = simulate.simulate(run, small_reduced_model, allow_coarse_step=True)
     assert not result.complete and "midpoint" in result.reason
     assert result.solution.t[-1] < 1.0
     assert np.all(np.isfinite(result.solution.y))

@@ -2,19 +2,21 @@
 it: the run's modes resolved once, the full-order run checkpointed as it goes and resumable,
 never scored unless it reached the end of the window, then the files of the comparison.
 
-The full-order checkpoint of a comparison written into folder OUT/NAME is the hidden file
-``OUT/.NAME.fullorder-checkpoint.npz`` (:func:`checkpoint_beside`); it is removed once the
-comparison's data are written. Without ``resume`` an existing checkpoint is discarded only on
+The full-order checkpoint of a comparison written into folder OUT is the hidden file
+``OUT/.fullorder-checkpoint.npz`` (:func:`checkpoint_beside`: inside the output folder, never
+beside it); it is removed once the comparison's data are written. Without ``resume`` an existing checkpoint is discarded only on
 request (:func:`check_checkpoint`). A full-order run that stopped early raises
 :class:`FullOrderIncomplete` (``interrupted``: Ctrl-C, the checkpoint is kept for a resume).
 """
 
 from __future__ import annotations
 
+import os
 import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from quadmodes.io.outputs import disk_full_as_error
 from quadmodes.io.staging import Note, log_note
 from quadmodes.runs.run_folder import Animation, commit, guarded
 
@@ -48,10 +50,27 @@ def complete_or_raise(sol, checkpoint: Path | None = None):
     raise FullOrderIncomplete(message, message.startswith("interrupted"), checkpoint)
 
 
+#: The files of a comparison's data; a user's file of one of these names is refused.
+COMPARISON_FILES = ("comparison.nc", "comparison.json", "comparison.csv")
+
+#: The name of the full-order checkpoint inside a comparison's output folder.
+CHECKPOINT_NAME = ".fullorder-checkpoint.npz"
+
+
 def checkpoint_beside(target: Path) -> Path:
-    """The full-order checkpoint of a comparison written into ``target``."""
-    target = Path(target)
-    return target.resolve().parent / f".{target.name}.fullorder-checkpoint.npz"
+    """The full-order checkpoint of a comparison written into ``target`` (inside it)."""
+    return Path(os.path.abspath(target)) / CHECKPOINT_NAME
+
+
+def check_comparison_folder(target: Path, option: str = "-o") -> None:
+    """Before any work: quadmodes can write ``target`` (no symbolic link, short enough) and
+    none of the comparison's files there is a user's own
+    (:class:`~quadmodes.io.outputs.OutputPathError`)."""
+    from quadmodes.io.outputs import check_output_path, check_replaceable
+    from quadmodes.runs.run_folder import EXTRA_FILES
+
+    check_output_path(target, option)
+    check_replaceable(target, (*COMPARISON_FILES, *EXTRA_FILES), option)
 
 
 def check_checkpoint_readable(path: Path, option: str = "--resume", fix: str | None = None) -> None:
@@ -92,6 +111,34 @@ def check_checkpoint(checkpoint: Path, *, resume: bool, restart: bool,
         checkpoint.unlink()
         (note or log_note)(f"note: discarded {checkpoint} (--restart)")
     return checkpoint
+
+
+def comparison_output_bytes(setup, window_s: float, n_formulations: int = 5) -> float:
+    """A generous estimate (bytes) of what a comparison writes into its folder: the full-order
+    checkpoint (x, v and the predictor's body positions, (n,3) float64 each, with its sampled
+    series), the comparison files (every formulation's samples) and 5 MB of figures and report."""
+    interval, structure = getattr(setup, "sample_interval", None), getattr(setup, "structure", None)
+    if interval is None or structure is None:  # not a full-order setup: nothing to estimate
+        return 0.0
+    samples = window_s / max(float(interval), 1e-12) + 1
+    checkpoint = 3 * structure.n * 3 * 8 + samples * 16 * 8
+    return 2 * checkpoint + 3 * (n_formulations + 1) * samples * 12 * 8 + 5e6
+
+
+def check_checkpoint_key(checkpoint: Path, setup, option: str = "--resume") -> None:
+    """Before the runs of a resume: raise :class:`CheckpointError` if ``checkpoint`` was
+    written for another run case or model than ``setup``'s (the case edited since)."""
+    import numpy as np
+
+    from quadmodes.analysis.full_order_runs import checkpoint_key
+
+    with np.load(checkpoint, allow_pickle=False) as data:
+        stored = str(data["key"]) if "key" in data.files else ""
+    if stored != checkpoint_key(setup):
+        raise CheckpointError(
+            f"{option}: the checkpoint {checkpoint} was made for another run case or model (the "
+            "case was edited since it was written); start again with --restart"
+        )
 
 
 def prepare_comparison(run, window: float, damping_cutoff: float | None = None,
@@ -142,10 +189,13 @@ def run_comparison(run, window: float, *, formulations: Sequence[str] | None = N
     extra = {"on_sample": on_sample} if on_sample is not None else {}
 
     def full(r, dt):
-        return complete_or_raise(full_order_for_run(
-            r, dt=dt, progress=progress, setup=setup, checkpoint=checkpoint,
-            checkpoint_every=checkpoint_every, resume=resume, **extra,
-        ), checkpoint)  # fmt: skip
+        kept = (f"the last checkpoint is kept at {checkpoint}: continue with --resume"
+                if checkpoint is not None and checkpoint.is_file() else "no checkpoint was saved")  # fmt: skip
+        with disk_full_as_error(f"the full-order checkpoint {checkpoint}", kept):
+            return complete_or_raise(full_order_for_run(
+                r, dt=dt, progress=progress, setup=setup, checkpoint=checkpoint,
+                checkpoint_every=checkpoint_every, resume=resume, **extra,
+            ), checkpoint)  # fmt: skip
 
     names = cmp.FORMULATIONS if formulations is None else tuple(formulations)
     return cmp.compare(run, window, formulations=names,
@@ -176,9 +226,12 @@ def write_comparison_outputs(result, target: Path, *, plots: bool = True,
         if checkpoint is not None:
             checkpoint.unlink(missing_ok=True)
 
-    _, payload = commit(target, data, lambda _, folder: cmp.plot_comparison(result, folder),
-                        plots=plots, note=note, what="comparison",
-                        saved="comparison.nc, .json, .csv", after_data=removed_checkpoint)  # fmt: skip
+    kept = (f"the full-order checkpoint is kept at {checkpoint}: continue with --resume"
+            if checkpoint is not None and checkpoint.is_file() else f"{target} is as it was")  # fmt: skip
+    with disk_full_as_error(f"the comparison into {target}", kept):
+        _, payload = commit(target, data, lambda _, folder: cmp.plot_comparison(result, folder),
+                            plots=plots, note=note, what="comparison",
+                            saved="comparison.nc, .json, .csv", after_data=removed_checkpoint)  # fmt: skip
     if recorder is not None and recorder.times:
         guarded(target, "motion.xdmf", lambda: write_animation(
             recorder.motion(animation.frame), target, note))  # fmt: skip

@@ -195,6 +195,24 @@ def relaxed_deformation(
     return result.unknowns.reshape(-1, 3)
 
 
+def checkpoint_key(st: FullOrderSetup) -> str:
+    """What a full-order checkpoint of the set-up run ``st`` is of: a SHA-256 of its run case
+    (SI TOML without ``integration.duration``: a resume may extend the window), its model case
+    and the reduced model's content key. A checkpoint with another key is not resumed."""
+    import hashlib
+    import json
+    import tomllib
+
+    run = tomllib.loads(st.run.to_toml())
+    run.get("integration", {}).pop("duration", None)
+    model = getattr(st, "model", None)
+    text = "\n".join([
+        json.dumps(run, sort_keys=True, default=str), st.run.model_case().to_toml(),
+        str(getattr(model, "provenance", {}).get("content_key", "")),
+    ])  # fmt: skip
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
 def full_order_for_run(
     run: RunCase | str,
     *,
@@ -239,6 +257,7 @@ def full_order_for_run(
         save_every = max(1, int(round(st.sample_interval / dt)))
     frac = (lambda f: progress("full order", f)) if progress else None
     on_sample = options.pop("on_sample", None)
+    options.setdefault("checkpoint_key", checkpoint_key(st))
     return integrate_full_order(
         st.structure, st.x_ref, st.x0, st.v0, (0.0, window), dt, FullOrderOptions(
             model=st.model, damping=st.integrator_damping(), save_every=save_every, hub=st.hub,

@@ -105,7 +105,8 @@ def reduced_model(
 
 def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,
              check_deformation: bool = True, checkpoint: str | os.PathLike[str] | None = None,
-             resume: bool = False, checkpoint_every: QuantityLike = "10 s"):  # fmt: skip
+             resume: bool = False, checkpoint_every: QuantityLike = "10 s",
+             allow_coarse_step: bool = False):  # fmt: skip
     """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
     spin-up (``[spinup]``).
 
@@ -117,7 +118,12 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         Run this model instead of the one the run names; it is recorded in the result's run case
         (``result.run.model``), so its TOML (``case_toml`` of ``results.nc``) replays it.
     model
-        An already reduced model to use (else from the cache).
+        An already reduced model to use (else from the cache); one built from another case
+        than the run's model case is refused (``CaseError`` naming ``model``).
+    allow_coarse_step
+        Run a time step of fewer than 2 steps per period of the spin or of the highest
+        retained mode (refused otherwise, as ``quadmodes run`` without ``--yes``); under 10
+        steps a period the run's notes say so.
     check_deformation
         As ``quadmodes run``: set an initial modal deformation beside the FE model's condensed
         energy before integrating (one static solve on the FE model; stage "initial deformation
@@ -145,13 +151,15 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         return sim.simulate_spinup(run, model, model_case=model_case)
     if checkpoint is None:
         return sim.simulate(run, model, progress, model_case=model_case,
-                            check_deformation=check_deformation)  # fmt: skip
+                            check_deformation=check_deformation,
+                            allow_coarse_step=allow_coarse_step)  # fmt: skip
     return _checkpointed(run, model, progress, model_case, check_deformation, Path(checkpoint),
-                         resume, si(checkpoint_every, "time", "checkpoint_every"))  # fmt: skip
+                         resume, si(checkpoint_every, "time", "checkpoint_every"),
+                         allow_coarse_step)  # fmt: skip
 
 
 def _checkpointed(run, model, progress, model_case, check_deformation, path: Path, resume: bool,
-                  every_s: float):  # fmt: skip
+                  every_s: float, allow_coarse_step: bool = False):  # fmt: skip
     """:func:`simulate` of a free-body run checkpointed into ``path`` (see there)."""
     from quadmodes.runs import simulate as sim
     from quadmodes.runs.run_checkpoint import CheckpointError, RunCheckpoint
@@ -161,7 +169,8 @@ def _checkpointed(run, model, progress, model_case, check_deformation, path: Pat
     if not resume:
         path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
     setup = sim.prepare(run, model, progress, model_case=model_case,
-                        check_deformation=check_deformation)  # fmt: skip
+                        check_deformation=check_deformation,
+                        allow_coarse_step=allow_coarse_step)  # fmt: skip
     start = RunCheckpoint(path, setup).load() if resume else None
     result = sim.execute(setup, progress, checkpoint=RunCheckpoint(path, setup, every_s),
                          resume=start)  # fmt: skip
@@ -196,15 +205,19 @@ def write_results(result, folder: str | os.PathLike[str], plots: bool = True, *,
     """Write what ``quadmodes run`` writes for a :func:`simulate` result into ``folder``
     (created): ``results.nc`` (CF: every variable with ``long_name`` and SI ``units``: s, rad,
     rad/s, J, kg m^2/s, m: :mod:`quadmodes.io.cf`) and ``summary.json``, all or nothing (staged in a hidden
-    folder beside ``folder``, then moved in; figures of an earlier run there are removed), then
+    folder beside ``folder``, then moved in; figures an earlier run wrote there are removed,
+    never a file quadmodes did not write, which is refused with ``OutputPathError``), then
     (if ``plots``) the PNG figures, with ``animate`` frames the motion (``motion.xdmf`` +
     ``motion.h5`` in the ``animate_frame``: "inertial" or "body"), and ``report.html``.
 
     ``extra``: summary keys to add (e.g. ``{"dt_convergence": dt_convergence(run)}``);
     ``note(text)``: receives the one-line notes (default: the ``logging`` module).
     Returns the summary (:func:`summary`, with ``extra``)."""
-    from quadmodes.runs.run_folder import Animation, write_run_outputs
+    from quadmodes.io.outputs import check_output_path, check_replaceable
+    from quadmodes.runs.run_folder import DATA_FILES, EXTRA_FILES, Animation, write_run_outputs
 
+    check_output_path(Path(folder), "folder")  # a link, a dangling link, too long: refused
+    check_replaceable(Path(folder), (*DATA_FILES, *EXTRA_FILES), "folder")  # the user's files
     animation = None if animate is None else Animation(animate_frame, int(animate))
     return write_run_outputs(result, Path(folder), extra=extra, plots=plots, animation=animation,
                              note=note)  # fmt: skip
@@ -310,6 +323,8 @@ def compare(
     dt = None if full_order_dt is None else si(full_order_dt, "time", "full_order_dt")
     cutoff = None if damping_cutoff is None else si(damping_cutoff, "frequency", "damping_cutoff")
     path = None if checkpoint is None else Path(checkpoint)
+    if output_dir is not None:  # before any work, as ``compare -o``: no link, no user file
+        runner.check_comparison_folder(Path(output_dir), "output_dir")
     if resume and (path is None or not path.is_file()):
         raise runner.CheckpointError(f"resume: no checkpoint at {path}; run without resume")
     if resume:

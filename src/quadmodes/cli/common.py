@@ -41,10 +41,12 @@ class UserError(Exception):
 def user_errors() -> tuple[type[BaseException], ...]:
     """The exception types that end a command with a one-line message (exit status 2)."""
     from quadmodes.case import CaseError, QuantityError
+    from quadmodes.io.outputs import DiskFullError
     from quadmodes.structure.calibrate import CalibrationError
     from quadmodes.structure.prestress import ConvergenceError
 
-    return (UserError, CaseError, QuantityError, ConvergenceError, CalibrationError, ValueError)
+    return (UserError, CaseError, QuantityError, ConvergenceError, CalibrationError, ValueError,
+            DiskFullError)  # fmt: skip
 
 
 def fail(exc: BaseException) -> NoReturn:
@@ -207,12 +209,19 @@ def _check_writable_folder(folder: Path, option: str, path: Path) -> None:
     os.unlink(probe)
 
 
-def check_output_folder(directory: Path | None, option: str = "-o") -> None:
+def check_output_folder(directory: Path | None, option: str = "-o", *,
+                        replaces: tuple[str, ...] = ()) -> None:  # fmt: skip
     """Before any long work: raise UserError (naming ``option``) unless ``directory`` can be
-    created or written as an output folder (not a file, writable parent, short enough)."""
+    created or written as an output folder (not a file nor a symbolic link, writable parent,
+    short enough: :func:`quadmodes.io.outputs.check_output_path`), and none of the names it
+    ``replaces`` is a user's file (:func:`quadmodes.io.outputs.check_replaceable`)."""
+    from quadmodes.io.outputs import check_output_path, check_replaceable
+
     if directory is None:
         return
     directory = Path(directory).expanduser().absolute()
+    check_output_path(directory, option)
+    check_replaceable(directory, replaces, option)
     if directory.exists() and not directory.is_dir():
         raise UserError(f"{option}: {directory} is a file, not a folder; give a folder name")
     _check_name_lengths(directory, option, _STAGING_EXTRA)

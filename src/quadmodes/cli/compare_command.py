@@ -294,6 +294,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
     """The body of :func:`compare_command`: returns (payload, plan, output folder);
     ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
     from quadmodes.analysis import comparison_run as runner
+    from quadmodes.io.outputs import check_free_space
     from quadmodes.models.cache import caching_disabled
     from quadmodes.runs.run_folder import OutputsInterrupted
 
@@ -303,6 +304,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         animation = extras.animation_choice(*animation)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
         check_output_folder(target)
+        runner.check_comparison_folder(target)  # the checkpoint inside it, no user file replaced
         model_case = plan.run.model_case()
         guard_model_size(model_case, yes)
         guard_reduced_model(model_case, plan.run.reduced.modes, yes, spins=True,
@@ -316,6 +318,10 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         # modes resolved once; inflation, initial state and damping modes, once for the
         # estimate and the run
         run, setup = runner.prepare_comparison(plan.run, plan.window_s, plan.damping_cutoff_hz)
+        if resume:
+            runner.check_checkpoint_key(checkpoint, setup)
+        check_free_space(target, runner.comparison_output_bytes(setup, plan.window_s,
+                                                                len(plan.formulations)))  # fmt: skip
         _check_estimate(plan, setup, checkpoint, go_ahead=yes or resume)
         recorder = runner.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
         result = _run_comparison(

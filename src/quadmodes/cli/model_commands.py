@@ -135,11 +135,11 @@ def modes(
     yes: LargeModelFlag = False,
 ) -> None:
     """Inflate the case, compute its modes, print a table (and write pictures and ParaView files)."""
-    from quadmodes.structure.modal_files import write_modal_outputs
+    from quadmodes.structure.modal_files import MODAL_OUTPUTS, write_modal_outputs
     from quadmodes.structure.pipeline import build_modal_model, modes_summary
 
     with one_line_errors():
-        check_output_folder(output_dir)
+        check_output_folder(output_dir, replaces=MODAL_OUTPUTS)
         c = load_model_case(case)
         guard_model_size(c, yes)
         with progress_bars(True) as progress, staged_output(output_dir) as scratch:

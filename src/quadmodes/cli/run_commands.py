@@ -251,9 +251,11 @@ def _load_runs(
     if mode_convergence:
         _check_mode_convergence(runs)
     from quadmodes.runs.resources import check_run_length
+    from quadmodes.runs.run_checks import check_run_step
 
     for r in runs:
         check_run_length(r, allow_long=allow_large)
+        check_run_step(r, allow_coarse=allow_large)  # the spin; the modes once the model is in
         model_case = r.model_case()
         guard_model_size(model_case, allow_large)
         modes = r.reduced.modes if r.reduced.formulation != "rigid" else None
@@ -262,13 +264,19 @@ def _load_runs(
     return runs
 
 
-def _prepare_runs(runs: list) -> list:
+def _prepare_runs(runs: list, allow_coarse_step: bool = False) -> list:
     """Prepare the free-body runs (reduced model, initial state); spin-ups are returned as
-    their run cases."""
+    their run cases. A time step too coarse for the spin or the highest retained mode is
+    refused (unless ``allow_coarse_step``, --yes) or printed as a warning."""
     from quadmodes.runs import simulate
 
     with progress_bars(True) as bars:
-        return [r if r.spinup is not None else simulate.prepare(r, progress=bars) for r in runs]
+        setups = [r if r.spinup is not None else simulate.prepare(
+            r, progress=bars, allow_coarse_step=allow_coarse_step) for r in runs]  # fmt: skip
+    for s in (s for s in setups if hasattr(s, "system")):  # the free-body RunSetups
+        for text in (t for t in s.initial.notes if t.startswith("integration.dt")):
+            note(f"warning: {s.run.name}: {text}")
+    return setups
 
 
 @dataclass(frozen=True)
@@ -475,8 +483,8 @@ def run_command(
                 opts = replace(opts, checkpoint_every_s=checkpoint_interval(checkpoint_every), animation=extras.animation_choice(animate, animate_frame, animate_frames))
                 runs = _load_runs(names, overrides, dt_convergence, mode_convergence, yes)
                 all_folders = [run_folders(output_dir, r.name) for r in runs]
-                check_folders(all_folders, resume=resume, restart=restart)
-                setups = _prepare_runs(runs)
+                check_folders(all_folders, resume=resume, restart=restart, runs=runs)
+                setups = _prepare_runs(runs, allow_coarse_step=yes)
             with caching_disabled(no_cache):
                 summaries, spinups, failed = _run_all(setups, output_dir, opts)
         except KeyboardInterrupt:

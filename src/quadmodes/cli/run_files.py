@@ -15,11 +15,15 @@ from quadmodes.cli.common import UserError, note
 from quadmodes.runs.run_folder import RunFolders, run_folders  # noqa: F401 (re-exported)
 
 
-def check_folders(all_folders: list[RunFolders], *, resume: bool, restart: bool) -> None:
-    """:func:`quadmodes.runs.run_folder.check_folders`, its notes on stderr."""
+def check_folders(all_folders: list[RunFolders], *, resume: bool, restart: bool,
+                  runs: list = ()) -> None:  # fmt: skip
+    """:func:`quadmodes.runs.run_folder.check_folders` (free space for the outputs of ``runs``),
+    its notes on stderr."""
     from quadmodes.runs.run_folder import check_folders as check
+    from quadmodes.runs.run_folder import output_bytes
 
-    check(all_folders, resume=resume, restart=restart, note=note)
+    check(all_folders, resume=resume, restart=restart, note=note,
+          estimate_bytes=output_bytes(runs))  # fmt: skip
 
 
 def resume_point(setup, folders: RunFolders, resume: bool):

@@ -3,7 +3,9 @@ history in one .npz (written atomically), and the resume from one.
 
 Entries (format :data:`CHECKPOINT_VERSION`): version, n, dt (s), t0 (s), step, x, v (n,3),
 E_d_now (J), axis_prev (3,), n_newton, n_factor, wall_s (s), damped_modes (the size of the
-damping basis; checked on resume), ``series_<name>`` per sampled
+damping basis; checked on resume), ``key`` (what the run is of: the run case and its model,
+:attr:`~quadmodes.fullorder.options.FullOrderOptions.checkpoint_key`; checked on resume when
+given), ``series_<name>`` per sampled
 series (:data:`~quadmodes.fullorder.sampling.SERIES`), prev_c (3,), prev_R (3,3), prev_b (n,3):
 the body frame of the previous state.
 """
@@ -36,10 +38,13 @@ def read_checkpoint(path: Path) -> dict:
 
 
 def checkpoint_data(
-    problem: FullOrderProblem, state: RunState, samples: SampledSeries, wall_s: float
-) -> dict:
-    """The checkpoint entries (module docstring) of ``state`` after ``wall_s`` s of wall time."""
+    problem: FullOrderProblem, state: RunState, samples: SampledSeries, wall_s: float,
+    key: str = "",
+) -> dict:  # fmt: skip
+    """The checkpoint entries (module docstring) of ``state`` after ``wall_s`` s of wall time
+    (``key``: what the run is of)."""
     data = {
+        "key": str(key),
         "version": CHECKPOINT_VERSION, "n": problem.n, "dt": problem.h, "t0": problem.t0,
         "step": state.step, "x": state.x, "v": state.v, "E_d_now": state.e_d,
         "axis_prev": samples.axis_prev, "n_newton": state.n_newton, "n_factor": state.n_factor,
@@ -56,11 +61,18 @@ def _damped_modes(problem: FullOrderProblem) -> int:
     return 0 if problem.damping is None else problem.damping.n_modes
 
 
-def resume_from(path: Path, problem: FullOrderProblem, samples: SampledSeries) -> RunState:
+def resume_from(path: Path, problem: FullOrderProblem, samples: SampledSeries,
+                key: str = "") -> RunState:  # fmt: skip
     """The :class:`RunState` saved in checkpoint ``path``; its series are restored into
-    ``samples``. Raises ValueError for a checkpoint of another model, t0 or time step, or one
-    already past the end of the problem's time span."""
+    ``samples``. Raises ValueError for a checkpoint of another ``key`` (another run case or
+    model, when given), model, t0 or time step, or one already past the end of the problem's
+    time span."""
     data = read_checkpoint(path)
+    if key and str(data.get("key", "")) != key:
+        raise ValueError(
+            f"checkpoint {path}: made for another run case or model (the case was edited since, "
+            "or another case wrote it); start again with --restart"
+        )
     if (
         int(data["n"]) != problem.n
         or not math.isclose(float(data["dt"]), problem.h, rel_tol=1e-12)

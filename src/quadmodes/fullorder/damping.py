@@ -28,7 +28,7 @@ import xarray as xr
 from quadmodes.case import Case
 from quadmodes.fe.model import Structure
 from quadmodes.io import cf
-from quadmodes.io.atomic import atomic_path
+from quadmodes.io.outputs import write_netcdf
 from quadmodes.models import cache
 from quadmodes.models.cache_entries import entry_name
 from quadmodes.rom import artifact
@@ -129,8 +129,7 @@ def save_damping_modes(path: Path, freqs, shapes, labels, cutoff_hz: float, key:
                "title": "full-order independent damping modes below the cutoff",
                "Conventions": cf.CONVENTIONS, "modal_normalisation": cf.MODAL_NORMALISATION},
     )  # fmt: skip
-    with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
+    write_netcdf(ds, path, encoding=cf.encoding(ds))  # in memory first: a full disk is a clean OSError
 
 
 def load_damping_modes(path: Path, key: str, n: int):

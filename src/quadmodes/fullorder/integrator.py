@@ -123,7 +123,7 @@ def integrate_full_order(
     ck = Path(opts.checkpoint) if opts.checkpoint is not None else None
     state = initial_run_state(x0, v0)
     if opts.resume and ck is not None and ck.is_file():
-        state = resume_from(ck, problem, samples)
+        state = resume_from(ck, problem, samples, opts.checkpoint_key)
     if state.step == 0 and samples.last_time() is None:
         state = discrete_initial_state(problem, state)
         samples.record(problem.t0, state.x, state.v, state.e_d)
@@ -131,6 +131,7 @@ def integrate_full_order(
         problem, state, samples, ops, max_newton=opts.max_newton, full_newton=opts.full_newton,
         save_every=opts.save_every, checkpoint=ck,
         checkpoint_every=opts.checkpoint_every, progress=progress, start=start,
+        key=opts.checkpoint_key,
     )  # fmt: skip
     modes = problem.damping
     stats = {"n_newton": state.n_newton, "n_factor": state.n_factor, "n_steps": state.step,
@@ -144,12 +145,12 @@ def integrate_full_order(
 def _run_steps(
     problem: FullOrderProblem, state: RunState, samples: SampledSeries, ops: StepOperators, *,
     max_newton: int, full_newton: bool, save_every: int, checkpoint: Path | None, checkpoint_every: int,
-    progress: Callable[[float], None] | None, start: float,
+    progress: Callable[[float], None] | None, start: float, key: str = "",
 ) -> tuple[RunState, int, str]:  # fmt: skip
     """Step ``state`` to the end of the problem, sampling every ``save_every`` steps (and the
     last), checkpointing every ``checkpoint_every`` (the factorisation is renewed after each,
     so that a resumed run repeats the uninterrupted one); ``start``: perf_counter at the start
-    of this run. Returns ``(state, status, message)``; Ctrl-C stops with status 1 (the state
+    of this run; ``key``: the checkpoints' key. Returns ``(state, status, message)``; Ctrl-C stops with status 1 (the state
     reached is sampled)."""
     n_steps, matrix = problem.n_steps, None
     report = max(1, n_steps // 100)
@@ -163,7 +164,7 @@ def _run_steps(
                 samples.record(problem.time(step), state.x, state.v, state.e_d)
             if checkpoint is not None and step % checkpoint_every == 0 and step < n_steps:
                 wall = state.wall_before + time.perf_counter() - start
-                write_checkpoint(checkpoint, checkpoint_data(problem, state, samples, wall))
+                write_checkpoint(checkpoint, checkpoint_data(problem, state, samples, wall, key))
                 matrix = None  # the same factorisation history with and without a resume
             if progress and (step % report == 0 or step == n_steps):
                 progress(step / n_steps)

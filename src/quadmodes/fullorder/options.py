@@ -35,7 +35,9 @@ class FullOrderOptions:
     with; several times slower). checkpoint: .npz path written every ``checkpoint_every``
     steps (atomic); resume: continue from it (same t0, dt; the end may differ) — the result
     equals the uninterrupted run's (the factorisation is renewed after every checkpoint in
-    both).
+    both). checkpoint_key: text naming what the run is of (e.g. a hash of the run case and
+    its model, :func:`quadmodes.analysis.full_order_runs.checkpoint_key`), written into the
+    checkpoint; a resume from a checkpoint with another key is refused.
     """
 
     model: ReducedModel | None = None
@@ -51,6 +53,7 @@ class FullOrderOptions:
     checkpoint: Path | None = None
     checkpoint_every: int = 1000
     resume: bool = False
+    checkpoint_key: str = ""
 
     def updated(self, **changes) -> FullOrderOptions:
         """A copy with ``changes`` (option names as the fields; ``TypeError`` for others)."""

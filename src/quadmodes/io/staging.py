@@ -19,6 +19,8 @@ import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from quadmodes.io.outputs import OutputPathError, check_replaceable, record
+
 log = logging.getLogger(__name__)
 
 #: ``note(text)``: a one-line note for the user.
@@ -51,7 +53,7 @@ def clean_stale_staging(directory: Path, note: Note | None = None) -> list[Path]
     by a process that no longer runs (e.g. killed while writing); returns those removed (a
     ``note`` names each)."""
     note = note or log_note
-    directory = Path(directory).resolve()
+    directory = Path(os.path.abspath(directory))
     prefix = f".{directory.name}.partial-"
     removed = []
     if not directory.parent.is_dir():
@@ -70,12 +72,18 @@ def clean_stale_staging(directory: Path, note: Note | None = None) -> list[Path]
 @contextlib.contextmanager
 def staged_output(directory: Path | None, note: Note | None = None) -> Iterator[Path | None]:
     """Write into a hidden scratch folder ``.<name>.partial-<pid>-…/`` beside ``directory``; move
-    the files in only on success. Left-over scratch folders of dead processes are removed
-    first (:func:`clean_stale_staging`)."""
+    the files in only on success and list them in its manifest
+    (:mod:`quadmodes.io.outputs`). Left-over scratch folders of dead processes are removed
+    first (:func:`clean_stale_staging`). A ``directory`` that is a symbolic link, or a file
+    in it that quadmodes did not write and a new file would replace, raises
+    :class:`~quadmodes.io.outputs.OutputPathError` (nothing is moved)."""
     if directory is None:
         yield None
         return
-    directory = Path(directory).resolve()
+    directory = Path(os.path.abspath(directory))
+    if directory.is_symlink():  # never written through: the link's target is not ours
+        raise OutputPathError(f"{directory} is a symbolic link; quadmodes writes only into real "
+                              "folders: give its target or another folder")  # fmt: skip
     created = [p for p in directory.parents if not p.exists()]  # deepest first
     directory.parent.mkdir(parents=True, exist_ok=True)
     clean_stale_staging(directory, note)
@@ -84,13 +92,16 @@ def staged_output(directory: Path | None, note: Note | None = None) -> Iterator[
     done = False
     try:
         yield scratch
+        names = sorted(item.name for item in scratch.iterdir())
+        check_replaceable(directory, names)  # a user's file of the same name: refused, kept
         with deferred_interrupts():  # never half the new files beside half the old ones
             directory.mkdir(exist_ok=True)
-            for item in scratch.iterdir():
-                target = directory / item.name
-                if target.is_dir():
+            for name in names:
+                target = directory / name
+                if target.is_dir() and not target.is_symlink():
                     shutil.rmtree(target)
-                item.replace(target)
+                (scratch / name).replace(target)
+            record(directory, names)
             done = True
     finally:
         shutil.rmtree(scratch, ignore_errors=True)

@@ -176,16 +176,19 @@ class Spectrum:
 def find_model(
     case: Case, n_modes: int, path: Path, spin: float = 0.0
 ) -> tuple[ReducedModel | None, str]:
-    """The model in the cache file ``path`` and "hit" if it is there, readable and matches the
-    key; else None and "miss" (no file) or "rebuilt" (corrupt or mismatching)."""
+    """The model in the cache file ``path`` and "hit" if it is there, readable, its arrays match
+    their checksum and it matches the key; else None and "miss" (no file) or "rebuilt" (corrupt,
+    damaged or mismatching: a foreign file under the entry's name)."""
     if not path.is_file():
         return None, "miss"
     try:
-        model = artifact.load_reduced_model(path)
+        model = artifact.load_reduced_model(path, require_checksum=True)
     except artifact.ArtifactError:
         return None, "rebuilt"
     key = reduced_key(case, n_modes, spin)
-    if model.provenance.get("content_key") == key and model.n_modes == n_modes:
+    built_from = model.provenance.get("case_toml", case.to_toml())  # another case's: foreign
+    if (model.provenance.get("content_key") == key and model.n_modes == n_modes
+            and built_from == case.to_toml()):  # fmt: skip
         return model, "hit"
     return None, "rebuilt"
 

@@ -10,6 +10,11 @@ and ``manifold_potential = False``: formulations Q, P, L and rigid are unchanged
 such a model (rebuild it with ``quadmodes reduce``). Format 3 adds the linear potential
 coefficient F1, the reference spin axis and the attribute ``reference_spin_rad_s`` of a model
 expanded about a spinning state; older files load as models about the state at rest (F1 = 0).
+
+Every file written carries ``arrays_sha256``: the SHA-256 of its arrays, labels and content key
+(:func:`arrays_checksum`); a file whose arrays do not match it (flipped bits, an edited key) is
+refused on load (:class:`ArtifactError`), so the model cache rebuilds the entry. Files written
+before the checksum load unchecked.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import xarray as xr
 
 from quadmodes._version import __version__
 from quadmodes.io import cf
-from quadmodes.io.atomic import atomic_path
+from quadmodes.io.outputs import write_netcdf
 from quadmodes.rom.reduced import ReducedModel
 
 FORMAT = "quadmodes-reduced-model"
@@ -84,6 +89,21 @@ def content_key(text: str) -> str:
     return hashlib.sha256(f"{__version__}\n{text}".encode()).hexdigest()[:16]
 
 
+def arrays_checksum(ds: xr.Dataset) -> str:
+    """SHA-256 (hex) of the model arrays of ``ds`` (name, dtype, shape and bytes of each, in
+    sorted order), its mode labels and its ``provenance_content_key``: written with the file
+    and compared on load."""
+    digest = hashlib.sha256()
+    for name in sorted(v for v in _VARIABLES if v in ds):
+        value = np.ascontiguousarray(ds[name].values)
+        digest.update(f"{name}\0{value.dtype.str}\0{value.shape}\0".encode())
+        digest.update(value.tobytes())
+    labels = ds["label"].values if "label" in ds else ()
+    digest.update("\0".join(str(v) for v in labels).encode())
+    digest.update(str(ds.attrs.get("provenance_content_key", "")).encode())
+    return digest.hexdigest()
+
+
 def to_dataset(model: ReducedModel) -> xr.Dataset:
     """The model as an xarray Dataset with units and long names."""
     data = {}
@@ -115,20 +135,19 @@ def to_dataset(model: ReducedModel) -> xr.Dataset:
     }
     attrs.update({f"provenance_{k}": str(v) for k, v in model.provenance.items()})
     ds.attrs.update(attrs)
+    ds.attrs["arrays_sha256"] = arrays_checksum(ds)
     return ds
 
 
 def save_reduced_model(model: ReducedModel, path: str | os.PathLike) -> Path:
     """Write ``model`` to ``path`` (NetCDF4 via h5netcdf) atomically."""
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        ds = to_dataset(model)
-        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False, encoding=cf.encoding(ds))
-    return path
+    ds = to_dataset(model)
+    return write_netcdf(ds, path, invalid_netcdf=False, encoding=cf.encoding(ds))  # ENOSPC: clean
 
 
-def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
-    """Read a reduced model, checking format and completeness."""
+def load_reduced_model(path: str | os.PathLike, require_checksum: bool = False) -> ReducedModel:
+    """Read a reduced model, checking format, completeness and the arrays' checksum
+    (``require_checksum``: a file without one is refused too, as the model cache does)."""
     path = Path(path)
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:
@@ -142,6 +161,10 @@ def load_reduced_model(path: str | os.PathLike) -> ReducedModel:
         ) from None
     if ds.attrs.get("format") != FORMAT:
         raise ArtifactError(f"{path}: not a quadmodes reduced-model file; rebuild it")
+    stored = ds.attrs.get("arrays_sha256")
+    if (stored is not None or require_checksum) and stored != arrays_checksum(ds):
+        raise ArtifactError(f"{path}: damaged reduced-model file (its arrays do not match their "
+                            "checksum); rebuild it with `quadmodes reduce`")  # fmt: skip
     version = int(ds.attrs.get("format_version", -1))
     if version not in READABLE_VERSIONS:
         raise ArtifactError(

@@ -24,7 +24,8 @@ import numpy as np
 import xarray as xr
 
 from quadmodes.io import cf
-from quadmodes.io.atomic import atomic_path, write_text
+from quadmodes.io.atomic import write_text
+from quadmodes.io.outputs import write_netcdf
 from quadmodes.signals import log_decrement
 
 FORMAT = "quadmodes-run-results"
@@ -261,10 +262,8 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     completed (:func:`quadmodes.io.cf.complete`)."""
     path = Path(path)
     cf.complete(ds)
-    with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False,
-                     encoding=cf.encoding(ds, compress=True))  # fmt: skip
-    return path
+    return write_netcdf(ds, path, invalid_netcdf=False,
+                        encoding=cf.encoding(ds, compress=True))  # ENOSPC: clean
 
 
 def load_results(path: str | os.PathLike) -> xr.Dataset:

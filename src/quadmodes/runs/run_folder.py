@@ -23,10 +23,22 @@ killed runs are removed at the next start. Notes go to a ``note(text)`` callback
 
 from __future__ import annotations
 
+import contextlib
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from quadmodes.io.outputs import (
+    MANIFEST,
+    OutputPathError,
+    check_output_path,
+    check_replaceable,
+    disk_full_as_error,
+    foreign,
+    owned,
+    record,
+    remove_owned,
+)
 from quadmodes.io.staging import Note, clean_stale_staging, log_note, staged_output
 
 #: The files of a run's data; anything else but figures (``*.png``) in its folder is listed.
@@ -73,6 +85,25 @@ def run_folders(output_dir: Path, name: str) -> RunFolders:
     return RunFolders(output_dir / name, output_dir / f"{name}.partial")
 
 
+#: What quadmodes writes into a partial folder (the checkpoint, its temporary files, the
+#: partial data and the manifest).
+_PARTIAL_FILES = ("checkpoint.npz", *DATA_FILES, MANIFEST)
+
+
+def _remove_partial(partial: Path) -> None:
+    """Remove the partial folder ``partial`` if it holds only what quadmodes writes there;
+    else :class:`~quadmodes.io.outputs.OutputPathError` (a user's folder of that name)."""
+    if partial.is_symlink():
+        raise OutputPathError(f"-o: {partial} is a symbolic link, not a partial folder quadmodes "
+                              "wrote; move it away or choose another output folder")  # fmt: skip
+    theirs = [p.name for p in partial.iterdir()
+              if p.name not in _PARTIAL_FILES and not p.name.startswith(".checkpoint.npz.")]  # fmt: skip
+    if theirs:
+        raise OutputPathError(f"-o: {partial} holds files quadmodes did not write ({theirs[0]}); "
+                              "move it away or choose another output folder")  # fmt: skip
+    shutil.rmtree(partial, ignore_errors=True)
+
+
 def _clean_leftovers(folders: RunFolders, note: Note) -> None:
     """Staging folders of dead processes, temporary checkpoint files of a killed run, and a
     partial folder without a checkpoint (nothing to resume)."""
@@ -83,18 +114,19 @@ def _clean_leftovers(folders: RunFolders, note: Note) -> None:
     for tmp in folders.partial.glob(".checkpoint.npz.*"):
         tmp.unlink(missing_ok=True)
     if not folders.has_checkpoint:
-        shutil.rmtree(folders.partial, ignore_errors=True)
+        _remove_partial(folders.partial)
         note(f"note: removed {folders.partial} (partial results without a checkpoint to resume)")
 
 
 def check_folders(all_folders: list[RunFolders], *, resume: bool, restart: bool,
-                  note: Note | None = None) -> None:  # fmt: skip
-    """Before any work: clean left-overs; with ``resume`` at least one checkpoint must exist;
-    without it an existing checkpoint is discarded only with ``restart`` (else
-    :class:`FolderError`)."""
+                  note: Note | None = None, estimate_bytes: float = 0.0) -> None:  # fmt: skip
+    """Before any work: the output paths (:func:`check_output_folders`, ``estimate_bytes``
+    free), clean left-overs; with ``resume`` at least one checkpoint must exist; without it an
+    existing checkpoint is discarded only with ``restart`` (else :class:`FolderError`)."""
     note = note or log_note
     if resume and restart:
         raise FolderError("--restart: discards the checkpoint that --resume continues; pass one")
+    check_output_folders(all_folders, estimate_bytes)
     for folders in all_folders:
         _clean_leftovers(folders, note)
     with_checkpoint = [f for f in all_folders if f.has_checkpoint]
@@ -108,7 +140,7 @@ def check_folders(all_folders: list[RunFolders], *, resume: bool, restart: bool,
                 "--resume, or pass --restart to discard it"
             )
         for folders in with_checkpoint:
-            shutil.rmtree(folders.partial, ignore_errors=True)
+            _remove_partial(folders.partial)
             note(f"note: discarded the checkpoint in {folders.partial} (--restart)")
 
 
@@ -139,33 +171,81 @@ def save_partial(result, folders: RunFolders, saved: bool, note: Note | None = N
 
 
 def remove_old_figures(target: Path) -> list[str]:
-    """Remove the figures of an earlier run from ``target``; returns their names."""
-    names = []
-    if target.is_dir():
-        for png in sorted(target.glob("*.png")):
-            png.unlink(missing_ok=True)
-            names.append(png.name)
-    return names
+    """Remove the figures (``*.png``) quadmodes wrote into ``target`` earlier (its manifest,
+    :mod:`quadmodes.io.outputs`; a user's own PNG stays); returns their names."""
+    return remove_owned(target, ".png")
 
 
 def remove_old_extras(target: Path) -> None:
-    """Remove the report and motion files (:data:`EXTRA_FILES`) of an earlier run."""
+    """Remove the report and motion files (:data:`EXTRA_FILES`) of an earlier run (only those
+    quadmodes wrote)."""
+    mine = owned(target)
     for name in EXTRA_FILES:
-        (target / name).unlink(missing_ok=True)
+        path = target / name
+        if name in mine and not path.is_symlink():
+            path.unlink(missing_ok=True)
 
 
 def _others(target: Path) -> list[str]:
-    """Files in ``target`` that a run does not write (neither data, figures nor extras)."""
-    known = (*DATA_FILES, *EXTRA_FILES)
-    return sorted(p.name for p in target.iterdir() if p.name not in known and p.suffix != ".png")
+    """Files in ``target`` that quadmodes did not write (not in its manifest)."""
+    mine = owned(target) | {MANIFEST}
+    return sorted(p.name for p in target.iterdir() if p.name not in mine)
+
+
+def output_bytes(runs) -> float:
+    """A generous estimate (bytes) of what the free-body run cases ``runs`` write: their
+    samples (7 + 2N states and about 12 diagnostics, float64) in results.nc, the checkpoint
+    and the partial results, plus 2 MB of figures and report each (spin-ups: small)."""
+    total = 0.0
+    for run in (r for r in runs if r.spinup is None):
+        integ = run.integration
+        n_modes = run.reduced.modes if isinstance(run.reduced.modes, int) else 40
+        samples = integ.n_steps // max(1, int(getattr(integ, "save_every", 1) or 1)) + 1
+        total += 3.0 * samples * (7 + 2 * n_modes + 12) * 8 + 2e6
+    return total
+
+
+def check_output_folders(all_folders: list[RunFolders], estimate_bytes: float = 0.0) -> None:
+    """Before any work: every run folder and partial folder is writable by quadmodes (no
+    symbolic link, names within the file system's limits, no data file of the user's in the
+    way) and ``estimate_bytes`` are free (:class:`~quadmodes.io.outputs.OutputPathError`)."""
+    for i, folders in enumerate(all_folders):
+        check_output_path(folders.target, "-o", partial=True,
+                          estimate_bytes=estimate_bytes if i == 0 else 0.0)  # fmt: skip
+        check_output_path(folders.partial, "-o")
+        check_replaceable(folders.target, (*DATA_FILES, *EXTRA_FILES))
+        check_replaceable(folders.partial, DATA_FILES)
+
+
+def _draw_staged(draw, ds, target: Path, note: Note) -> None:
+    """``draw(ds, folder)`` into a hidden folder inside ``target``, then the figures moved in
+    and listed in its manifest; a figure whose name a user's file holds is not moved (noted)."""
+    import tempfile
+
+    scratch = Path(tempfile.mkdtemp(prefix=".quadmodes-figures-", dir=target))
+    try:
+        draw(ds, scratch)
+        names = sorted(p.name for p in scratch.iterdir())
+        theirs = set(foreign(target, names))
+        for name in names:
+            if name not in theirs:
+                (scratch / name).replace(target / name)
+        record(target, [n for n in names if n not in theirs])
+        if theirs:
+            note(f"note: kept {', '.join(sorted(theirs))} in {target} (not written by "
+                 "quadmodes); the new figure(s) of that name were not written")  # fmt: skip
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
 def guarded(target: Path, what: str, write) -> None:
-    """Run ``write()``; Ctrl-C raises :class:`OutputsInterrupted` (the data are saved)."""
+    """Run ``write()`` (an extra file, :data:`EXTRA_FILES`, into ``target``; then listed in its
+    manifest); Ctrl-C raises :class:`OutputsInterrupted` (the data are saved)."""
     try:
         write()
     except KeyboardInterrupt:
         raise OutputsInterrupted(f"stopped while writing {what}; the data are saved in {target}") from None
+    record(target, [n for n in EXTRA_FILES if (target / n).is_file()])
 
 
 def commit(target: Path, data, draw, *, plots: bool, note: Note | None = None,
@@ -182,8 +262,9 @@ def commit(target: Path, data, draw, *, plots: bool, note: Note | None = None,
         ds, info = data(scratch)
         old_figures = remove_old_figures(target)
         remove_old_extras(target)
-    if partial is not None:
-        shutil.rmtree(partial, ignore_errors=True)
+    if partial is not None and partial.is_dir():
+        with contextlib.suppress(OutputPathError):  # a user's folder of that name stays
+            _remove_partial(partial)
     if after_data is not None:
         after_data()
     if old_figures and not plots:
@@ -194,7 +275,7 @@ def commit(target: Path, data, draw, *, plots: bool, note: Note | None = None,
         note(f"note: {target} also holds files this run did not write: {', '.join(others)}")
     if plots:
         try:
-            draw(ds, target)
+            _draw_staged(draw, ds, target, note)
         except KeyboardInterrupt:
             raise OutputsInterrupted(f"stopped while drawing the figures; the data are saved in "
                                      f"{target} ({saved}); the figures are incomplete") from None  # fmt: skip
@@ -234,7 +315,11 @@ def write_run_outputs(result, target: Path, *, extra: dict | None = None, plots:
     note = note or log_note
     target = Path(target)
     data, draw = _run_data(result, extra)
-    _, summary = commit(target, data, draw, plots=plots, note=note, partial=partial)
+    kept = (f"the checkpoint is kept in {partial}: continue with --resume"
+            if partial is not None and (partial / "checkpoint.npz").is_file()
+            else f"{target} is as it was")  # fmt: skip
+    with disk_full_as_error(f"the results into {target}", kept):
+        _, summary = commit(target, data, draw, plots=plots, note=note, partial=partial)
     if animation is not None and not hasattr(result, "system"):
         note(f"note: --animate: {result.run.name} is a hub-driven spin-up; no motion file")
     elif animation is not None:
@@ -258,8 +343,11 @@ def execute_in_folders(setup, folders: RunFolders, *, every_s: float, start=None
     from quadmodes.runs.run_checkpoint import RunCheckpoint
 
     checkpoint = RunCheckpoint(folders.checkpoint, setup, every_s)
+    kept = (f"the last checkpoint is kept at {folders.checkpoint}: continue with --resume"
+            if folders.has_checkpoint else "no checkpoint was saved")  # fmt: skip
     try:
-        return simulate.execute(setup, progress, checkpoint=checkpoint, resume=start)
+        with disk_full_as_error(f"the checkpoint {folders.checkpoint}", kept):
+            return simulate.execute(setup, progress, checkpoint=checkpoint, resume=start)
     except Interrupted as stopped:
         stopped.where = save_partial(stopped.partial, folders, stopped.saved, note)
         raise

@@ -45,6 +45,7 @@ from quadmodes.runs.deformation_check import with_deformation_check
 from quadmodes.runs.initial import InitialState, initial_state
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
 from quadmodes.runs.resources import check_output_size
+from quadmodes.runs.run_checks import check_model_case, check_run_step
 from quadmodes.runs.validity import Validity, initial_validity, rotating_validity
 from quadmodes.structure import pipeline
 
@@ -125,12 +126,15 @@ def prepare(
     *,
     model_case: Case | None = None,
     check_deformation: bool = False,
+    allow_coarse_step: bool = False,
 ) -> RunSetup:
-    """Reduced model (from the cache unless ``model`` is given), system and initial state of
-    ``run``; raises :class:`CaseError` for inputs that cannot be run. ``check_deformation``:
-    set an initial modal deformation beside the FE model's condensed energy
-    (:mod:`quadmodes.runs.deformation_check`; one static solve on the FE model, what
-    ``quadmodes run`` does), recorded in the validity."""
+    """Reduced model (from the cache unless ``model`` is given: it must have been built from
+    the run's model case), system and initial state of ``run``; raises :class:`CaseError` for
+    inputs that cannot be run, among them a time step that does not resolve the spin or the
+    highest retained mode (:mod:`quadmodes.runs.run_checks`; unless ``allow_coarse_step``,
+    then noted). ``check_deformation``: set an initial modal deformation beside the FE model's
+    condensed energy (:mod:`quadmodes.runs.deformation_check`; one static solve on the FE
+    model, what ``quadmodes run`` does), recorded in the validity."""
     if run.spinup is not None:
         raise CaseError(
             "[spinup]: a hub-driven spin-up, not a free-body run; use simulate_spinup",
@@ -144,9 +148,15 @@ def prepare(
     check_output_size(run)  # before the model is built: a results file too large to write
     if model is None:
         model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin)
+    else:
+        check_model_case(model, model_case)
     model = _model_for_run(run, model)
+    freqs = () if run.reduced.formulation == "rigid" else model.frequencies_hz
+    coarse = check_run_step(run, freqs, allow_coarse=allow_coarse_step)
     system = rsys.reduced_system(model, run.reduced.formulation)
     init = initial_state(system, model, run)
+    if coarse:
+        init = dataclasses.replace(init, notes=(*init.notes, coarse))
     validity = initial_validity(system, init.y0, run.reduced.formulation)
     setup = RunSetup(run, model_case, model, system, init, validity, choice)
     return with_deformation_check(setup, progress) if check_deformation else setup
@@ -234,13 +244,15 @@ def simulate(
     model_case: Case | None = None,
     max_chunks: int = MAX_CHUNKS,
     check_deformation: bool = False,
+    allow_coarse_step: bool = False,
 ) -> RunResult:
-    """:func:`prepare` (with ``check_deformation``, as ``quadmodes run``) and :func:`execute`
-    ``run`` (reduced model from the cache unless ``model`` is given). Raises
-    :class:`CaseError` for bad inputs only; an integrator failure gives a result with
-    ``complete`` False; Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted`."""
+    """:func:`prepare` (with ``check_deformation``, as ``quadmodes run``, and
+    ``allow_coarse_step``) and :func:`execute` ``run`` (reduced model from the cache unless
+    ``model`` is given). Raises :class:`CaseError` for bad inputs only; an integrator failure
+    gives a result with ``complete`` False; Ctrl-C raises
+    :class:`~quadmodes.runs.chunked.Interrupted`."""
     setup = prepare(run, model, progress, model_case=model_case,
-                    check_deformation=check_deformation)  # fmt: skip
+                    check_deformation=check_deformation, allow_coarse_step=allow_coarse_step)  # fmt: skip
     return execute(setup, progress, max_chunks)
 
 

@@ -12,6 +12,10 @@ import numpy as np
 
 from quadmodes.io.atomic import write_text
 
+#: The files and folders :func:`write_modal_outputs` writes (``modes -o``): checked against a
+#: user's files of the same names before any work.
+MODAL_OUTPUTS = ("mesh.vtu", "modes", "mesh.png", "prestress.png", "modes.png", "modes.json")
+
 
 def mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Triangles (n_tri, 3), line segments (n_lines, 2) or None, and per-triangle cell data of a
