@@ -21,8 +21,7 @@ PROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["
 #: import name -> distribution that provides it (where they differ)
 PROVIDED_BY = {"pydantic_core": "pydantic", "distributed": "dask", "vtkmodules": "pyvista"}
 #: extra -> the modules it brings (each imported, or looked for with find_spec, by the package)
-EXTRA_MODULES = {"viz": ("pyvista", "imageio"), "jit": ("numba",), "fast": ("numba",),
-                 "zarr": ("zarr",)}  # fmt: skip
+EXTRA_MODULES = {"viz": ("pyvista", "imageio"), "zarr": ("zarr",)}
 #: optional modules outside any extra, each named in a one-line note where it is missing
 UNLISTED_OPTIONAL = {"pypardiso"}
 
@@ -109,3 +108,16 @@ def test_sweep_starts_in_a_fresh_process():
     imported = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                               timeout=120)  # fmt: skip
     assert imported.returncode == 0, imported.stderr
+
+
+def test_the_plain_install_runs_the_compiled_step():
+    """numba is a core dependency, so ``pip install .`` runs the compiled midpoint: the default
+    back end of the default method is the kernel here (the numpy steppers only where numba
+    cannot be imported)."""
+    from quadmodes.rom import integrators, midpoint_kernel
+
+    core = {_name(r) for r in PROJECT["dependencies"]}
+    assert "numba" in core
+    assert all("numba" not in {_name(r) for r in reqs}
+               for name, reqs in PROJECT["optional-dependencies"].items() if name != "test")  # fmt: skip
+    assert integrators._select_backend("auto", "midpoint") is midpoint_kernel

@@ -172,7 +172,7 @@ def test_backend_selection_and_errors(capsule, monkeypatch):
     with pytest.raises(ValueError, match="backend"):
         it.integrate(capsule, y0, (0, 0.002), "midpoint", dt=1e-3, backend="cuda")
     monkeypatch.setattr(it, "_KERNEL", [None])  # as if numba were not installed
-    with pytest.raises(ValueError, match=r"quadmodes\[jit\]"):
+    with pytest.raises(ValueError, match="cannot be imported"):
         it.integrate(capsule, y0, (0, 0.002), "midpoint", dt=1e-3, backend="numba")
     fallback = it.integrate(capsule, y0, (0, 0.002), "midpoint", dt=1e-3)
     assert fallback.stats["backend"] == "numpy"

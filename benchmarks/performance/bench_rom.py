@@ -23,7 +23,7 @@ Usage::
     python -m benchmarks.performance.bench_rom --duration "10 s"               # shorter paper-41hz run
     python -m benchmarks.performance.bench_rom --skip-run --window 2
 
-Needs numba (``pip install "quadmodes[jit]"``) for the numba rows; without it they are skipped.
+Needs numba (a core dependency) for the numba rows; where it cannot be imported they are skipped.
 Nothing here asserts on timings.
 """
 

@@ -1,8 +1,8 @@
 """Compiled (numba) loops of a full-order step: the energy–momentum membrane force, the
 follower-pressure force at x½ (:mod:`quadmodes.fullorder.kernels`), the free-body modal damping
 force (:func:`quadmodes.fullorder.step.damping_force`) and the ties' blocks of the condensed
-Newton matrix (:mod:`quadmodes.fullorder.condensed`). Used when numba (the ``[fast]`` or
-``[jit]`` extra) is importable; the numpy forms there are the fallback and the reference (same
+Newton matrix (:mod:`quadmodes.fullorder.condensed`). Used when numba (a core
+dependency) is importable; the numpy forms there are the fallback and the reference (same
 arithmetic, so the two agree to round-off; the tests compare them). ``@njit(cache=True)``:
 compiled once per machine and numba version (then about 0.4 s to load in a fresh process).
 """

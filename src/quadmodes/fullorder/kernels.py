@@ -30,7 +30,7 @@ def jit_module():
     if _JIT is None:
         try:
             from quadmodes.fullorder import jit
-        except ImportError:  # numba (the [jit] / [fast] extra) not installed
+        except ImportError:  # numba cannot be imported on this platform
             jit = False
         _JIT = jit
     return _JIT or None
@@ -65,7 +65,7 @@ class StepOperators:
         (:mod:`~quadmodes.fullorder.jit`; None: if numba is importable; False: numpy)."""
         module = jit_module() if jit is None or jit else None
         if jit and module is None:
-            raise ValueError("jit: numba is not installed (pip install 'quadmodes[fast]')")
+            raise ValueError("jit: numba cannot be imported here (a core dependency: reinstall quadmodes)")
         kernels = tuple(e.step_kernel(structure.n, energy_momentum, module)
                         for e in structure.elements)  # fmt: skip
         conns = [np.asarray(e.conn) for e in structure.elements]

@@ -42,8 +42,8 @@ backend="auto") -> Solution``
   step residual for implicit methods), ``n_newton`` (Newton iterations), ``n_jac`` (Jacobian
   evaluations), ``wall_s``, ``backend`` ("numpy" or "numba"); Radau adds ``n_lu``.
 * Backend (``backend=``): ``"numpy"`` runs the steppers below from Python; ``"numba"`` runs the
-  whole midpoint loop in one compiled call (:mod:`quadmodes.rom.midpoint_kernel`, the ``[jit]``
-  extra; 20–30× faster for N = 5; same equations and convergence test, results equal to
+  whole midpoint loop in one compiled call (:mod:`quadmodes.rom.midpoint_kernel`, numba, a core
+  dependency; 20–30× faster for N = 5; same equations and convergence test, results equal to
   round-off); ``"auto"`` (default) uses numba for the midpoint (the built-in
   :class:`~quadmodes.rom.midpoint.MidpointStep`) when numba is importable, numpy otherwise (backward Euler, the adaptive solvers and
   other steppers are numpy only). ``"numba"`` without numba, or with another method, raises
@@ -106,7 +106,7 @@ def numba_kernel():
     if not _KERNEL:
         try:
             from quadmodes.rom import midpoint_kernel
-        except ImportError:  # numba (the [jit] extra) not installed
+        except ImportError:  # numba cannot be imported on this platform: numpy steppers
             midpoint_kernel = None
         _KERNEL.append(midpoint_kernel)
     return _KERNEL[0]
@@ -131,7 +131,8 @@ def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None,
     kernel = numba_kernel() if compiled else None
     if backend == "numba" and kernel is None:
         raise ValueError(
-            'backend "numba" needs numba, which is not installed: pip install "quadmodes[jit]"'
+            'backend "numba" needs numba, which cannot be imported here (a core dependency: '
+            'reinstall quadmodes, or use backend "numpy")'
         )
     return kernel
 

@@ -196,7 +196,7 @@ def warm_up_kernel(run: RunCase, progress: Progress | None = None) -> float | No
     if run.integration is None or run.integration.method != "midpoint" or _KERNEL_READY:
         return None
     kernel = numba_kernel()
-    if kernel is None:  # numba (the [jit] extra) not installed: the numpy steppers
+    if kernel is None:  # numba cannot be imported here: the numpy steppers
         return None
     if progress:
         progress("compile", 0.0)
