@@ -16,15 +16,9 @@ R_ORDER = (1e-3, 5e-4)
 
 
 @pytest.fixture(scope="module")
-def setup(small_modal_model, small_reduced_model):
-    """The small capsule, N = 5. Its near-degenerate pairs can come out of the eigensolver in a
-    different orientation from one process to the next (observed: the same sample gave a
-    different W_red alone and in the full suite), so the amplitudes are kept where every
-    orientation tried converges."""
-    m, model = small_modal_model, small_reduced_model
-    ctx = me.energy_context(m.structure, m.x, model)
-    t = np.asarray(model.translational, bool)
-    scale = np.array([np.max(np.linalg.norm(p[t], axis=1)) for p in model.Phi])
+def setup(capsule_energy_context):
+    """The shared capsule context (conftest) with the quartic system of its model."""
+    ctx, model, scale = capsule_energy_context
     return ctx, model, cand.quartic_system(model), scale
 
 
