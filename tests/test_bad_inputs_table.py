@@ -283,6 +283,11 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("compare-o-dangling-symlink", "compare paper-41hz-coarse -o {d}/dangling", ("-o", "dangling")),
     ("run-name-250-chars", "run {d}/long-name-run.toml -o {d}/out", ("-o", "too long")),
     ("run-dt-8-turns-a-step", "run paper-41hz-coarse --dt '0.2 s' -o {d}/out", ("integration.dt", "spin", "--yes")),
+    # ---- issue 24 item 7: the weak cases made clean (usage errors were boxed, 3-6 lines)
+    ("usage-unknown-option", "run paper-41hz-coarse --bogus", ("--bogus", "run --help lists the options")),
+    ("usage-unknown-command", "nonsense", ("nonsense", "--help lists the commands")),
+    ("usage-points-not-a-number", "campbell paper-membrane-coarse --points abc", ("--points", "integer")),
+    ("run-modes-fraction", "run paper-41hz-coarse --modes 7.5 -o {d}/out", ("reduced.modes", "whole number")),
 ]
 
 

@@ -21,7 +21,8 @@ MAX_FUNCTION_LINES = 80
 #: ``experimental`` (research prototypes) may import anything, nothing in the product imports it.
 #: docs/architecture.md draws these layers.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_version", "limits"),
+    ("_version", "errors"),
+    ("limits",),
     ("rotations", "signals", "linalg", "case"),
     ("io",),
     ("mesh",),

@@ -63,3 +63,19 @@ def test_workers_of_another_version_are_refused(local, monkeypatch):
 def test_a_lost_worker_is_named(local):
     before = set(local.nthreads()) | {"tls://127.0.0.1:1"}
     assert cluster.lost_workers(before, local) == ["tls://127.0.0.1:1"]
+
+
+def test_a_ctrl_c_reaches_the_parent_only(local):
+    """A Ctrl-C in the terminal goes to the whole process group: the workers ignore it (the
+    parent says where the finished points are and closes the cluster) instead of each dying
+    with its own traceback; the parent keeps its KeyboardInterrupt."""
+    import signal
+    import time
+
+    assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
+    pids = local.run(os.getpid)
+    for pid in pids.values():
+        os.kill(pid, signal.SIGINT)
+    time.sleep(1.0)  # a worker that took it would be dead (and replaced) by now
+    assert local.run(os.getpid) == pids
+    assert set(local.run(lambda: signal.getsignal(signal.SIGINT) is signal.SIG_IGN).values()) == {True}

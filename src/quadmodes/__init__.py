@@ -28,11 +28,15 @@ import importlib
 from quadmodes._version import __version__
 
 #: The public API: functions of :mod:`quadmodes.api`, the case types of :mod:`quadmodes.case`
-#: and the exceptions the functions document (docs/api.md: what is public and stable).
+#: and the exceptions the functions document (docs/api.md: what is public and stable). Every
+#: problem a caller can fix is a :class:`QuadmodesError` (CaseError, QuantityError, InputError …
+#: are its subclasses) whose message is the line the CLI prints.
 __all__ = [
     "Case",
     "CaseError",
     "FullOrderIncomplete",
+    "InputError",
+    "QuadmodesError",
     "QuantityError",
     "RunCase",
     "__version__",
@@ -67,7 +71,8 @@ __all__ = [
 _FROM_CASE = {"Case", "CaseError", "QuantityError", "RunCase", "case_to_toml", "format_quantity",
               "parse_quantity", "run_case_to_toml"}  # fmt: skip
 #: Exceptions of the API's functions, from the modules that raise them.
-_ERRORS = {"FullOrderIncomplete": "quadmodes.analysis.comparison_run"}
+_ERRORS = {"FullOrderIncomplete": "quadmodes.analysis.comparison_run",
+           "InputError": "quadmodes.errors", "QuadmodesError": "quadmodes.errors"}
 
 
 def __getattr__(name: str):

@@ -16,6 +16,8 @@ import math
 import os
 from dataclasses import dataclass
 
+from quadmodes.errors import QuadmodesError
+
 __all__ = [
     "CAMPBELL_POINTS",
     "LIMITS",
@@ -34,7 +36,7 @@ __all__ = [
 ]
 
 
-class LimitError(ValueError):
+class LimitError(QuadmodesError, ValueError):
     """An input beyond a bound of :mod:`quadmodes.limits`: ``str(exc)`` is one line naming the
     ``field`` (or option), the limit, the fix and the environment variable that raises it."""
 

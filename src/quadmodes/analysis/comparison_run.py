@@ -16,6 +16,7 @@ import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from quadmodes.errors import QuadmodesError
 from quadmodes.io.outputs import disk_full_as_error
 from quadmodes.io.staging import Note, log_note
 from quadmodes.runs.run_folder import Animation, commit, guarded
@@ -27,7 +28,7 @@ FULL_ORDER_CHECKPOINT_EVERY = 500
 Progress = Callable[[str, float], None]
 
 
-class CheckpointError(ValueError):
+class CheckpointError(QuadmodesError, ValueError):
     """A full-order checkpoint is missing, damaged, or would be discarded unasked."""
 
 

@@ -17,10 +17,19 @@ from typing import Any
 from quadmodes.case import Case, CaseError, RunCase, load_case, load_run_case
 from quadmodes.case.editing import case_table, merge, nested, validated
 from quadmodes.case.fields import input_table
+from quadmodes.errors import InputError
 from quadmodes.io.atomic import write_text
 
 CaseSource = str | os.PathLike[str] | Mapping[str, Any] | Case | None
 RunSource = str | os.PathLike[str] | Mapping[str, Any] | RunCase | None
+
+
+def _name_or_path(value: Any, what: str, also: str = "") -> str | os.PathLike[str]:
+    """``value`` if it is a name or path, else an :class:`InputError` saying what is taken."""
+    if isinstance(value, (str, os.PathLike)):
+        return value
+    raise InputError(f"{what}: got {type(value).__name__} {value!r:.40}; give a built-in case "
+                     f"name (quadmodes cases), a .toml path{also}")  # fmt: skip
 
 
 def _table(source: Any, kind: type) -> dict[str, Any]:
@@ -30,6 +39,8 @@ def _table(source: Any, kind: type) -> dict[str, Any]:
     if isinstance(source, Mapping):
         return nested(source)
     if not isinstance(source, kind):
+        what = "run_case" if kind is RunCase else "model_case"
+        source = _name_or_path(source, what, f", a dict or a {kind.__name__}")
         source = load_run_case(source) if kind is RunCase else load_case(source)
     return case_table(source)
 
@@ -111,7 +122,7 @@ def load(name_or_path: str | os.PathLike[str]) -> Case | RunCase:
     ``kind = "run"`` or a built-in run name gives a :class:`RunCase`)."""
     from quadmodes.runs.simulate import is_run_case
 
-    text = os.fspath(name_or_path)
+    text = os.fspath(_name_or_path(name_or_path, "load"))
     return load_run_case(name_or_path) if is_run_case(text) else load_case(name_or_path)
 
 

@@ -15,9 +15,10 @@ from pydantic import BaseModel, ValidationError
 
 from quadmodes.case.meta import field_meta, toml_value
 from quadmodes.case.meta import nested_model as _unwrap_model
+from quadmodes.errors import QuadmodesError
 
 
-class CaseError(ValueError):
+class CaseError(QuadmodesError, ValueError):
     """An invalid case: ``str(exc)`` is one line naming the source, field path and fix."""
 
     def __init__(self, message: str, *, source: str | None = None, field: str | None = None):

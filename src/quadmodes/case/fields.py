@@ -10,10 +10,12 @@ line naming the field path and the fix.
 
 from __future__ import annotations
 
+import numbers
 import re
 from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, ValidationInfo
 from pydantic_core import PydanticCustomError
 
@@ -122,14 +124,25 @@ def quantity(
     return Annotated[float, BeforeValidator(validate), meta]
 
 
+def whole_number(value: Any) -> int | None:
+    """``value`` as an int if it is a whole number — a Python or numpy integer, or a float
+    with no fraction (``5.0``) — else None (booleans, fractions such as 7.5, strings)."""
+    if isinstance(value, (bool, np.bool_)):
+        return None
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real) and float(value).is_integer():
+        return int(value)
+    return None
+
+
 def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
     """Annotated whole-number field (no booleans, no fractions); at most ``limit`` (a bound of
     :mod:`quadmodes.limits`, read when the case is validated) when given."""
 
     def validate(value: Any) -> int:
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if isinstance(value, bool) or not isinstance(value, int):
+        value = whole_number(value)
+        if value is None:
             raise field_error("case_value", f"must be a whole number; use e.g. {example}")
         if value < minimum:
             raise field_error("case_value", f"must be at least {minimum}; use e.g. {example}")
@@ -195,7 +208,7 @@ def quantity_text(value: Any, dimension: str | None) -> Any:
             return float(q.to("dimensionless").magnitude)
         return f"{float(q.magnitude)!r} {q.units}"
     dimensional = dimension != "dimensionless"
-    if dimensional and isinstance(value, (int, float)) and not isinstance(value, bool):
+    if dimensional and isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
         return f"{float(value)!r} {si_unit(dimension)}"
     return value
 

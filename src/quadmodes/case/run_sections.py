@@ -21,6 +21,7 @@ from quadmodes.case.fields import (
     nonnegative,
     positive,
     quantity,
+    whole_number,
 )
 from quadmodes.case.units import format_quantity
 
@@ -50,9 +51,8 @@ def _modes(value: Any) -> int | str:
     """``reduced.modes``: a whole number of modes (at least 1) or ``"auto"``."""
     if isinstance(value, str) and value.strip().lower() == "auto":
         return "auto"
-    if isinstance(value, float) and value.is_integer():
-        value = int(value)
-    if isinstance(value, bool) or not isinstance(value, int):
+    value = whole_number(value)
+    if value is None:
         raise field_error("case_value", 'must be a whole number of modes or "auto"; use e.g. 5')
     if value < 1:
         raise field_error("case_value", 'must be at least 1 (or "auto"); use e.g. 5')

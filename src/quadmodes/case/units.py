@@ -14,6 +14,8 @@ from types import MappingProxyType
 
 import pint
 
+from quadmodes.errors import QuadmodesError
+
 __all__ = [
     "DIMENSIONS",
     "QuantityError",
@@ -27,7 +29,7 @@ __all__ = [
 ureg = pint.UnitRegistry()
 
 
-class QuantityError(ValueError):
+class QuantityError(QuadmodesError, ValueError):
     """A quantity string that is unparsable, lacks a unit or has the wrong kind of unit.
 
     ``str(exc)`` is one line: ``"<field>: <detail>"``; ``detail`` is the part after the field.

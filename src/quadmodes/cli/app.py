@@ -24,9 +24,11 @@ from quadmodes.cli.compare_command import compare_command
 from quadmodes.cli.model_commands import calibrate, cases, modes, reduce_command, show_case
 from quadmodes.cli.run_commands import run_command
 from quadmodes.cli.sweep_command import sweep_command
+from quadmodes.cli.usage import OneLineUsageGroup
 from quadmodes.cli.validate_command import validate
 
 app = typer.Typer(
+    cls=OneLineUsageGroup,  # usage errors in one line, exit 2
     no_args_is_help=True,
     add_completion=True,  # --install-completion, --show-completion (bash, zsh, fish, PowerShell)
 )

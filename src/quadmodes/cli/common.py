@@ -40,22 +40,25 @@ class UserError(Exception):
 
 def user_errors() -> tuple[type[BaseException], ...]:
     """The exception types that end a command with a one-line message (exit status 2)."""
-    from quadmodes.case import CaseError, QuantityError
-    from quadmodes.io.outputs import DiskFullError
-    from quadmodes.structure.calibrate import CalibrationError
-    from quadmodes.structure.prestress import ConvergenceError
+    from quadmodes.errors import QuadmodesError
 
-    return (UserError, CaseError, QuantityError, ConvergenceError, CalibrationError, ValueError,
-            DiskFullError)  # fmt: skip
+    # ValueError: a value a stage cannot use, met below the case validation (as the API's
+    # boundary turns it into an InputError, api/boundary.py)
+    return (UserError, QuadmodesError, ValueError)
 
 
-def fail(exc: BaseException) -> NoReturn:
-    """Print ``exc`` as one line ``error: ...`` on stderr and exit with status 2."""
-    message = " ".join(str(exc).split())  # one line
+def print_error(message: str) -> None:
+    """Print ``message`` as one line ``error: ...`` on stderr."""
+    message = " ".join(message.split())  # one line
     # escape: messages name TOML tables such as "[pressure]", which rich would take as markup
     err.print(
         f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True, emoji=False
     )
+
+
+def fail(exc: BaseException) -> NoReturn:
+    """Print ``exc`` as one line ``error: ...`` on stderr and exit with status 2."""
+    print_error(str(exc))
     raise typer.Exit(code=2)
 
 

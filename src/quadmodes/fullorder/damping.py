@@ -168,7 +168,7 @@ def independent_damping_for(
             try:
                 save_damping_modes(path, freqs, shapes, labels, cutoff_hz, key)
             except OSError as exc:  # a read-only cache is not an error
-                info["cache"] = f"not saved ({exc.strerror or type(exc).__name__})"
+                info["cache"] = cache.not_saved(path, exc, "the full order's damping modes")
     return modal_damping(freqs, shapes, zeta, "independent", cutoff_hz)
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quadmodes.errors import QuadmodesError
 from quadmodes.fe.assembly import assemble_matrix
 from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
@@ -45,7 +46,7 @@ KRYLOV_MANY_TIES = True
 LINE_SEARCH = 1e-5
 
 
-class FullOrderNewtonError(RuntimeError):
+class FullOrderNewtonError(QuadmodesError, RuntimeError):
     """Newton did not converge in a full-order step; the message is one line."""
 
     def __init__(self, step: int, time: float, residual: float, checkpoint: Path | None = None):

@@ -25,6 +25,7 @@ import shutil
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from quadmodes.errors import QuadmodesError
 from quadmodes.io.atomic import atomic_path, write_text
 
 #: The manifest of an output folder: the names quadmodes wrote in it (JSON list).
@@ -39,12 +40,12 @@ STAGING_EXTRA = len("..partial-") + 7 + 1 + 8
 PARTIAL_EXTRA = len(".partial")
 
 
-class OutputPathError(ValueError):
+class OutputPathError(QuadmodesError, ValueError):
     """An output path quadmodes will not write (a link, too long, a user's file in the way,
     too little free space); one line naming the option and the fix."""
 
 
-class DiskFullError(OSError):
+class DiskFullError(QuadmodesError, OSError):
     """The disk (or quota) filled while writing; one line saying what is kept where."""
 
     def __init__(self, message: str):

@@ -70,13 +70,15 @@ def clean_stale_staging(directory: Path, note: Note | None = None) -> list[Path]
 
 
 @contextlib.contextmanager
-def staged_output(directory: Path | None, note: Note | None = None) -> Iterator[Path | None]:
+def staged_output(directory: Path | None, note: Note | None = None,
+                  announce: bool = True) -> Iterator[Path | None]:
     """Write into a hidden scratch folder ``.<name>.partial-<pid>-…/`` beside ``directory``; move
     the files in only on success and list them in its manifest
     (:mod:`quadmodes.io.outputs`). Left-over scratch folders of dead processes are removed
     first (:func:`clean_stale_staging`). A ``directory`` that is a symbolic link, or a file
     in it that quadmodes did not write and a new file would replace, raises
-    :class:`~quadmodes.io.outputs.OutputPathError` (nothing is moved)."""
+    :class:`~quadmodes.io.outputs.OutputPathError` (nothing is moved). Files of an earlier
+    result that are replaced are named in a ``note`` (unless not ``announce``)."""
     if directory is None:
         yield None
         return
@@ -94,6 +96,7 @@ def staged_output(directory: Path | None, note: Note | None = None) -> Iterator[
         yield scratch
         names = sorted(item.name for item in scratch.iterdir())
         check_replaceable(directory, names)  # a user's file of the same name: refused, kept
+        replaced = [name for name in names if (directory / name).exists()]
         with deferred_interrupts():  # never half the new files beside half the old ones
             directory.mkdir(exist_ok=True)
             for name in names:
@@ -103,6 +106,8 @@ def staged_output(directory: Path | None, note: Note | None = None) -> Iterator[
                 (scratch / name).replace(target)
             record(directory, names)
             done = True
+        if replaced and announce:  # never silently: the earlier result (quadmodes's own) is gone
+            (note or log_note)(f"note: replaced the earlier {', '.join(replaced)} in {directory}")
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
         if not done:  # a failed run leaves no folders behind: remove the parents it made

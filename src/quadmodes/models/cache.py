@@ -267,10 +267,22 @@ def find_or_build(
             return value
         start = time.perf_counter()
         value = build()
-        if what:
-            log.info("%s built in %.1f s, saved to %s", what, time.perf_counter() - start, path)
+        took = time.perf_counter() - start
         try:
             store(value, path)
         except OSError as exc:  # a read-only cache is not an error: the run goes on
-            info["cache"] = f"not saved ({exc.strerror or type(exc).__name__})"
+            info["cache"] = not_saved(path, exc, what)
+        else:
+            if what:
+                log.info("%s built in %.1f s, saved to %s", what, took, path)
     return value
+
+
+def not_saved(path: Path, exc: OSError, what: str | None = None) -> str:
+    """Warn (one log line, shown without ``--verbose``) that the cache entry ``path`` could not
+    be written, so the next command builds it again, and say how to fix it; returns the
+    ``info["cache"]`` state ``"not saved (reason)"``."""
+    reason = exc.strerror or type(exc).__name__
+    log.warning("%s not saved to the model cache (%s: %s): the next command builds it again; "
+                "set QUADMODES_CACHE to a writable folder", what or "a model", path, reason)  # fmt: skip
+    return f"not saved ({reason})"

@@ -27,6 +27,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes._version import __version__
+from quadmodes.errors import QuadmodesError
 from quadmodes.io import cf
 from quadmodes.io.outputs import write_netcdf
 from quadmodes.rom.reduced import ReducedModel
@@ -38,7 +39,7 @@ _V2_VARIABLES = ("V3", "V4")  # absent from format-1 files
 _V3_VARIABLES = ("F1", "reference_axis")  # absent from format-1 and -2 files
 
 
-class ArtifactError(ValueError):
+class ArtifactError(QuadmodesError, ValueError):
     """A reduced-model file that cannot be used; one-line message naming the file and the fix."""
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quadmodes.errors import QuadmodesError
 from quadmodes.io.atomic import atomic_path
 from quadmodes.runs.chunked import ChunkProgress
 
@@ -34,7 +35,7 @@ CHECKPOINT_EVERY_S = 10.0
 _STATS = ("n_steps", "n_rhs", "n_newton", "n_jac")
 
 
-class CheckpointError(ValueError):
+class CheckpointError(QuadmodesError, ValueError):
     """A checkpoint that cannot be resumed (damaged, or made for another run); one line."""
 
 

@@ -28,6 +28,7 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from quadmodes.errors import QuadmodesError
 from quadmodes.io.outputs import (
     MANIFEST,
     OutputPathError,
@@ -47,7 +48,7 @@ DATA_FILES = ("results.nc", "summary.json")
 EXTRA_FILES = ("report.html", "motion.xdmf", "motion.h5", "motion.gif")
 
 
-class FolderError(ValueError):
+class FolderError(QuadmodesError, ValueError):
     """A checkpoint to resume is missing, or one would be discarded without being asked to."""
 
 
@@ -164,7 +165,7 @@ def save_partial(result, folders: RunFolders, saved: bool, note: Note | None = N
 
     if not saved:
         return "nothing was saved (the first chunk had not ended)"
-    with staged_output(folders.partial, note) as scratch:
+    with staged_output(folders.partial, note, announce=False) as scratch:  # the last partial
         write_run_data(result, scratch)
     return (f"its checkpoint and partial results (complete = 0) are in {folders.partial}; "
             f"{folders.target} is untouched")  # fmt: skip

@@ -23,6 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from quadmodes.case import Case, EndBody
+from quadmodes.errors import QuadmodesError
 from quadmodes.fe.model import Structure
 from quadmodes.fe.rigid import point_mass_cluster
 from quadmodes.structure.labels import label_modes
@@ -39,7 +40,7 @@ BodyValues = tuple[float, float, float, float]
 INFEASIBLE_RESIDUAL = 10.0
 
 
-class CalibrationError(RuntimeError):
+class CalibrationError(QuadmodesError, RuntimeError):
     """The targets could not be met; one-line message."""
 
 

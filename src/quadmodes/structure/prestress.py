@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from quadmodes.errors import QuadmodesError
 from quadmodes.fe.membrane import MembraneSet
 from quadmodes.fe.model import (
     Structure,
@@ -37,7 +38,7 @@ Progress = Callable[[str, float], None]
 log = logging.getLogger(__name__)
 
 
-class ConvergenceError(RuntimeError):
+class ConvergenceError(QuadmodesError, RuntimeError):
     """A Newton iteration did not converge; the message is one line naming the stage."""
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 from collections.abc import Iterator
 
 from quadmodes._version import __version__
@@ -59,12 +60,31 @@ def local_client(workers: int | None = None) -> Iterator:
         env["PYTHONPATH"] = os.environ["PYTHONPATH"]
     with dask.config.set({"distributed.scheduler.allowed-failures": 1,
                           "distributed.nanny.pre-spawn-environ": env}):  # fmt: skip
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host=LOOPBACK,
-                          protocol="tls://", security=security,
-                          dashboard_address=f"{LOOPBACK}:0", worker_dashboard_address=None,
-                          env=env) as cluster, \
-                Client(cluster, security=security, set_as_default=False) as client:  # fmt: skip
-            yield client
+        with contextlib.ExitStack() as stack:
+            with _children_ignore_ctrl_c():
+                cluster = stack.enter_context(LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=True, host=LOOPBACK,
+                    protocol="tls://", security=security, dashboard_address=f"{LOOPBACK}:0",
+                    worker_dashboard_address=None, env=env))  # fmt: skip
+            yield stack.enter_context(Client(cluster, security=security, set_as_default=False))
+
+
+@contextlib.contextmanager
+def _children_ignore_ctrl_c() -> Iterator[None]:
+    """Inside, Ctrl-C is ignored, and so in the worker processes started here for good (an
+    ignored SIGINT is inherited through exec, and Python then installs no KeyboardInterrupt
+    handler): a Ctrl-C in the terminal reaches the whole process group, and only the parent
+    must act on it (say where the finished points are and close the cluster), not every worker
+    with its own traceback. Outside the main thread nothing changes."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _worker_version() -> str:

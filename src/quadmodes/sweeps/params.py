@@ -29,10 +29,11 @@ from pydantic import BaseModel
 from quadmodes.case import Case, QuantityError, RunCase, parse_quantity, si_unit
 from quadmodes.case.fields import field_meta
 from quadmodes.case.meta import nested_model
+from quadmodes.errors import QuadmodesError
 from quadmodes.limits import REDUCED_MODES, SWEEP_POINTS, LimitError
 
 
-class SweepError(ValueError):
+class SweepError(QuadmodesError, ValueError):
     """A bad sweep input: ``str(exc)`` is one line naming the option and the fix."""
 
 
