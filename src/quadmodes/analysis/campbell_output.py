@@ -22,6 +22,7 @@ from quadmodes.analysis.full_order_markers import (
 )
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path
+from quadmodes.io.outputs import write_netcdf
 from quadmodes.limits import CAMPBELL_POINTS, check_count
 from quadmodes.rom.reduced import ReducedModel
 
@@ -212,9 +213,8 @@ def write_campbell(result: CampbellResult, directory, stem: str = "campbell",
     out.mkdir(parents=True, exist_ok=True)
     paths = {"png": out / f"{stem}.png", "nc": out / f"{stem}.nc", "csv": out / f"{stem}.csv"}
     plot_campbell(result, paths["png"], markers=markers)
-    with atomic_path(paths["nc"]) as tmp:
-        ds = to_dataset(result, markers)
-        ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
+    ds = to_dataset(result, markers)  # in memory first: a full disk is a clean OSError
+    write_netcdf(ds, paths["nc"], encoding=cf.encoding(ds))
     write_csv(result, paths["csv"])
     return paths
 

@@ -6,8 +6,9 @@ is larger than :data:`ZARR_THRESHOLD_BYTES` in memory and zarr is installed, the
 chunked store that is read lazily, variable by variable). Zarr is the optional extra
 ``quadmodes[zarr]``. The store is written in the Zarr v2 format with consolidated metadata
 (read by every Zarr implementation; v3 has no specification yet for fixed-length strings).
-Both writes are atomic: NetCDF through :func:`quadmodes.io.atomic.atomic_path`, Zarr into a
-temporary folder beside the target that is then renamed onto it.
+Both writes are atomic: NetCDF through :func:`quadmodes.io.outputs.write_netcdf` (serialised in
+memory, so a full disk is a clean OSError), Zarr into a temporary folder beside the target that
+is then renamed onto it.
 """
 
 from __future__ import annotations
@@ -80,13 +81,11 @@ def _atomic_folder(path: Path):
 def write_dataset(ds: xr.Dataset, directory: Path, fmt: str) -> Path:
     """Write ``ds`` to ``directory/sweep.nc`` or ``directory/sweep.zarr`` (atomically);
     returns the path."""
-    from quadmodes.io.atomic import atomic_path
+    from quadmodes.io.outputs import write_netcdf
 
     path = Path(directory) / FILE_NAMES[fmt]
-    if fmt == "netcdf":
-        with atomic_path(path) as tmp:
-            ds.to_netcdf(tmp, engine="h5netcdf", encoding=cf.encoding(ds))
-        return path
+    if fmt == "netcdf":  # in memory first: a full disk is a clean OSError (ENOSPC)
+        return write_netcdf(ds, path, encoding=cf.encoding(ds))
     with _atomic_folder(path) as tmp:
         ds.to_zarr(tmp, mode="w", zarr_format=2, consolidated=True)
     return path
