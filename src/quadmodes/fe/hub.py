@@ -123,12 +123,13 @@ def attached_axes_stiffness(sets, x: np.ndarray) -> float:
 
 
 def triad_stiffness(
-    rigidity: float, root_stiffness: float, moments: np.ndarray, boom_omega2: float
+    rigidity: float, root_stiffness: float, moments: np.ndarray, floor_omega2: float
 ) -> float:
     """Distortion stiffness (N m) of the hub's triad: ``rigidity`` × ``root_stiffness``, the
     attached structure's stiffness on the hub's axes at rest (:func:`attached_axes_stiffness`),
-    and at least enough to put the triad's modes ``√(k/S_i)`` 100 × above the booms' first
-    clamped bending frequency (a heavy hub must not become dynamically soft).
+    and at least enough to put the triad's modes ``√(k/S_i)`` (``moments`` S_i (3,) kg m²) above
+    ``√floor_omega2`` (rad/s, :func:`boom_floor_omega2`: a heavy hub must not become
+    dynamically soft).
 
     Why this scale: a load on the hub (the centrifugal pull of the blades, at any spin) strains
     the triad ``1/rigidity`` as much as it strains the roots, so the hub stays rigid relative to
@@ -138,8 +139,20 @@ def triad_stiffness(
     blade's root tension and every string frequency.) The default 100 puts the triad's strain at
     1 % of the roots': frequencies within 2e-4 of the rigid limit; far stiffer penalties (1e4)
     only add round-off to the eigensolutions."""
-    dynamic = float(np.max(moments)) * 1e4 * boom_omega2
+    dynamic = float(np.max(moments)) * floor_omega2
     return max(rigidity * root_stiffness, dynamic, 1.0)
+
+
+def boom_floor_omega2(section: BeamSection, length: float) -> float:
+    """The square (rad²/s²) of the frequency the triad's modes must exceed for a boom of
+    ``length`` (m): 100 × its first clamped bending frequency ``(1.875²)²EI/(ρA L⁴)``, and its
+    first axial frequency ``(π/2)² EA/(ρA L²)``, which never vanishes: a spin that stiffens a
+    blade of no bending stiffness strains it by ε ≈ (Ω/ω_axial)², so every spin-stiffened
+    frequency stays a factor ~1/√ε below it."""
+    ei = max(section.EI2, section.EI3)
+    bending = 12.36 * ei / (section.rho_A * length**4)
+    axial = (0.5 * np.pi) ** 2 * section.EA / (section.rho_A * length**2)
+    return max(1e4 * bending, axial)
 
 
 def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1e2) -> Structure:
@@ -148,7 +161,7 @@ def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1
     reference = [centre[None], np.eye(3)]
     translational = [np.array([True, False, False, False])]
     sets, mass_parts, groups, first = [], [], {}, HUB_DOFS
-    boom_omega2 = 0.0
+    floor_omega2 = 0.0
     for b in booms:
         frame = beam_frame(b.direction, b.director2)
         root = np.asarray(b.root, float)
@@ -165,13 +178,11 @@ def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1
         mass_parts.append((conn, boom_sets[0].mass()))
         groups[f"boom:{b.name}"] = first + DOFS_PER_NODE * np.arange(b.elements)
         first += DOFS_PER_NODE * b.elements
-        ei = max(b.section.EI2, b.section.EI3)
-        # first clamped bending frequency² of the boom, (1.875²)² EI/(ρA L⁴)
-        boom_omega2 = max(boom_omega2, 12.36 * ei / (b.section.rho_A * b.length**4))
+        floor_omega2 = max(floor_omega2, boom_floor_omega2(b.section, b.length))
     n = first
     moments = second_moments_of_mass(np.asarray(hub.inertia))
     root_stiffness = attached_axes_stiffness(sets, np.concatenate(reference))
-    hub_set = hub_rigidity_set(triad_stiffness(rigidity, root_stiffness, moments, boom_omega2))
+    hub_set = hub_rigidity_set(triad_stiffness(rigidity, root_stiffness, moments, floor_omega2))
     ms = assemble_scalar_matrix(np.arange(HUB_DOFS)[None, :], np.diag(
         np.concatenate([[hub.mass], moments]))[None], n)
     for conn, blocks in mass_parts:
