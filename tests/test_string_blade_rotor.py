@@ -16,6 +16,7 @@ from quadmodes.analysis.rotating_modes import rotating_roots
 from quadmodes.case import load_case
 from quadmodes.case.editing import edit
 from quadmodes.fe.model import inertia_tensor
+from quadmodes.rom.spinning_reduction import neutral_modes, spinning_modes
 from quadmodes.structure.pipeline import structure_for_case
 from quadmodes.structure.spinning import relative_equilibrium
 
@@ -134,3 +135,19 @@ def test_closed_form_limits():
                                    string_blade_ratios(hinged, R0, LENGTH, MU, count=3),
                                    rtol=1e-6)  # fmt: skip
     assert string_blade_ratios("cyclic-flap", R0, LENGTH, MU, HUB)[0] == pytest.approx(1.0)
+
+
+def test_spinning_reference_about_the_blade_axis_is_refused_naming_the_axis():
+    """About its minor axis (x, along the blades) the rotor's slack blades lie on the spin axis
+    and are softened by it with no tension to hold them: a true divergence, refused, and the
+    message names the axis. About its normal (z) the same body has a spinning reference."""
+    s = rotor()
+    with pytest.raises(ValueError, match=r"axis \(1, 0, 0\) is not positive definite"):
+        spinning_modes(s, s.reference, 6, 1.0)
+    _, modes, _ = spinning_modes(s, s.reference, 6, 1.0, E_Z)
+    assert np.all(modes.frequencies_hz > 0.0)
+
+
+def test_neutral_modes_are_the_frequencies_below_a_thousandth_of_the_spin():
+    f = np.array([-2e-4, 1e-5, 0.1, -0.2]) / (2 * np.pi)  # ω (rad/s) at Ω = 1 rad/s
+    np.testing.assert_array_equal(neutral_modes(f, 1.0), [True, True, False, False])
