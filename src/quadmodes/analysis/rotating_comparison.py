@@ -19,6 +19,7 @@ import numpy as np
 
 from quadmodes.analysis.campbell import CampbellResult, campbell
 from quadmodes.analysis.rotating_matching import (
+    check_capture,
     comparison_vectors,
     full_order_comparison_vectors,
     mac_matrix,
@@ -428,6 +429,7 @@ def rotating_frequency_comparison(
         with _timed(timings, "eigen"):
             roots = rotating_roots(structure, eq.x, om, e, targets, per_target=per_target)
         full = FullOrderPoint(roots, *full_order_comparison_vectors(structure, eq.x, roots, rom, e))
+        check_capture(full.captured, roots.frequency_hz, fhz)
         branch_rows, unclaimed = _rows_at_spin(fhz, labels, full, reduced, targets, rom)
         rows += branch_rows
         extra += unclaimed

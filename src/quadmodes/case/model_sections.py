@@ -324,14 +324,15 @@ class Beam(Section):
 class Hub(Section):
     """Rigid hub of a spacecraft case: mass kg, principal moments of inertia about its centre
     along x, y, z (kg m^2), the modal damping ratio of the whole structure and the stiffness of
-    the hub's rigid triad relative to the stiffest boom root (dimensionless)."""
+    the hub's rigid triad relative to the attached booms' stiffness on the hub axes at rest
+    (dimensionless: the hub strains 1/rigidity as much as the boom roots under any load)."""
 
     mass: quantity("mass", "20 kg", positive, "kg")
     inertia_x: quantity("inertia", "1.0 kg*m^2", positive, "kg*m^2")
     inertia_y: quantity("inertia", "1.2 kg*m^2", positive, "kg*m^2")
     inertia_z: quantity("inertia", "0.8 kg*m^2", positive, "kg*m^2")
     damping_ratio: quantity("dimensionless", "0.02", ratio) = 0.0
-    rigidity: quantity("dimensionless", "1e4", positive) = 1e4
+    rigidity: quantity("dimensionless", "100", positive) = 1e2
 
     @model_validator(mode="after")
     def check_triangle(self) -> Self:

@@ -5,8 +5,9 @@ axes ``a₁, a₂, a₃`` (dimensionless; the unit axes in the stress-free state
 body coordinates ξ is at ``c + Σ ξ_i a_i``, so the hub's mass is isotropic and constant,
 ``M_s = diag(m, S₁, S₂, S₃)`` with the second moments of mass ``S_i = ∫ρ ξ_i² dV =
 ½ tr I − I_ii`` (about the centre, body axes principal). The axes are held orthonormal by the
-quadratic strains ``½(a_i·a_i − 1)`` and ``a_i·a_j`` (a stiff triad: its six distortion modes are
-far above the booms'). A boom's root node is not a node of its own: its DOFs are the linear
+quadratic strains ``½(a_i·a_i − 1)`` and ``a_i·a_j`` (a stiff triad, :func:`triad_stiffness`:
+its strain is a fixed small fraction of the attached structure's root strain under any load,
+spin-stiffened blades included, and its six distortion modes are far above the booms'). A boom's root node is not a node of its own: its DOFs are the linear
 images of the hub's, ``r = c + Σ ρ_i a_i``, ``t = Σ t_i a_i``, ``d₂ = Σ d₂ᵢ a_i``,
 ``d₃ = Σ d₃ᵢ a_i`` (ρ the root point, ``t, d₂, d₃`` the boom frame, in hub coordinates), so the
 clamp is exact and stays exact for finite rotations. The root slope keeps unit length, i.e. zero
@@ -105,24 +106,62 @@ def clamp_transform(root: np.ndarray, frame: np.ndarray) -> np.ndarray:
     return p
 
 
+def attached_axes_stiffness(sets, x: np.ndarray) -> float:
+    """The largest diagonal entry (N m) of the tangent stiffness of the element sets ``sets``
+    (those attached to the hub) at the state ``x`` ``(n, 3)`` on the hub's axis DOFs a₁, a₂, a₃
+    (rows 1–3): the stiffness with which the attached structure resists a distortion of the
+    triad. At the stress-free state it is the material stiffness of the roots (axial and
+    section terms, EA-like); it never vanishes, unlike a bending stiffness 4EI/ℓ of a
+    spin-stiffened blade, and it bounds the geometric stiffness N/ℓ = EA ε/ℓ of every state of
+    small strain ε, whatever the spin."""
+    diag = np.zeros((x.shape[0], 3))
+    for e in sets:
+        k = e.stiffness(x)  # (ne, 3k, 3k)
+        ne, nk = e.conn.shape
+        np.add.at(diag, e.conn, np.einsum("eii->ei", k).reshape(ne, nk, 3))
+    return float(np.abs(diag[1:HUB_DOFS]).max(initial=0.0))
+
+
 def triad_stiffness(
-    rigidity: float, root_stiffness: float, moments: np.ndarray, boom_omega2: float
+    rigidity: float, root_stiffness: float, moments: np.ndarray, floor_omega2: float
 ) -> float:
-    """Distortion stiffness (N m) of the hub's triad: ``rigidity`` × the stiffest boom root's
-    bending stiffness ``4EI/ℓ`` (the hub deforms 1/rigidity as much as a boom element), and at
-    least enough to put the triad's modes ``√(k/S_i)`` 100 × above the booms' first clamped
-    bending frequency (a heavy hub must not become dynamically soft)."""
-    dynamic = float(np.max(moments)) * 1e4 * boom_omega2
+    """Distortion stiffness (N m) of the hub's triad: ``rigidity`` × ``root_stiffness``, the
+    attached structure's stiffness on the hub's axes at rest (:func:`attached_axes_stiffness`),
+    and at least enough to put the triad's modes ``√(k/S_i)`` (``moments`` S_i (3,) kg m²) above
+    ``√floor_omega2`` (rad/s, :func:`boom_floor_omega2`: a heavy hub must not become
+    dynamically soft).
+
+    Why this scale: a load on the hub (the centrifugal pull of the blades, at any spin) strains
+    the triad ``1/rigidity`` as much as it strains the roots, so the hub stays rigid relative to
+    the structure whatever carries the load, bending or the centrifugal tension of a blade with
+    no bending stiffness. (Scaled to the booms' bending stiffness at rest, as before issue 26,
+    the hub of a spin-stiffened blade was as soft as the blade: its stretch then changed the
+    blade's root tension and every string frequency.) The default 100 puts the triad's strain at
+    1 % of the roots': frequencies within 2e-4 of the rigid limit; far stiffer penalties (1e4)
+    only add round-off to the eigensolutions."""
+    dynamic = float(np.max(moments)) * floor_omega2
     return max(rigidity * root_stiffness, dynamic, 1.0)
 
 
-def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1e4) -> Structure:
+def boom_floor_omega2(section: BeamSection, length: float) -> float:
+    """The square (rad²/s²) of the frequency the triad's modes must exceed for a boom of
+    ``length`` (m): 100 × its first clamped bending frequency ``(1.875²)²EI/(ρA L⁴)``, and its
+    first axial frequency ``(π/2)² EA/(ρA L²)``, which never vanishes: a spin that stiffens a
+    blade of no bending stiffness strains it by ε ≈ (Ω/ω_axial)², so every spin-stiffened
+    frequency stays a factor ~1/√ε below it."""
+    ei = max(section.EI2, section.EI3)
+    bending = 12.36 * ei / (section.rho_A * length**4)
+    axial = (0.5 * np.pi) ** 2 * section.EA / (section.rho_A * length**2)
+    return max(1e4 * bending, axial)
+
+
+def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1e2) -> Structure:
     """The structure of a rigid hub with booms. ``rigidity``: see :func:`triad_stiffness`."""
     centre = np.asarray(hub.centre, float)
     reference = [centre[None], np.eye(3)]
     translational = [np.array([True, False, False, False])]
     sets, mass_parts, groups, first = [], [], {}, HUB_DOFS
-    root_stiffness = boom_omega2 = 0.0
+    floor_omega2 = 0.0
     for b in booms:
         frame = beam_frame(b.direction, b.director2)
         root = np.asarray(b.root, float)
@@ -139,13 +178,11 @@ def build_hub_structure(hub: HubSpec, booms: list[BoomSpec], rigidity: float = 1
         mass_parts.append((conn, boom_sets[0].mass()))
         groups[f"boom:{b.name}"] = first + DOFS_PER_NODE * np.arange(b.elements)
         first += DOFS_PER_NODE * b.elements
-        ei = max(b.section.EI2, b.section.EI3)
-        root_stiffness = max(root_stiffness, 4.0 * ei / (b.length / b.elements))
-        # first clamped bending frequency² of the boom, (1.875²)² EI/(ρA L⁴)
-        boom_omega2 = max(boom_omega2, 12.36 * ei / (b.section.rho_A * b.length**4))
+        floor_omega2 = max(floor_omega2, boom_floor_omega2(b.section, b.length))
     n = first
     moments = second_moments_of_mass(np.asarray(hub.inertia))
-    hub_set = hub_rigidity_set(triad_stiffness(rigidity, root_stiffness, moments, boom_omega2))
+    root_stiffness = attached_axes_stiffness(sets, np.concatenate(reference))
+    hub_set = hub_rigidity_set(triad_stiffness(rigidity, root_stiffness, moments, floor_omega2))
     ms = assemble_scalar_matrix(np.arange(HUB_DOFS)[None, :], np.diag(
         np.concatenate([[hub.mass], moments]))[None], n)
     for conn, blocks in mass_parts:

@@ -24,6 +24,8 @@ every mode at rest below the cutoff, the definition the full-order reference use
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from quadmodes.fe.model import Structure, inertia_tensor
@@ -73,13 +75,33 @@ def spinning_modes(
         e = minor_axis(structure, x_rest) if axis is None else np.asarray(axis, float)
         eq = relative_equilibrium(structure, x_rest, spin, e)
     modes = compute_modes(structure, eq.x, count, softening=centrifugal_softening(structure, spin, e))
-    if np.any(modes.frequencies_hz <= 0.0):
+    neutral = neutral_modes(modes.frequencies_hz, spin)
+    if np.any((modes.frequencies_hz < 0.0) & ~neutral):
+        shown = ", ".join(f"{round(float(v), 6) + 0.0:.3g}" for v in e)  # no -0, no 1e-17
         raise ValueError(
-            f"the rotating-frame stiffness at {spin / (2 * np.pi):.4g} Hz is not positive "
-            "definite (the spin is beyond a divergence speed of the body); a spinning reference "
-            'needs a stable spin: use reference = "rest"'
+            f"the rotating-frame stiffness at {spin / (2 * np.pi):.4g} Hz about the body axis "
+            f"({shown}) is not positive definite (the spin is beyond a "
+            "divergence speed of the body, e.g. slack blades along the spin axis); a spinning "
+            'reference needs a stable spin: use reference = "rest"'
         )
-    return eq, modes, label_modes(structure, eq.x, modes.shapes)
+    labels = label_modes(structure, eq.x, modes.shapes)
+    if np.any(neutral):  # kept as coordinates with zero stiffness (docs/sails.md, "The hub")
+        modes = replace(modes, frequencies_hz=np.where(neutral, 0.0, modes.frequencies_hz))
+        labels = [f"{lab} (neutral)" if n else lab for lab, n in zip(labels, neutral, strict=True)]
+    return eq, modes, labels
+
+
+#: A mode of the rotating-frame stiffness whose frequency is below this fraction of the spin,
+#: of either sign, is neutral: a motion with no stiffness of its own at this spin (a blade
+#: hinged on the axis turning about it, an exact symmetry), whose sign is round-off.
+NEUTRAL_RATIO = 1e-3
+
+
+def neutral_modes(frequencies_hz: np.ndarray, spin: float) -> np.ndarray:
+    """(N,) True where the rotating-frame frequency (Hz, negative: ω² < 0) is neutral at
+    ``spin`` (rad/s): ``|2πf| ≤`` :data:`NEUTRAL_RATIO` ``|Ω|``. The whole body's rotation about
+    the spin axis never appears here: the frame conditions remove it."""
+    return np.abs(2.0 * np.pi * np.asarray(frequencies_hz, float)) <= NEUTRAL_RATIO * abs(spin)
 
 
 def reduce_spinning(

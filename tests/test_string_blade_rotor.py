@@ -1,0 +1,153 @@
+"""The hub is rigid in fact (issue 26 item 3): a two-blade rotor stiffened by spin alone
+(built-in string-blade-rotor: two 10 m 3-D beams of negligible bending stiffness clamped on a
+thin disc hub) at DEFAULT settings — its nutation root equals the spin, the capture check
+passes, and its flap and lag frequencies converge to the closed form of strings with
+centrifugal tension on a free hub of finite radius (tests/reference/string_blade.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from reference.string_blade import string_blade_ratios
+
+from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
+from quadmodes.analysis.rotating_matching import CaptureError, check_capture
+from quadmodes.analysis.rotating_modes import rotating_roots
+from quadmodes.case import load_case
+from quadmodes.case.editing import edit
+from quadmodes.fe.model import inertia_tensor
+from quadmodes.rom.spinning_reduction import neutral_modes, spinning_modes
+from quadmodes.structure.pipeline import structure_for_case
+from quadmodes.structure.spinning import relative_equilibrium
+
+E_Z = np.array([0.0, 0.0, 1.0])
+R0, LENGTH, MU = 0.5, 10.0, 1420.0 * 1e-5  # hub rim (m), blade (m), kg/m
+HUB = (10.0, 0.62508333, 0.62508333, 1.25)  # m_h (kg), I_x, I_y, I_z (kg m²)
+
+
+def rotor(elements: int | None = None):
+    """The structure of the built-in case, with ``elements`` per blade if given."""
+    case = load_case("string-blade-rotor")
+    changes = [(("boom", i, "elements"), elements) for i in (0, 1)] if elements else []
+    return structure_for_case(edit(case, changes, "test"))
+
+
+def roots_near(structure, spin: float, ratios) -> np.ndarray:
+    """Rotating-frame roots ω/Ω (ascending) of the full order about its relative equilibrium at
+    ``spin`` (rad/s) about z, searched near ``ratios`` × spin."""
+    eq = relative_equilibrium(structure, structure.reference, spin, E_Z)
+    r = rotating_roots(structure, eq.x, spin, E_Z, [q * spin / (2 * np.pi) for q in ratios],
+                       per_target=6)  # fmt: skip
+    return np.sort(r.lam.imag / spin)
+
+
+def nearest(values: np.ndarray, target: float) -> float:
+    return float(values[np.argmin(np.abs(values - target))])
+
+
+@pytest.mark.parametrize("spin", [1.0, 2.0, 4.0])
+def test_nutation_root_is_the_spin_at_default_settings(spin):
+    """A flat body (blades in the plane of a thin hub) nutates at exactly its spin in the
+    rotating frame: λ² = Ω²(I_z − I_x)(I_z − I_y)/(I_x I_y) = Ω² when I_z = I_x + I_y; here the
+    hub's 1 cm thickness leaves 1.3e-4."""
+    s = rotor()
+    got = nearest(roots_near(s, spin, [0.9]), 0.9999)
+    i = np.linalg.eigvalsh(inertia_tensor(s, s.reference))  # I_x (smallest), I_y, I_z
+    rigid = np.sqrt((i[2] - i[0]) * (i[2] - i[1]) / (i[0] * i[1]))
+    assert abs(got - 1.0) < 1e-3
+    assert got == pytest.approx(rigid, rel=2e-5)
+
+
+def test_reduced_comparison_passes_the_capture_check_and_matches_the_nutation():
+    """`quadmodes rotating string-blade-rotor` at default settings: no capture error, the
+    nutation branch equals the spin to 0.1 % at 1, 2, 4 rad/s."""
+    spins_hz = [w / (2 * np.pi) for w in (1.0, 2.0, 4.0)]
+    table = rotating_frequency_comparison("string-blade-rotor", spins_hz, 9, ("Q",), axis="z")
+    for f in spins_hz:
+        row = table.row(f, "nutation")
+        assert row.full_hz == pytest.approx(f, rel=1e-3)
+        assert row.captured <= 1.0 + 1e-6
+    assert all(r.captured <= 1.0 + 1e-6 for r in table.rows + table.extra)
+
+
+def test_capture_above_one_is_an_error():
+    check_capture(np.array([0.2, 1.0, 1.04]), np.array([1.0, 2.0, 3.0]), 1.0)
+    with pytest.raises(CaptureError, match="capture check failed.*1684.*hub. rigidity"):
+        check_capture(np.array([0.2, 1684.0]), np.array([1.0, 2.0]), 0.5)
+
+
+FAMILIES = [("collective-flap", 1.05), ("cyclic-flap", 1.55), ("collective-lag", 0.86)]
+
+
+@pytest.fixture(scope="module")
+def refined_roots():
+    """Full-order roots ω/Ω at 1 rad/s with 40 and 80 elements per blade."""
+    targets = [q for _, q in FAMILIES]
+    return {n: roots_near(rotor(n), 1.0, targets) for n in (40, 80)}
+
+
+@pytest.mark.parametrize(("family", "guess"), FAMILIES)
+def test_string_blade_frequencies_converge_to_the_closed_form(refined_roots, family, guess):
+    """The clamp of a blade with no bending stiffness is a boundary layer ~√(EI/T) = mm long,
+    unresolved by 25 cm elements: the error in ω² is first order in the element length (halves
+    with it) and its Richardson extrapolation meets the closed form."""
+    exact = string_blade_ratios(family, R0, LENGTH, MU, HUB, count=2)
+    target = exact[1] if family == "cyclic-flap" else exact[0]  # exact[0] = 1: the nutation
+    lam = {n: nearest(r, guess) ** 2 for n, r in refined_roots.items()}
+    err40, err80 = lam[40] - target**2, lam[80] - target**2
+    assert 0.0 < err80 < 0.6 * err40  # first order, from above
+    assert np.sqrt(2.0 * lam[80] - lam[40]) == pytest.approx(target, rel=2e-3)
+    assert nearest(refined_roots[80], guess) == pytest.approx(target, rel=0.03)  # raw, 80 el.
+
+
+def test_frequency_ratios_do_not_depend_on_the_spin():
+    """Every frequency of a spin-stiffened blade scales with the spin."""
+    targets = [q for _, q in FAMILIES]
+    s = rotor()
+    at1, at4 = roots_near(s, 1.0, targets), roots_near(s, 4.0, targets)
+    for _, q in FAMILIES:
+        assert nearest(at4, q) == pytest.approx(nearest(at1, q), rel=2e-3)
+
+
+def test_hub_strains_a_hundredth_of_the_blade_roots_at_any_spin():
+    """The default penalty (rigidity 100 × the roots' stiffness on the hub axes) keeps the
+    hub's triad strain ~1 % of the blades' root strain, whatever the spin."""
+    s = rotor()
+    for spin in (1.0, 4.0):
+        x = relative_equilibrium(s, s.reference, spin, E_Z).x
+        a = x[1:4]
+        triad = np.abs(a @ a.T - np.eye(3)).max()
+        t0 = MU * spin**2 * ((R0 + LENGTH) ** 2 - R0**2) / 2.0  # root tension (N)
+        root_strain = t0 / (3e9 * 1e-5)
+        assert triad < 0.05 * root_strain
+
+
+def test_closed_form_limits():
+    """The reference on its own: hinged on the axis, ω²/Ω² = k(2k − 1) in flap and one less in
+    lag; a hub of huge inertia is a fixed hinge; the free hub's tilt is the nutation (λ = 1)."""
+    flap = string_blade_ratios("hinged-flap", 1e-9, LENGTH, MU) ** 2
+    lag = string_blade_ratios("hinged-lag", 1e-9, LENGTH, MU) ** 2
+    np.testing.assert_allclose(flap[:3], [1.0, 6.0, 15.0], rtol=1e-8)
+    np.testing.assert_allclose(lag[:3], [5.0, 14.0, 27.0], rtol=1e-8)  # 0: the neutral lag
+    heavy = (1e9, 1e9, 1e9, 2e9)
+    for kind, hinged in (("collective-flap", "hinged-flap"), ("collective-lag", "hinged-lag")):
+        np.testing.assert_allclose(string_blade_ratios(kind, R0, LENGTH, MU, heavy, count=3),
+                                   string_blade_ratios(hinged, R0, LENGTH, MU, count=3),
+                                   rtol=1e-6)  # fmt: skip
+    assert string_blade_ratios("cyclic-flap", R0, LENGTH, MU, HUB)[0] == pytest.approx(1.0)
+
+
+def test_spinning_reference_about_the_blade_axis_is_refused_naming_the_axis():
+    """About its minor axis (x, along the blades) the rotor's slack blades lie on the spin axis
+    and are softened by it with no tension to hold them: a true divergence, refused, and the
+    message names the axis. About its normal (z) the same body has a spinning reference."""
+    s = rotor()
+    with pytest.raises(ValueError, match=r"axis \(1, 0, 0\) is not positive definite"):
+        spinning_modes(s, s.reference, 6, 1.0)
+    _, modes, _ = spinning_modes(s, s.reference, 6, 1.0, E_Z)
+    assert np.all(modes.frequencies_hz > 0.0)
+
+
+def test_neutral_modes_are_the_frequencies_below_a_thousandth_of_the_spin():
+    f = np.array([-2e-4, 1e-5, 0.1, -0.2]) / (2 * np.pi)  # ω (rad/s) at Ω = 1 rad/s
+    np.testing.assert_array_equal(neutral_modes(f, 1.0), [True, True, False, False])
