@@ -120,11 +120,14 @@ def _checks_section(summary: dict) -> Section:
         if ok and low == "—":
             text = "valid (no elastic modes: nothing to check)"
         parts.append(paragraph(text, "ok" if ok else "bad"))
-    if summary.get("dt_convergence"):
-        rows = [(1e3 * r["dt_s"], r["steps"], r["cone_angle_deg"], r["rel_change_cone_angle_deg"],
-                 r["spin_rate_hz"], r["rel_change_spin_rate_hz"]) for r in summary["dt_convergence"]]  # fmt: skip
-        parts.append(table(("dt (ms)", "steps", "cone angle end (deg)", "rel. change",
-                            "spin rate end (Hz)", "rel. change"), rows, "time-step convergence"))  # fmt: skip
+    dt_conv = summary.get("dt_convergence")
+    if dt_conv:
+        rows = [(1e3 * r["dt_s"], r["steps"], r["cone_growth_rate_deg_per_s"],
+                 r["rel_change_cone_growth_rate_deg_per_s"], r["cone_angle_deg"],
+                 r["rel_change_cone_angle_deg"]) for r in dt_conv["rows"]]  # fmt: skip
+        parts.append(table(("dt (ms)", "steps", "cone-growth rate (deg/s)", "rel. change",
+                            "cone angle end (deg)", "rel. change"), rows, "time-step convergence"))  # fmt: skip
+        parts.append(paragraph(f"verdict: {dt_conv.get('text', '')}"))
     conv = summary.get("mode_convergence")
     if conv:
         rows = [(r["n_modes"], r["steps"], r["wall_s"]) for r in conv["rows"]]
