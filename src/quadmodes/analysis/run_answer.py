@@ -31,8 +31,11 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from quadmodes.analysis.campbell import campbell
 from quadmodes.analysis.energy_sink import EnergySink, energy_sink
+from quadmodes.runs import secular
 
 #: The rule of :attr:`LinearAnswer.stability` in words (stored with the outputs).
 STABILITY_RULE = (
@@ -78,7 +81,11 @@ class LinearAnswer:
     estimate (power W, growth rate 1/s, time constant s, ...), ``nutation_growth_rate`` (1/s)
     the real part of the damped linearisation's nutation root (NaN if none is labelled),
     ``min_rotating_stiffness`` (1/s²), ``stability`` "stable", "unstable" or "neutral" by
-    :data:`STABILITY_RULE`, ``coning_rate`` (1/s) the σ the verdict used."""
+    :data:`STABILITY_RULE`, ``coning_rate`` (1/s) the σ the verdict used. ``fit_sink``: the
+    same estimate at the mean spin ``fit_spin`` (rad/s) and cone angle ``fit_cone`` (rad) of
+    the run's quasi-steady part, the state the run's own fitted rate belongs to (a long run
+    drifts: paper-41hz loses 0.09 Hz of spin over 120 s, which alone lengthens τ by 1.4 %);
+    None when not computed."""
 
     sink: EnergySink
     nutation_growth_rate: float
@@ -86,6 +93,9 @@ class LinearAnswer:
     stability: str
     coning_rate: float
     rule: str = STABILITY_RULE
+    fit_sink: EnergySink | None = None
+    fit_spin: float = math.nan
+    fit_cone: float = math.nan
 
 
 def verdict(sink: EnergySink, nutation_growth_rate: float,
@@ -99,14 +109,40 @@ def verdict(sink: EnergySink, nutation_growth_rate: float,
     return ("unstable" if sigma > 0 else "stable" if sigma < 0 else "neutral"), sigma
 
 
-def linear_answer(run, model, system) -> LinearAnswer:
+def linear_answer(run, model, system, fit_state: tuple[float, float] | None = None) -> LinearAnswer:
     """:class:`LinearAnswer` of ``run`` on ``model`` (restricted to the run's modes) and its
-    ``system`` (the run's formulation), at the run's initial spin and cone angle."""
+    ``system`` (the run's formulation), at the run's initial spin and cone angle; with
+    ``fit_state`` = (spin rad/s, cone angle rad) also the estimate there (``fit_sink``)."""
     roots = spin_roots(run, model)
     sink = energy_sink(system, roots["_s_eq"], roots["_omega0"], float(run.initial.cone_angle))
     stability, sigma = verdict(sink, roots["nutation_growth_rate"], roots["min_rotating_stiffness"])
-    return LinearAnswer(sink, roots["nutation_growth_rate"], roots["min_rotating_stiffness"],
-                        stability, sigma)  # fmt: skip
+    answer = LinearAnswer(sink, roots["nutation_growth_rate"], roots["min_rotating_stiffness"],
+                          stability, sigma)  # fmt: skip
+    if fit_state is None or not all(math.isfinite(x) and x > 0 for x in fit_state):
+        return answer
+    spin, cone = fit_state
+    moved = run.model_copy(update={"initial": run.initial.model_copy(
+        update={"spin_rate": spin, "cone_angle": cone})})  # fmt: skip
+    try:
+        eq = spin_roots(moved, model)  # the relative equilibrium at the fit's spin
+    except (ValueError, ArithmeticError, KeyError):  # none there: the answer at the start stands
+        return answer
+    fit_sink = energy_sink(system, eq["_s_eq"], eq["_omega0"], cone)
+    return dataclasses.replace(answer, fit_sink=fit_sink, fit_spin=spin, fit_cone=cone)
+
+
+def fit_state(result) -> tuple[float, float]:
+    """(mean spin rate rad/s, mean cone angle rad) of ``result`` over the quasi-steady part of
+    its run (:func:`quadmodes.runs.secular.run_fits`)."""
+    d, model = result.diagnostics, result.model
+    if len(d.t) < 2:
+        return math.nan, math.nan
+    q = secular.run_fits(d.t, d.cone_angle, d.E_d, d.spin_rate, model.frequencies_hz,
+                         model.damping_ratio).interval  # fmt: skip
+    sel = (d.t >= q.start_s) & (d.t <= q.end_s)
+    if not sel.any():
+        return math.nan, math.nan
+    return float(np.mean(d.spin_rate[sel])), float(np.mean(d.cone_angle[sel]))
 
 
 def with_linear_answer(result):
@@ -116,7 +152,7 @@ def with_linear_answer(result):
     if result.system.n_modes == 0:
         return result
     try:
-        answer = linear_answer(result.run, result.model, result.system)
+        answer = linear_answer(result.run, result.model, result.system, fit_state(result))
     except (ValueError, ArithmeticError, KeyError) as exc:  # no relative equilibrium at the spin
         note = f"no energy-sink estimate or stability verdict: {exc}"
         return dataclasses.replace(result, notes=(*result.notes, note))

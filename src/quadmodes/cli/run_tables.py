@@ -20,7 +20,9 @@ def dt_table(name: str, rows: list[dict]) -> Table:
                   title=f"{name}: time-step convergence (t = {rows[0]['t_end_s']:.4g} s; "
                   "relative change from the previous dt)", box=box.SIMPLE_HEAD)  # fmt: skip
     for r in rows:
-        rate = f"{cell(r, 'cone_growth_rate_deg_per_s', '.5g')} ± {r['cone_growth_rate_se_deg_per_s']:.1g}"
+        c = r["rel_change_cone_growth_rate_deg_per_s"]
+        rate = (f"{r['cone_growth_rate_deg_per_s']:.5g} ± {r['cone_growth_rate_se_deg_per_s']:.1g}"
+                + ("" if c is None else f" ({c:.1e})"))  # fmt: skip
         table.add_row(f"{1e3 * r['dt_s']:.4g}", str(r["steps"]), rate,
                       cell(r, "cone_angle_change_deg", ".5g"), cell(r, "spin_rate_hz", ".6f"),
                       cell(r, "dissipated_energy_J", ".6g"))  # fmt: skip

@@ -13,9 +13,11 @@ Two sources, stored side by side as scalar variables (SI, ``units`` pint reads, 
   the fit; reported only where the slope is at least 2 standard errors);
 * **the linearisation at the spin** (:class:`quadmodes.analysis.run_answer.LinearAnswer`,
   attached to the result by the caller): the **energy-sink estimate** (mean power of the steady
-  forced response to the rigid nutation, coning rate σ and **time constant** τ = 1/σ, what
-  ``quadmodes sweep … --no-time-run`` computes), the damped nutation root, and the **stability
-  verdict** with its rule (``stability_rule``).
+  forced response to the rigid nutation, coning rate σ and **time constant** τ = 1/σ) at the
+  initial spin and cone angle (what ``quadmodes sweep … --no-time-run`` computes) and at the
+  mean spin and cone angle of the quasi-steady part (``…_at_fit_state``: the state the run's
+  fitted rate belongs to; ``time_constant_ratio`` compares the run with it), the damped
+  nutation root, and the **stability verdict** with its rule (``stability_rule``).
 
 Pure functions of the run's arrays; the summary reads the dataset alone, so it can be recomputed
 from a saved file.
@@ -69,6 +71,14 @@ _LINEAR_VARIABLES = (
      "about the relative equilibrium"),
     ("coning_rate", "1/s", "coning rate sigma the stability verdict used (stability_rule)"),
 )  # fmt: skip
+_FIT_STATE_VARIABLES = (
+    ("coning_time_constant_at_fit_state", "s", "coning time constant of the energy-sink law at the "
+     "mean spin rate and cone angle of the quasi-steady part (the state the run's fit sees)"),
+    ("energy_sink_power_at_fit_state", "W", "energy-sink estimate of the mean dissipated power at "
+     "the mean spin rate and cone angle of the quasi-steady part"),
+    ("fit_spin_rate", "rad/s", "mean spin rate over the quasi-steady part"),
+    ("fit_cone_angle", "rad", "mean cone angle over the quasi-steady part"),
+)  # fmt: skip
 
 
 def answer_variables(result) -> tuple[dict[str, xr.Variable], dict]:
@@ -92,6 +102,10 @@ def answer_variables(result) -> tuple[dict[str, xr.Variable], dict]:
                   s.elastic_momentum_ratio, lin.nutation_growth_rate, lin.coning_rate)  # fmt: skip
         data.update({k: cf.variable((), v, u, n)
                      for (k, u, n), v in zip(_LINEAR_VARIABLES, values, strict=True)})  # fmt: skip
+        if lin.fit_sink is not None:
+            values = (lin.fit_sink.time_constant, lin.fit_sink.power, lin.fit_spin, lin.fit_cone)
+            data.update({k: cf.variable((), v, u, n)
+                         for (k, u, n), v in zip(_FIT_STATE_VARIABLES, values, strict=True)})  # fmt: skip
         data["quasi_rigid"] = cf.variable((), np.int8(s.quasi_rigid), "1",
                                           "energy-sink estimate quasi-rigid (1) or not (0)")  # fmt: skip
         flag = cf.variable((), np.int8(STABILITY_FLAGS.index(lin.stability)), "1",
@@ -131,13 +145,18 @@ def answer_summary(ds: xr.Dataset) -> dict:
         "dissipated_power_se_W": _get(ds, "dissipated_power_standard_error"),
     }  # fmt: skip
     if "spin_stability" in ds:
-        tau_sink = _get(ds, "coning_time_constant")
+        tau_start = _get(ds, "coning_time_constant")
+        tau_fit = _get(ds, "coning_time_constant_at_fit_state")
         tau_run = out["simulated_coning_time_constant_s"]
         out.update({
             "energy_sink_power_W": _get(ds, "energy_sink_power"),
+            "energy_sink_power_at_fit_state_W": _get(ds, "energy_sink_power_at_fit_state"),
             "energy_sink_growth_rate_per_s": _get(ds, "energy_sink_growth_rate"),
-            "coning_time_constant_s": tau_sink,
-            "time_constant_ratio": tau_run / tau_sink if tau_run and tau_sink else None,
+            "coning_time_constant_s": tau_start,
+            "coning_time_constant_at_fit_state_s": tau_fit,
+            # the run against the estimate at the state its fit sees, and at the start (sweep's)
+            "time_constant_ratio": tau_run / tau_fit if tau_run and tau_fit else None,
+            "time_constant_ratio_to_start": tau_run / tau_start if tau_run and tau_start else None,
             "energy_sink_quasi_rigid": bool(int(ds["quasi_rigid"])),
             "elastic_momentum_ratio": _get(ds, "elastic_momentum_ratio"),
             "nutation_growth_rate_per_s": _get(ds, "nutation_growth_rate"),
