@@ -8,9 +8,10 @@ import importlib.util
 import pytest
 from conftest import assert_cf_file, udunits_reads_as_pint
 
-from quadmodes.analysis import compare, secular
+from quadmodes.analysis import compare
 from quadmodes.io import cf
 from quadmodes.rom import artifact
+from quadmodes.runs import secular
 from quadmodes.sweeps import dataset as sweep_dataset
 
 HAVE_CF_UNITS = importlib.util.find_spec("cf_units") is not None

@@ -172,8 +172,9 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     dissipated-power ratio against itself is 1, the quasi-steady start follows the rule."""
     import xarray as xr
 
-    from quadmodes.analysis import full_order_runs, secular
+    from quadmodes.analysis import full_order_runs
     from quadmodes.case.units import ureg
+    from quadmodes.runs import secular
 
     monkeypatch.setattr(full_order_runs, "setup_for_run", lambda run, **k: types.SimpleNamespace(notes=()))
     monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})

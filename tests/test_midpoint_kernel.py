@@ -21,6 +21,7 @@ from quadmodes.rom import dynamics as dy  # noqa: E402
 from quadmodes.rom import integrators as it  # noqa: E402
 from quadmodes.rom import system as rsys  # noqa: E402
 from quadmodes.runs import simulate  # noqa: E402
+from quadmodes.runs.dt_convergence import dt_convergence  # noqa: E402
 
 
 def spinner_state(sys, spin, cone_deg, s_amp=0.0):
@@ -183,7 +184,7 @@ def test_backend_selection_and_errors(capsule, monkeypatch):
 
 def test_dt_convergence_of_cone_angle_growth(workdir, small_reduced_model, monkeypatch):  # noqa: F811
     """Minor-axis spinner with an energy sink (small capsule, 100 Hz spin, 10° cone, 1 s):
-    through ``simulate.dt_convergence`` (what ``run --dt-convergence`` calls) at 0.2, 0.1 and
+    through ``dt_convergence`` (what ``run --dt-convergence`` calls) at 0.2, 0.1 and
     0.05 ms, the cone-angle growth θ(1 s) − θ₀ changes by under 2 % from Δt/2 to Δt/4 and the
     change shrinks about fourfold per halving (second order); every chunk used the kernel."""
     backends = []
@@ -198,7 +199,8 @@ def test_dt_convergence_of_cone_angle_growth(workdir, small_reduced_model, monke
     text = run_toml(spin='"100 Hz"', cone='"10 deg"', amplitude='"0 in"', dt='"0.2 ms"',
                     duration='"1 s"', save_every="10")  # fmt: skip
     setup = simulate.prepare(run_case_from_toml(text, base_dir=workdir), small_reduced_model)
-    rows = simulate.dt_convergence(setup)
+    conv = dt_convergence(setup)
+    rows = conv["rows"]
     assert [r["steps"] for r in rows] == [5000, 10000, 20000] and all(r["complete"] for r in rows)
     assert set(backends) == {"numba"}
     growth = np.array([r["cone_angle_deg"] for r in rows]) - 10.0  # θ₀ is exactly 10°
@@ -206,6 +208,11 @@ def test_dt_convergence_of_cone_angle_growth(workdir, small_reduced_model, monke
     changes = np.abs(np.diff(growth))
     assert changes[1] < 0.02 * growth[2]
     assert changes[0] / changes[1] == pytest.approx(4.0, rel=0.5)
+    # the verdict judges the headline: the cone growth (significant here), not the end angle
+    assert conv["judged"] == ["cone_growth_rate_deg_per_s", "cone_angle_change_deg"]
+    assert all(r["cone_growth_significant"] for r in rows)
+    # ... which changes more than the end angle θ(T) = θ₀ + growth, which understates it
+    assert rows[1]["rel_change_cone_angle_change_deg"] > 10 * rows[1]["rel_change_cone_angle_deg"]
 
 
 def test_kernel_is_checked_against_the_rotation_leaves_it_compiles():

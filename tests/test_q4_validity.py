@@ -15,7 +15,7 @@ def _setup(name, formulation="Q4"):
 
 @pytest.fixture(scope="module")
 def slow_q4():
-    return _setup("paper-0.5hz")
+    return _setup("paper-0.5hz-large")  # 0.5 in of bending
 
 
 def test_barrier_is_a_maximum_along_its_ray(slow_q4):
@@ -34,7 +34,7 @@ def test_barrier_is_a_maximum_along_its_ray(slow_q4):
 
 
 def test_initial_bending_beyond_the_barrier_is_reported(slow_q4):
-    # paper-0.5hz's 0.5 in of bending lies beyond the maximum of Q4's potential along its own
+    # paper-0.5hz-large's 0.5 in of bending lies beyond the maximum of Q4's potential along its own
     # direction (its modal energy is even negative there: the truncated quartic falls)
     val = slow_q4.validity
     assert val.modal_energy < val.barrier_energy and val.past_maximum_on_ray
@@ -44,7 +44,7 @@ def test_initial_bending_beyond_the_barrier_is_reported(slow_q4):
 
 
 def test_small_bending_is_within_q4_validity():
-    run = load_run_case("paper-0.5hz")
+    run = load_run_case("paper-0.5hz-large")
     small = run.model_copy(update={"initial": run.initial.model_copy(
         update={"bending_amplitude": 0.1 * run.initial.bending_amplitude})})  # fmt: skip
     val = simulate.prepare(simulate.apply_overrides(small, formulation="Q4")).validity

@@ -119,7 +119,8 @@ def _undamped(model):
 
 
 def test_paper_run_cases_load_and_validate():
-    names = ["paper-0.5hz", "paper-41hz", "paper-41hz-coarse", "paper-41hz-seed"]
+    names = ["paper-0.5hz", "paper-0.5hz-large", "paper-41hz", "paper-41hz-coarse",
+             "paper-41hz-seed"]
     assert builtin_run_case_names() == [*names, "spinning-disc-nutation"]
     coarse = load_run_case("paper-41hz-coarse")
     assert coarse.model == "paper-membrane-coarse" and coarse.initial.spin_rate > 0

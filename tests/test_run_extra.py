@@ -167,7 +167,8 @@ def test_dt_convergence_table_and_json(workdir):  # noqa: F811
     assert result.exit_code == 0, result.output
     assert "time-step convergence" in result.stdout
     saved = json.loads((out_dir / "small-run" / "summary.json").read_text())
-    rows = saved["dt_convergence"]
+    rows = saved["dt_convergence"]["rows"]
+    assert "verdict:" in result.stdout and saved["dt_convergence"]["text"]
     assert len(rows) == 3
     assert [r["dt_s"] for r in rows] == pytest.approx([2e-4, 1e-4, 5e-5])
     assert [r["steps"] for r in rows] == [50, 100, 200]
@@ -190,7 +191,7 @@ def test_dt_convergence_table_and_json(workdir):  # noqa: F811
         ],
     )
     assert json_run.exit_code == 0
-    assert len(only_summary(json_run.stdout)["dt_convergence"]) == 3
+    assert len(only_summary(json_run.stdout)["dt_convergence"]["rows"]) == 3
 
 
 def test_dt_convergence_rejects_adaptive_and_spinup(workdir):  # noqa: F811

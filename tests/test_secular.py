@@ -1,4 +1,4 @@
-"""Long-window scores of ``quadmodes compare`` (analysis.secular) on synthetic series.
+"""Long-window scores of ``quadmodes compare`` (runs.secular) on synthetic series.
 
 The slope tolerance is derived here, not taken from the code: a least-squares line over an
 interval of length L centred at t_m has slope b = (12/L³) ∫ τ y(t_m + τ) dτ (continuous limit,
@@ -16,8 +16,8 @@ import types
 import numpy as np
 import pytest
 
-from quadmodes.analysis import secular as sc
 from quadmodes.case.units import ureg
+from quadmodes.runs import secular as sc
 
 
 def _bound(A: float, omega: float, L: float) -> float:

@@ -15,12 +15,11 @@ import argparse
 
 import numpy as np
 
-from quadmodes.analysis import secular
 from quadmodes.analysis.compare import series_from_run
 from quadmodes.case import load_run_case
 from quadmodes.fe.model import mass_matrix
 from quadmodes.rom import reduced as red
-from quadmodes.runs import simulate
+from quadmodes.runs import secular, simulate
 from quadmodes.structure import pipeline
 
 

@@ -8,7 +8,10 @@ frequencies), each maximum refined by a parabola through the neighbouring sample
 10× the late-time level (the median of ``a`` over the last 10 % of the run) so that a forced
 floor does not bias a decay; if fewer than three windows qualify, all windows are used.
 ``δ = −slope·T`` per period: 2πζ for a free decay with modal damping ratio ζ, negative for
-growth.
+growth. ``free_decay`` says whether the signal is one: it starts displaced (``a(0) > 0``) and at
+least three windows exceed 10× the late-time level. A forced steady response (a spinning body
+started undeformed) is not, and its fitted "decrement" means nothing: the run summary reports
+the log decrement only for a free decay.
 
 Pure functions on arrays (time in s, any amplitude unit); no file or plotting code. A leaf of
 the package (imports nothing of quadmodes), so the run results, the plots (:mod:`quadmodes.io`)
@@ -69,6 +72,7 @@ def log_decrement(t: np.ndarray, a: np.ndarray, frequency_hz: float) -> dict:
         "fit_end_s": None,
         "fit_peaks": 0,
         "period_s": None,
+        "free_decay": False,
     }
     t = np.asarray(t, float)
     a = np.asarray(a, float)
@@ -85,6 +89,7 @@ def log_decrement(t: np.ndarray, a: np.ndarray, frequency_hz: float) -> dict:
         return out
     floor = float(np.median(a[int(0.9 * len(a)) :]))
     use = ea > 10.0 * floor
+    out["free_decay"] = bool(a[0] > 0 and use.sum() >= 3)
     if use.sum() < 3:
         use = np.ones_like(ea, bool)
     slope = np.polyfit(et[use], np.log(ea[use]), 1)[0]

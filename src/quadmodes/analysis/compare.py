@@ -19,7 +19,7 @@ Error measures (all relative, dimensionless; the full order is the reference ``F
   ``|Δθ_R(T) − Δθ_F(T)| / max_t |Δθ_F(t)|`` with ``Δθ(t) = θ(t) − θ(0)``: this is what
   dissipation-driven coning growth is about, and it is far more demanding than the angle itself.
 * ``spin_rate_error``: ``max |ω_R − ω_F| / ω_F(0)``; ``spin_rate_change_error`` as for θ.
-* Long-window scores (:mod:`quadmodes.analysis.secular`): straight-line fits over the
+* Long-window scores (:mod:`quadmodes.runs.secular`): straight-line fits over the
   quasi-steady part ``[t_s, T]`` of the window of the cone angle (secular cone-growth rate,
   deg/s), of E_d (mean dissipated power, W) and of the spin rate (rad/s²; its change over the
   interval, rad/s), each with a standard error, and the ratios reduced / full
@@ -47,10 +47,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from quadmodes.analysis import secular
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
+from quadmodes.runs import secular
 from quadmodes.signals import peak_envelope
 
 #: Formulations compared by default, in table order.
@@ -177,7 +177,7 @@ class Comparison:
     """A finished comparison: the run case (with the window as its duration), the full-order
     series, the reduced series by formulation, the error table, the lowest retained frequency
     (Hz, sets the envelope window), timing of the shared precomputation (s) and the long-window
-    scores (:class:`quadmodes.analysis.secular.SecularScores`)."""
+    scores (:class:`quadmodes.runs.secular.SecularScores`)."""
 
     run: object
     full: Series

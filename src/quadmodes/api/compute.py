@@ -144,18 +144,21 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
         energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``, ``validity``;
         :func:`summary` gives what ``quadmodes run`` prints.
     """
+    from quadmodes.analysis.run_answer import with_linear_answer
     from quadmodes.runs import simulate as sim
 
     run = _run(run)
     if run.spinup is not None:
         return sim.simulate_spinup(run, model, model_case=model_case)
     if checkpoint is None:
-        return sim.simulate(run, model, progress, model_case=model_case,
-                            check_deformation=check_deformation,
-                            allow_coarse_step=allow_coarse_step)  # fmt: skip
-    return _checkpointed(run, model, progress, model_case, check_deformation, Path(checkpoint),
-                         resume, si(checkpoint_every, "time", "checkpoint_every"),
-                         allow_coarse_step)  # fmt: skip
+        result = sim.simulate(run, model, progress, model_case=model_case,
+                              check_deformation=check_deformation,
+                              allow_coarse_step=allow_coarse_step)  # fmt: skip
+    else:
+        result = _checkpointed(run, model, progress, model_case, check_deformation,
+                               Path(checkpoint), resume,
+                               si(checkpoint_every, "time", "checkpoint_every"), allow_coarse_step)  # fmt: skip
+    return with_linear_answer(result)  # energy-sink time constant, stability
 
 
 def _checkpointed(run, model, progress, model_case, check_deformation, path: Path, resume: bool,
@@ -367,13 +370,17 @@ def calibrate(
     )  # fmt: skip
 
 
-def dt_convergence(run, *, progress: Progress | None = None) -> list[dict]:
-    """The run at its step dt, dt/2 and dt/4 (fixed-step methods): one row per step with
-    ``dt_s`` (s), ``steps``, the final ``cone_angle_deg`` (deg), ``spin_rate_hz`` (Hz),
-    ``dissipated_energy_J`` (J) and their relative changes (1), as ``run --dt-convergence``."""
+def dt_convergence(run, *, progress: Progress | None = None) -> dict:
+    """The run at its step dt, dt/2 and dt/4 (fixed-step methods), as ``run --dt-convergence``:
+    ``rows`` (one per step: ``dt_s`` (s), ``steps``, the secular ``cone_growth_rate_deg_per_s``
+    (deg/s) with its standard error, ``cone_angle_change_deg`` (deg), the final
+    ``cone_angle_deg`` (deg), ``spin_rate_hz`` (Hz), ``dissipated_energy_J`` (J) and their
+    relative changes (1)) and the verdict on the cone growth (``converged``, ``judged``,
+    ``text``; 1 %: :mod:`quadmodes.runs.dt_convergence`)."""
     from quadmodes.runs import simulate as sim
+    from quadmodes.runs.dt_convergence import dt_convergence as convergence
 
-    return sim.dt_convergence(sim.prepare(_run(run), progress=progress), progress=progress)
+    return convergence(sim.prepare(_run(run), progress=progress), progress=progress)
 
 
 def mode_convergence(run, *, progress: Progress | None = None) -> dict:

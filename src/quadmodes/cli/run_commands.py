@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich import box
 from rich.markup import escape
 from rich.table import Table
 
@@ -40,6 +39,7 @@ from quadmodes.cli.run_files import (
     stop,
     stopped_message,
 )
+from quadmodes.cli.run_tables import dt_table, mode_lines, mode_table
 
 # ------------------------------------------------------------------------------ summary tables
 
@@ -57,12 +57,28 @@ _RUN_ROWS = [
         ("cone_angle_start_deg", "cone_angle_end_deg"),
         "{:.4f} → {:.4f}",
     ),
-    ("bending log decrement", "log_decrement", "{:.4f}"),
+    ("cone-growth rate (deg/s), quasi-steady fit",
+     ("cone_growth_rate_deg_per_s", "cone_growth_rate_se_deg_per_s", "cone_growth_fit_start_s",
+      "cone_growth_fit_end_s"), "{:.4g} ± {:.2g} (t = {:.4g}–{:.4g} s)"),
+    ("dissipated power (W): run | energy sink at the fit's state",
+     ("dissipated_power_W", "energy_sink_power_at_fit_state_W"),
+     "{:.4g} | {:.4g}"),
+    ("coning time constant (s): energy sink at the start (as sweep)", "coning_time_constant_s",
+     "{:.4g}"),
+    ("coning time constant (s): energy sink at the fit's spin, cone",
+     "coning_time_constant_at_fit_state_s", "{:.4g}"),
+    ("coning time constant (s): this run (θ̄/θ̇)", "simulated_coning_time_constant_s", "{:.4g}"),
+    ("this run / energy sink at the fit's state | at the start",
+     ("time_constant_ratio", "time_constant_ratio_to_start"), "{:.4f} | {:.4f}"),
+    ("spin (rule below)", "spin_verdict", "{}"),
+    ("bending log decrement (free decay only)", "log_decrement", "{:.4f}"),
     ("retained modes N", "n_modes", "{}"),
     ("mode choice", "mode_rule", "{}"),
     ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
-    ("reduced model valid at this spin", "valid", "{}"),
-]
+    ("valid: spin (Λ − ωᵀJ2ω > 0 up to it)", "valid_spin", "{}"),
+    ("valid: initial deformation (energy within 2 % of the FE model's; —: none)",
+     "valid_initial_deformation", "{}"),
+]  # fmt: skip
 
 #: (label, summary key, format) of a spin-up's summary table.
 _SPINUP_ROWS = [
@@ -87,75 +103,6 @@ def _format_row(summary: dict, key, fmt: str) -> str:
     return fmt.format(*values)
 
 
-def _dt_table(name: str, rows: list[dict]) -> Table:
-    """The ``--dt-convergence`` table: end values at dt, dt/2, dt/4 and their relative changes."""
-
-    def rel(v) -> str:
-        return "—" if v is None else f"{v:.2e}"
-
-    table = Table(
-        "dt (ms)",
-        "steps",
-        "cone angle end (deg)",
-        "rel. change",
-        "spin rate end (Hz)",
-        "rel. change",
-        "dissipated (J)",
-        "rel. change",
-        title=f"{name}: time-step convergence (t = {rows[0]['t_end_s']:.4g} s)",
-        box=box.SIMPLE_HEAD,
-    )
-    for r in rows:
-        table.add_row(
-            f"{1e3 * r['dt_s']:.4g}",
-            str(r["steps"]),
-            f"{r['cone_angle_deg']:.6f}",
-            rel(r["rel_change_cone_angle_deg"]),
-            f"{r['spin_rate_hz']:.6f}",
-            rel(r["rel_change_spin_rate_hz"]),
-            f"{r['dissipated_energy_J']:.6g}",
-            rel(r["rel_change_dissipated_energy_J"]),
-        )
-    return table
-
-
-def _mode_table(name: str, conv: dict) -> Table:
-    """The ``--mode-convergence`` table: one column per mode count, one row per headline number
-    (value, and its relative change from the previous count in parentheses)."""
-    from quadmodes.runs.mode_convergence import HEADLINES
-
-    rows = conv["rows"]
-    table = Table(
-        "quantity",
-        *(f"N = {r['n_modes']}" for r in rows),
-        title=f"{name}: mode convergence, t = {rows[0]['t_end_s']:.4g} s (relative change "
-        "from the previous N)",
-        box=box.SIMPLE_HEAD,
-    )
-    for key, label, unit, judged in HEADLINES:
-        cells = []
-        for r in rows:
-            v, c = r[key], r[f"rel_change_{key}"]
-            cell = "—" if v is None else f"{v:.5g}"
-            cells.append(cell if c is None else f"{cell} ({c:.1e})")
-        table.add_row(f"{label} ({unit})" + ("" if judged else ", not judged"), *cells)
-    table.add_row("steps", *(str(r["steps"]) for r in rows))
-    table.add_row("run wall time (s)", *(f"{r['wall_s']:.1f}" for r in rows))
-    table.add_row("reduction (s; 0: cached)", *(f"{r['reduce_s']:.1f}" for r in rows))
-    return table
-
-
-def _mode_lines(conv: dict) -> list[str]:
-    """The modes each larger N adds, and the verdict."""
-    lines = []
-    for r in conv["rows"][1:]:
-        added = ", ".join(
-            f"{m['mode']} {m['label']} {m['frequency_hz']:.2f} Hz" for m in r["added_modes"]
-        )
-        lines.append(f"N = {r['n_modes']} adds mode(s) {added}")
-    return [*lines, f"verdict: {conv['text']}"]
-
-
 def _print_run_summaries(summaries: dict[str, dict], spinups: set[str], output_dir: Path) -> None:
     """One summary table a run (and its time-step convergence table), then where it was written."""
     for name, summary in summaries.items():
@@ -164,16 +111,18 @@ def _print_run_summaries(summaries: dict[str, dict], spinups: set[str], output_d
         for label, key, fmt in rows:
             table.add_row(label, _format_row(summary, key, fmt))
         out.print(table)
+        if summary.get("stability_rule"):
+            out.print(escape(f"stability rule: {summary['stability_rule']}"), highlight=False,
+                      soft_wrap=True, style="dim")  # fmt: skip
         if summary.get("dt_convergence"):
             # not cropped to 80 columns when the output is not a terminal
-            out.print(
-                _dt_table(name, summary["dt_convergence"]),
-                width=None if out.is_terminal else 132,
-            )
+            conv = summary["dt_convergence"]
+            out.print(dt_table(name, conv["rows"]), width=None if out.is_terminal else 132)
+            out.print(escape(f"verdict: {conv['text']}"), highlight=False, soft_wrap=True)
         if summary.get("mode_convergence"):
             conv = summary["mode_convergence"]
-            out.print(_mode_table(name, conv), width=None if out.is_terminal else 132)
-            for line in _mode_lines(conv):
+            out.print(mode_table(name, conv), width=None if out.is_terminal else 132)
+            for line in mode_lines(conv):
                 out.print(escape(line), highlight=False, soft_wrap=True)
         out.print(f"results written to {escape(str(output_dir / name))}")
 
@@ -301,11 +250,12 @@ class _Options:
 
 def _extras(setup, result, opts: _Options, progress) -> dict:
     """The ``--dt-convergence`` / ``--mode-convergence`` tables of a finished run."""
-    from quadmodes.runs import simulate
 
     extra = {}
     if opts.dt_convergence:
-        extra["dt_convergence"] = simulate.dt_convergence(setup, result, progress)
+        from quadmodes.runs.dt_convergence import dt_convergence
+
+        extra["dt_convergence"] = dt_convergence(setup, result, progress)
     if opts.mode_convergence:
         from quadmodes.runs.mode_convergence import mode_convergence as convergence
 
@@ -318,6 +268,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
     its data, figures and report (:func:`~quadmodes.runs.run_folder.write_run_outputs`).
     Ctrl-C/SIGTERM saves the checkpoint and the partial results in the partial folder and
     exits 130/143."""
+    from quadmodes.analysis.run_answer import with_linear_answer
     from quadmodes.runs.chunked import Interrupted
     from quadmodes.runs.deformation_check import with_deformation_check
     from quadmodes.runs.run_folder import execute_in_folders
@@ -336,6 +287,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
         except Interrupted as stopped:
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {stopped.where}{hint}", opts.exit_code) from None
+        result = with_linear_answer(result)  # energy-sink time constant, stability at the spin
         try:
             extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:

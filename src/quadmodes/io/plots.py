@@ -115,7 +115,7 @@ def _plot_envelope(ax, ds) -> None:
     if len(et):
         ax.semilogy(et, np.maximum(ea, 1e-300), ".", ms=2, label="peak per period")
     ld = log_decrement(t, a, f)
-    if ld["log_decrement"] is not None:
+    if ld["log_decrement"] is not None and ld["free_decay"]:  # a forced response has none
         use = (et >= ld["fit_start_s"]) & (et <= ld["fit_end_s"])
         coef = np.polyfit(et[use], np.log(ea[use]), 1)
         tt = np.array([ld["fit_start_s"], ld["fit_end_s"]])

@@ -90,7 +90,20 @@ _HEADLINES = (
     ("spin rate start → end (Hz)", ("spin_rate_start_hz", "spin_rate_end_hz"), "{:.6g} → {:.6g}"),
     ("cone angle start → end (deg)", ("cone_angle_start_deg", "cone_angle_end_deg"), "{:.5g} → {:.5g}"),
     ("cone angle max (deg)", "cone_angle_max_deg", "{:.5g}"),
-    ("bending log decrement", "log_decrement", "{:.4g}"),
+    ("spin", "spin_verdict", "{}"),
+    ("secular cone-growth rate (deg/s), quasi-steady fit",
+     ("cone_growth_rate_deg_per_s", "cone_growth_rate_se_deg_per_s", "cone_growth_fit_start_s",
+      "cone_growth_fit_end_s"), "{:.4g} ± {:.2g} (t = {:.4g}–{:.4g} s)"),
+    ("dissipated power (W): run | energy sink at the fit's state",
+     ("dissipated_power_W", "energy_sink_power_at_fit_state_W"),
+     "{:.4g} | {:.4g}"),
+    ("coning time constant (s): energy sink at the start (as sweep)", "coning_time_constant_s",
+     "{:.4g}"),
+    ("coning time constant (s): energy sink at the fit's spin, cone",
+     "coning_time_constant_at_fit_state_s", "{:.4g}"),
+    ("coning time constant (s): this run (θ̄/θ̇)", "simulated_coning_time_constant_s", "{:.4g}"),
+    ("stability rule", "stability_rule", "{}"),
+    ("bending log decrement (free decay only)", "log_decrement", "{:.4g}"),
     ("retained modes N", "n_modes", "{}"),
     ("mode choice", "mode_rule", "{}"),
     ("final hub rate Ωs (rad/s)", "omega_s_rad_s", "{:.4g}"),
@@ -120,11 +133,14 @@ def _checks_section(summary: dict) -> Section:
         if ok and low == "—":
             text = "valid (no elastic modes: nothing to check)"
         parts.append(paragraph(text, "ok" if ok else "bad"))
-    if summary.get("dt_convergence"):
-        rows = [(1e3 * r["dt_s"], r["steps"], r["cone_angle_deg"], r["rel_change_cone_angle_deg"],
-                 r["spin_rate_hz"], r["rel_change_spin_rate_hz"]) for r in summary["dt_convergence"]]  # fmt: skip
-        parts.append(table(("dt (ms)", "steps", "cone angle end (deg)", "rel. change",
-                            "spin rate end (Hz)", "rel. change"), rows, "time-step convergence"))  # fmt: skip
+    dt_conv = summary.get("dt_convergence")
+    if dt_conv:
+        rows = [(1e3 * r["dt_s"], r["steps"], r["cone_growth_rate_deg_per_s"],
+                 r["rel_change_cone_growth_rate_deg_per_s"], r["cone_angle_deg"],
+                 r["rel_change_cone_angle_deg"]) for r in dt_conv["rows"]]  # fmt: skip
+        parts.append(table(("dt (ms)", "steps", "cone-growth rate (deg/s)", "rel. change",
+                            "cone angle end (deg)", "rel. change"), rows, "time-step convergence"))  # fmt: skip
+        parts.append(paragraph(f"verdict: {dt_conv.get('text', '')}"))
     conv = summary.get("mode_convergence")
     if conv:
         rows = [(r["n_modes"], r["steps"], r["wall_s"]) for r in conv["rows"]]

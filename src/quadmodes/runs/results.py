@@ -10,7 +10,9 @@ case TOML, ``model_hash``, ``source`` and the package version), the method, step
 status and work counters and ``complete`` (1/0, with ``incomplete_reason`` when 0). The summary (:func:`summary`) is computed
 from the dataset alone, so it can be recomputed from a saved file.
 
-The log decrement of the summary is :func:`quadmodes.signals.log_decrement`.
+The log decrement of the summary is :func:`quadmodes.signals.log_decrement`, reported for a
+free decay only. The run's answer (secular cone-growth rate, dissipated power, energy-sink time
+constant, stability) is :mod:`quadmodes.runs.answer`.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import xarray as xr
 from quadmodes.io import cf
 from quadmodes.io.atomic import write_text
 from quadmodes.io.outputs import write_netcdf
+from quadmodes.runs.answer import answer_summary, answer_variables
 from quadmodes.signals import log_decrement
 
 FORMAT = "quadmodes-run-results"
@@ -178,8 +181,9 @@ def to_dataset(result) -> xr.Dataset:
     labels = list(model.labels[:n]) if n else []
     freqs = np.asarray(model.frequencies_hz[:n], float)
     data = _run_variables(result.diagnostics, q, w, s, sd, result.initial.bending_modes)
-    ds = xr.Dataset(data, coords=_mode_coords(sol.t, labels, freqs))
-    ds.attrs.update(_run_attrs(result, n))
+    answer, answer_attrs = answer_variables(result)
+    ds = xr.Dataset({**data, **answer}, coords=_mode_coords(sol.t, labels, freqs))
+    ds.attrs.update(_run_attrs(result, n), **answer_attrs)
     return ds
 
 
@@ -204,6 +208,8 @@ def validity_attrs(validity) -> dict:
     lost = validity.lost_at
     return {
         "valid": int(validity.valid),
+        "valid_spin": int(validity.spin_valid),  # the two checks: spin, initial deformation
+        "valid_initial_deformation": int(validity.initial_deformation_valid),
         "rotating_stiffness_min_eigenvalue": float(validity.min_eigenvalue),
         "rotating_stiffness_min_eigenvalue_units": "s^-2",
         "validity_spin_rate": float(validity.spin_rate),
@@ -225,8 +231,12 @@ def validity_summary(ds: xr.Dataset) -> dict:
     if "valid" not in ds.attrs:
         return {}
     lost = _float(ds.attrs.get("validity_lost_at_spin_rate", float("nan")))
+    checked = math.isfinite(float(ds.attrs.get("initial_deformation_energy_reduced", math.nan)))
     return {
         "valid": bool(int(ds.attrs["valid"])),
+        "valid_spin": bool(int(ds.attrs.get("valid_spin", ds.attrs["valid"]))),
+        "valid_initial_deformation": bool(int(ds.attrs.get("valid_initial_deformation", 1)))
+        if checked else None,  # None: no initial deformation to check
         "rotating_stiffness_min_eigenvalue": _float(
             ds.attrs.get("rotating_stiffness_min_eigenvalue", float("nan"))
         ),
@@ -326,15 +336,20 @@ def summary(ds: xr.Dataset) -> dict:
             bending_amplitude_start=_float(a[0]),
             bending_amplitude_max=_float(a.max()),
             bending_amplitude_end=_float(a[-1]),
-            log_decrement=ld["log_decrement"],
+            # a fit to a forced steady response means nothing: only for a free decay
+            log_decrement=ld["log_decrement"] if ld["free_decay"] else None,
             log_decrement_fit_start_s=ld["fit_start_s"],
             log_decrement_fit_end_s=ld["fit_end_s"],
             log_decrement_fit_peaks=ld["fit_peaks"],
         )
         zeta = float(ds.attrs.get("damping_ratio", 0.0))
         out["log_decrement_of_damping"] = _float(2 * math.pi * zeta)
+        if not ld["free_decay"]:
+            out["log_decrement_note"] = ("not a free decay (the bending pair does not start "
+                                         "displaced and decay): no log decrement")  # fmt: skip
     else:
         out.update(log_decrement=None, bending_modes=[])
+    out.update(answer_summary(ds))
     out.update(validity_summary(ds))
     out["n_modes"] = int(ds.attrs.get("n_modes", ds.sizes.get("mode", 0)))
     if "reference" in ds.attrs:  # the state the reduced model is expanded about

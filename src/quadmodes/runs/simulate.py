@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -80,6 +79,9 @@ class RunResult:
     notes: tuple[str, ...] = field(default_factory=tuple)
     validity: Validity | None = None
     mode_choice: ModeChoice | None = None
+    # the linear answer at the spin (quadmodes.analysis.run_answer.LinearAnswer: energy-sink
+    # time constant, stability), attached by the caller (a layer above the runs); None if not
+    linear: object | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -331,67 +333,6 @@ def is_run_case(name_or_path: str) -> bool:
         return tomllib.loads(path.read_text(encoding="utf-8")).get("kind") == "run"
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return False  # let the loader report it
-
-
-# ---------------------------------------------------------------------------------------------
-# time-step convergence
-# ---------------------------------------------------------------------------------------------
-
-#: Step refinements of :func:`dt_convergence`: dt, dt/2, dt/4.
-DT_FACTORS = (1, 2, 4)
-
-
-def _rel(new: float, old: float) -> float | None:
-    if not (math.isfinite(new) and math.isfinite(old)) or old == 0.0:
-        return None
-    return abs(new - old) / abs(old)
-
-
-def dt_convergence(
-    setup: RunSetup,
-    first: RunResult | None = None,
-    progress: Progress | None = None,
-    factors: tuple[int, ...] = DT_FACTORS,
-) -> list[dict]:
-    """Run ``setup`` at dt/f for f in ``factors`` (fixed-step methods only; ``first``: the run
-    at the case's dt, if already done) and return one row per step: ``dt_s``, ``steps``,
-    ``complete``, ``t_end_s``, final ``cone_angle_deg``, ``spin_rate_hz`` and
-    ``dissipated_energy_J``, and their relative changes from the previous row (``rel_change_*``,
-    None for the first row or a zero reference). ``save_every`` scales with the refinement so
-    the samples stay on the same times."""
-    run = setup.run
-    if run.integration.method == "adaptive":
-        raise CaseError(
-            "--dt-convergence: needs a fixed-step method (midpoint or backward-euler), not "
-            '"adaptive"',
-            field="integration.method",
-        )
-    rows: list[dict] = []
-    keys = ("cone_angle_deg", "spin_rate_hz", "dissipated_energy_J")
-    for f in factors:
-        if f == 1 and first is not None:
-            result = first
-        else:
-            integ = run.integration.model_copy(
-                update={"dt": run.integration.dt / f, "save_every": run.integration.save_every * f}
-            )
-            sub = dataclasses.replace(setup, run=run.model_copy(update={"integration": integ}))
-            result = execute(sub, progress)
-        d = result.diagnostics
-        row = {
-            "dt_s": float(run.integration.dt / f),
-            "steps": int(result.solution.stats.get("n_steps", 0)),
-            "complete": bool(result.complete),
-            "t_end_s": float(d.t[-1]),
-            "cone_angle_deg": float(np.degrees(d.cone_angle[-1])),
-            "spin_rate_hz": float(d.spin_rate[-1] / (2 * math.pi)),
-            "dissipated_energy_J": float(d.E_d[-1]),
-            "wall_s": float(result.wall_s),
-        }
-        for key in keys:
-            row[f"rel_change_{key}"] = _rel(row[key], rows[-1][key]) if rows else None
-        rows.append(row)
-    return rows
 
 
 # ---------------------------------------------------------------------------------------------

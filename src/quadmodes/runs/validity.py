@@ -70,7 +70,18 @@ class Validity:
 
     @property
     def valid(self) -> bool:
-        return self.lost_at is None and not self.beyond_barrier and not self.beyond_deformation_range
+        return self.spin_valid and self.initial_deformation_valid
+
+    @property
+    def spin_valid(self) -> bool:
+        """The spin check: Λ − ωᵀJ2ω positive definite up to the spin (Q4: below its barrier)."""
+        return self.lost_at is None and not self.beyond_barrier
+
+    @property
+    def initial_deformation_valid(self) -> bool:
+        """The initial-deformation check: the reduced potential within
+        :data:`DEFORMATION_ENERGY_TOLERANCE` of the FE model's condensed energy (True: unchecked)."""
+        return not self.beyond_deformation_range
 
     def slack_note(self) -> str:
         """Where the membrane first loses tension along the initial deformation, when that lies

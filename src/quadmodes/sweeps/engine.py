@@ -80,7 +80,7 @@ class SweepPlan:
 #: Source folders and files whose code computes a point: a change in any of them re-runs every point (the
 #: reduced models themselves stay cached by their own key).
 POINT_CODE = ("fe", "structure", "mesh", "linalg", "rom", "models", "runs", "analysis", "signals.py",
-              "sweeps/points.py", "sweeps/energy_sink.py", "sweeps/overrides.py",
+              "sweeps/points.py", "sweeps/overrides.py",
               "sweeps/full_order.py")
 
 

@@ -16,15 +16,15 @@ import time
 
 import numpy as np
 
-from quadmodes.analysis import secular
-from quadmodes.analysis.campbell import campbell
+from quadmodes.analysis.energy_sink import energy_sink
+from quadmodes.analysis.run_answer import spin_roots
 from quadmodes.case import RunCase
 from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
+from quadmodes.runs import secular
 from quadmodes.runs import simulate as sim
 from quadmodes.runs.mode_choice import resolve_modes
-from quadmodes.sweeps.energy_sink import energy_sink
 from quadmodes.sweeps.overrides import PointCase
 
 
@@ -75,59 +75,26 @@ def _finite(x) -> float:
 
 def _time_run(setup: sim.RunSetup) -> dict:
     """Headline scalars of the time run of ``setup`` (secular fits over the quasi-steady part,
-    :mod:`quadmodes.analysis.secular`)."""
+    :mod:`quadmodes.runs.secular`)."""
     result = sim.execute(setup)
     d = result.diagnostics
-    model = setup.model
-    tau = secular.decay_time(model.frequencies_hz, model.damping_ratio)
-    window = float(d.t[-1] - d.t[0])
-    q = secular.quasi_steady_interval(window, tau, t0=float(d.t[0]))
-    cone = secular.fit_line(d.t, d.cone_angle, q.start_s, q.end_s)
-    power = secular.fit_line(d.t, d.E_d, q.start_s, q.end_s)
-    spin = secular.fit_line(d.t, d.spin_rate, q.start_s, q.end_s)
-    sel = (d.t >= q.start_s) & (d.t <= q.end_s)
-    mean_cone = float(np.mean(d.cone_angle[sel])) if sel.any() else math.nan
+    fits = secular.run_fits(d.t, d.cone_angle, d.E_d, d.spin_rate, setup.model.frequencies_hz,
+                            setup.model.damping_ratio)  # fmt: skip
+    q, cone = fits.interval, fits.cone
     s = rsys.split_state(setup.system, result.solution.y)[2]
     return {
         "cone_growth_rate": _finite(cone.slope),
         "cone_growth_rate_standard_error": _finite(cone.se),
-        "simulated_growth_rate": _finite(cone.slope / mean_cone) if mean_cone > 0 else math.nan,
-        "cone_growth_significant": bool(abs(cone.slope) >= secular.Z_SIGNIFICANT * cone.se),
-        "dissipated_power": _finite(power.slope),
-        "spin_rate_change": _finite(spin.slope * (q.end_s - q.start_s)),
+        "simulated_growth_rate": _finite(fits.growth_rate),
+        "cone_growth_significant": fits.significant,
+        "dissipated_power": _finite(fits.power.slope),
+        "spin_rate_change": _finite(fits.spin.slope * (q.end_s - q.start_s)),
         "max_modal_amplitude": _finite(np.max(np.abs(s))) if s.size else 0.0,
         "cone_angle_end": _finite(d.cone_angle[-1]),
         "quasi_steady_start": float(q.start_s),
         "complete": bool(result.complete),
         "incomplete_reason": result.reason,
         "run_wall_s": float(result.wall_s),
-    }
-
-
-def _roots(setup: sim.RunSetup) -> dict:
-    """Rotating-frame roots at the run's spin: undamped (frequencies, critical speeds) and with
-    the modal damping (growth rates), and the relative equilibrium (s*, ω0)."""
-    spin = float(setup.run.initial.spin_rate)
-    form = setup.run.reduced.formulation
-    axis = setup.run.initial.spin_axis  # None: the default axis
-    undamped = campbell(setup.model, [spin], axis, formulation=form, damped=False,
-                        axis_option="initial.spin_axis")  # fmt: skip
-    damped = campbell(setup.model, [spin], axis, formulation=form, damped=True,
-                      axis_option="initial.spin_axis")  # fmt: skip
-    nut = [i for i, lab in enumerate(damped.labels) if lab == "nutation"]
-    return {
-        "linearised_spin": spin,
-        "branch_label": list(undamped.labels),
-        "branch_frequency": [float(x) for x in undamped.frequency[0]],
-        "branch_growth_undamped": [float(x) for x in undamped.growth[0]],
-        "branch_frequency_damped": [float(x) for x in damped.frequency[0]],
-        "branch_growth": [float(x) for x in damped.growth[0]],
-        "branch_label_damped": list(damped.labels),
-        "nutation_growth_rate": float(damped.growth[0][nut[0]]) if nut else math.nan,
-        "min_rotating_stiffness": float(undamped.min_stiffness[0]),
-        "unstable_undamped": bool(undamped.unstable[0].any()),
-        "_s_eq": undamped.s_eq[0],
-        "_omega0": undamped.spin_axis[0] * spin,
     }
 
 
@@ -140,7 +107,7 @@ def run_point(point: PointCase, model: red.ReducedModel, n_modes: int,
     setup = sim.prepare(run, model, model_case=point.model_case)
     out: dict = {"n_modes": int(setup.model.n_modes),
                  "valid": bool(setup.validity.valid) if setup.validity else True}  # fmt: skip
-    roots = _roots(setup)
+    roots = spin_roots(setup.run, setup.model)
     sink = energy_sink(setup.system, roots.pop("_s_eq"), roots.pop("_omega0"),
                        float(run.initial.cone_angle))  # fmt: skip
     out.update(roots)

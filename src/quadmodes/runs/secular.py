@@ -1,4 +1,5 @@
-"""Long-window scores of ``quadmodes compare``: secular rates fitted over the quasi-steady part.
+"""Secular rates fitted over the quasi-steady part: the long-window scores of ``quadmodes
+compare``, the answer of ``quadmodes run`` (:func:`run_fits`) and the time runs of a sweep.
 
 Over the quasi-steady interval ``[t_s, T]`` of a compared window (the window ``[0, T]`` after
 the start-up transient) three straight lines are fitted by least squares to every model's
@@ -182,6 +183,50 @@ def fit_line(t: np.ndarray, y: np.ndarray, t0: float, t1: float) -> LineFit:
     se_osc = oscillation_bound(math.sqrt(2.0) * sigma, omega_r, length) if sigma > 0 else 0.0
     return LineFit(slope, intercept, math.hypot(se_white, se_osc), sigma,
                    omega_r / (2 * math.pi), n, float(t0), float(t1))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RunFits:
+    """The secular fits of one run over its quasi-steady ``interval``: ``cone`` (rad/s),
+    ``power`` (W, the slope of the dissipated energy), ``spin`` (rad/s²) :class:`LineFit`;
+    ``mean_cone`` (rad) the mean cone angle over the interval; ``growth_rate`` (1/s) the
+    exponential coning rate σ = slope/mean cone and ``time_constant`` (s) 1/σ (inf for a zero
+    slope, negative: the cone decays); ``significant``: |slope| ≥ Z_SIGNIFICANT se."""
+
+    interval: QuasiSteady
+    cone: LineFit
+    power: LineFit
+    spin: LineFit
+    mean_cone: float
+
+    @property
+    def growth_rate(self) -> float:
+        return self.cone.slope / self.mean_cone if self.mean_cone > 0 else math.nan
+
+    @property
+    def time_constant(self) -> float:
+        sigma = self.growth_rate
+        return 1.0 / sigma if sigma != 0.0 else math.inf
+
+    @property
+    def significant(self) -> bool:
+        return bool(abs(self.cone.slope) >= Z_SIGNIFICANT * self.cone.se)
+
+
+def run_fits(t, cone_angle, dissipated_energy, spin_rate, frequencies_hz,
+             damping_ratio) -> RunFits:  # fmt: skip
+    """:class:`RunFits` of a run's diagnostics (t (n,) s, cone angle rad, dissipated energy J,
+    spin rate rad/s) over the quasi-steady part of its whole window, the start decided by the
+    retained modes (``frequencies_hz`` (N,) Hz, ``damping_ratio`` scalar or (N,);
+    :func:`quasi_steady_interval`)."""
+    t = np.asarray(t, float)
+    cone = np.asarray(cone_angle, float)
+    tau = decay_time(frequencies_hz, damping_ratio)
+    q = quasi_steady_interval(float(t[-1] - t[0]), tau, t0=float(t[0]))
+    fits = [fit_line(t, y, q.start_s, q.end_s) for y in (cone, dissipated_energy, spin_rate)]
+    sel = (t >= q.start_s) & (t <= q.end_s)
+    mean_cone = float(np.mean(cone[sel])) if sel.any() else math.nan
+    return RunFits(q, *fits, mean_cone)
 
 
 def covers(series, interval: QuasiSteady) -> bool:
