@@ -59,22 +59,33 @@ def engine_order_crossings(result: CampbellResult, orders=(1, 2)) -> list[Crossi
     rates where the branch exists, on the side of the diagram where the rotating stiffness is
     positive definite (beyond a divergence the relative equilibrium is another, unstable one);
     sorted by spin. A branch that only touches the line (f − kΩ = 0 at a grid point without a
-    change of sign, e.g. every branch at Ω = 0) gives none."""
+    change of sign, e.g. every branch at Ω = 0) gives none; a zero on a point counts once."""
     spin, freq = np.asarray(result.spin, float), np.asarray(result.frequency, float)
     past = past_divergence(result)
     found = []
     for k in orders:
         gap = freq - k * spin[:, None]  # (ns, nb)
+        gap[past] = np.nan
         for b, label in enumerate(result.labels):
-            for i in range(spin.size - 1):
-                g0, g1 = gap[i, b], gap[i + 1, b]
-                if not (np.isfinite(g0) and np.isfinite(g1)) or past[i] or past[i + 1]:
-                    continue
-                if g0 * g1 < 0.0:
-                    t = g0 / (g0 - g1)
-                    w = spin[i] + t * (spin[i + 1] - spin[i])
-                    found.append(Crossing(float(w), float(k * w), int(k), str(label)))
+            for w in _sign_changes(spin, gap[:, b]):
+                found.append(Crossing(float(w), float(k * w), int(k), str(label)))
     return sorted(found, key=lambda c: (c.spin, c.order))
+
+
+def _sign_changes(x: np.ndarray, g: np.ndarray) -> list[float]:
+    """Where ``g`` (sampled at ``x``; NaN where undefined) changes sign between neighbouring
+    finite samples, by linear interpolation; a zero on a sample counts once, when the samples
+    on its two sides have opposite signs."""
+    found = []
+    for i in range(x.size - 1):
+        g0, g1 = g[i], g[i + 1]
+        if not (np.isfinite(g0) and np.isfinite(g1)) or g0 == 0.0:
+            continue
+        if g0 * g1 < 0.0:
+            found.append(x[i] + g0 / (g0 - g1) * (x[i + 1] - x[i]))
+        elif g1 == 0.0 and i + 2 < x.size and np.isfinite(g[i + 2]) and g0 * g[i + 2] < 0.0:
+            found.append(x[i + 1])
+    return found
 
 
 def _draw_branches(ax, result: CampbellResult, unit: FrequencyUnit, colours: dict) -> None:
