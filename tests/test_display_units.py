@@ -177,3 +177,24 @@ def test_sweep_figures_in_the_unit_chosen(tmp_path, monkeypatch):
     assert set(colours) >= {"bending", "axial", "critical speed"}
     np.testing.assert_allclose(np.unique(ax.lines[0].get_xdata()), spin * 60 / (2 * math.pi))
     assert ax.lines[-1].get_xdata()[0] == pytest.approx(300.0)  # 5 Hz critical speed in rpm
+
+
+def test_kane_chordwise_critical_speed_against_the_reference():
+    """Kane's in-plane (chordwise) branch meets 1Ω where ω(Ω) = Ω. From Kane's published
+    rotating-frame frequencies at Ω = 4 and 6 rad/s and the Southwell form ω² = a + bΩ²:
+    Ω* = √(a / (1 − b)) = 4.186 rad/s. The crossing on the diagram settles as the grid is
+    refined (linear interpolation: an error below h²·|g''| / (8|g'|)) and agrees with it."""
+    from quadmodes.analysis.campbell import campbell
+    from quadmodes.analysis.campbell_output import model_for_case
+    from quadmodes.runs.spinup import KANE_REFERENCE_CHORDWISE as kane
+
+    b = (kane[6.0] ** 2 - kane[4.0] ** 2) / (36.0 - 16.0)
+    reference = math.sqrt((kane[4.0] ** 2 - 16.0 * b) / (1.0 - b))
+    model = model_for_case("kane-beam")
+    found = []
+    for points in (13, 49):
+        crossings = engine_order_crossings(campbell(model, np.linspace(0.0, 6.0, points)), (1,))
+        (chordwise,) = [c for c in crossings if c.label == "bending y (0 nodes)"]
+        found.append(chordwise.spin)
+    assert found[1] == pytest.approx(found[0], rel=3e-4)  # settled on the grid
+    assert found[1] == pytest.approx(reference, rel=3e-3)  # 4.1894 rad/s measured

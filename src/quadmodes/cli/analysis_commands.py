@@ -102,7 +102,7 @@ def _print_campbell(result, case_name: str, summary: dict, unit) -> None:
     out.print(table)
     if summary["critical_speeds"]:
         crit = Table(f"spin ({u})", "branch", "meets", title="critical speeds (f = kΩ)",
-                     caption="k = 1: a load fixed in space; k = 2: twice per turn")  # fmt: skip
+                     caption="k = 1: a load fixed in space; 2: twice a turn")  # fmt: skip
         for c in summary["critical_speeds"]:
             crit.add_row(f"{unit.from_rad_s(c['spin_rad_s']):.4g}", escape(c["branch"]),
                          f"{c['order']}Ω")  # fmt: skip
