@@ -154,6 +154,9 @@ def test_completion_offers_case_names_and_choices(runner, tmp_path, monkeypatch)
     assert _complete(runner, "quadmodes campbell --units r") == ["rpm", "rad/s"]
     assert _complete(runner, "quadmodes run --axis m") == ["minor", "major"]
     assert "rigid" in _complete(runner, "quadmodes run --formulation ")
+    assert _complete(runner, "quadmodes validate --suite f") == ["fe", "full-order"]
+    assert _complete(runner, "quadmodes run paper-0.5hz --animate-frame ") == ["inertial", "body"]
+    assert "paper-41hz" in _complete(runner, "quadmodes show-case paper-41")  # run cases too
     listed = _complete(runner, "quadmodes compare paper-41hz --formulation Q,")
     assert "Q,L" in listed and "Q,Q" not in listed
     monkeypatch.chdir(tmp_path)

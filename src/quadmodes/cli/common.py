@@ -351,6 +351,8 @@ def axis_option(help: str) -> Any:
 
 #: A model case: built-in name or TOML file.
 ModelCase = case_argument("built-in case name or TOML file")
+#: A model or run case (show-case).
+AnyCase = case_argument("built-in case name or TOML file (model or run case)", "any")
 #: ``--json`` of the commands that print their summary as JSON.
 JsonFlag = flag("--json", "print JSON on stdout")
 #: ``--no-cache`` of the commands that build reduced models.

@@ -31,6 +31,7 @@ from quadmodes.cli.common import (
     progress_bars,
     units_option,
 )
+from quadmodes.cli.completion import choices
 from quadmodes.sweeps.params import SweepError
 
 
@@ -138,7 +139,8 @@ def sweep_command(
     axis: SweepAxis = None,
     full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP.replace(
         "campbell", "sweep").replace("sweep.png", "the Campbell diagram"))] = None,
-    fmt: Annotated[str | None, typer.Option("--format", help="netcdf (sweep.nc) or zarr "
+    fmt: Annotated[str | None, typer.Option("--format", autocompletion=choices("netcdf", "zarr"),
+                                            help="netcdf (sweep.nc) or zarr "
                                             "(sweep.zarr, the zarr extra); default netcdf, "
                                             "zarr above 256 MiB when installed")] = None,
     units: SweepUnits = "Hz",
