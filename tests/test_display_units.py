@@ -198,3 +198,14 @@ def test_kane_chordwise_critical_speed_against_the_reference():
         found.append(chordwise.spin)
     assert found[1] == pytest.approx(found[0], rel=3e-4)  # settled on the grid
     assert found[1] == pytest.approx(reference, rel=3e-3)  # 4.1894 rad/s measured
+
+
+def test_sweep_report_tables_in_the_unit_chosen(tmp_path):
+    from quadmodes.sweeps.report import write_sweep_report
+
+    ds = xr.Dataset(coords={"spin_rate": [1.0, 2.0]})
+    info = {"points": 2, "resumed": 0, "failed": 0, "wall_s": 1.0,
+            "critical_speeds": [{"spin_hz": 5.0, "kind": "divergence", "branch": "bending",
+                                 "partner": ""}]}  # fmt: skip
+    html = write_sweep_report(tmp_path, ds, info, "quadmodes sweep …", "rpm").read_text()
+    assert "spin (rpm)" in html and ">300<" in html  # 5 Hz
