@@ -92,7 +92,7 @@ def test_spins_take_quantities_and_bare_hz():
     assert _parse_spins_hz("0 Hz, 20 Hz, 2460 rpm") == pytest.approx((0.0, 20.0, 41.0))
     assert _parse_spins_hz("0,20,41") == (0.0, 20.0, 41.0)
     for bad in ("a,b", "-5", "5 m", ""):
-        with pytest.raises(UserError, match="--spins"):
+        with pytest.raises(UserError, match="--spin-rate"):
             _parse_spins_hz(bad)
 
 
@@ -107,7 +107,7 @@ def test_calibrate_and_rotating_offer_json(runner):
 
 def test_rotating_json_has_a_stable_shape(runner, tmp_path):
     """At rest the full-order linearisation is the modal analysis: Q matches the full order."""
-    result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spins", "0 Hz", "--modes", "2", "--json",
+    result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spin-rate", "0 Hz", "--modes", "2", "--json",
                                  "-o", str(tmp_path)])  # fmt: skip
     assert result.exit_code == 0, result.output
     payload = json.loads(result.stdout)

@@ -102,7 +102,7 @@ def test_write_comparison_outputs(short_comparison, tmp_path):
 @pytest.mark.parametrize(
     "args, field",
     [
-        (["--formulations", "Q,X"], "--formulations"),
+        (["--formulation", "Q,X"], "--formulation"),
         (["--window", "-1 s"], "--window"),
         (["--window", "2 m"], "--window"),
         (["--full-dt", "5 s", "--window", "1 s"], "--full-dt"),
@@ -140,7 +140,7 @@ def test_compare_refuses_a_window_too_long_without_yes(runner, tmp_path, monkeyp
 def test_rotating_command_reproduces_modal_frequencies_at_rest(runner, tmp_path):
     """At zero spin the full-order linearisation is the modal analysis: Q and L errors ~ 0."""
     out = tmp_path / "rot.md"
-    result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spins", "0", "-o", str(out)])
+    result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spin-rate", "0", "-o", str(out)])
     assert result.exit_code == 0, result.output
     rows = [r for r in out.read_text().splitlines() if r.startswith("| 0 |") and "nutation" not in r]
     assert len(rows) == 5
@@ -153,10 +153,10 @@ def test_rotating_command_reproduces_modal_frequencies_at_rest(runner, tmp_path)
 @pytest.mark.parametrize(
     "args, field",
     [
-        (["--spins", "a,b"], "--spins"),
-        (["--spins", "-5"], "--spins"),
-        (["--formulations", "X"], "--formulations"),
-        (["kane-beam", "--spins", "1"], "free body"),
+        (["--spin-rate", "a,b"], "--spin-rate"),
+        (["--spin-rate", "-5"], "--spin-rate"),
+        (["--formulation", "X"], "--formulation"),
+        (["kane-beam", "--spin-rate", "1"], "free body"),
     ],
 )
 def test_rotating_bad_input(runner, tmp_path, args, field):
@@ -180,7 +180,7 @@ def test_compare_command_reports_long_window_ratios(runner, tmp_path, monkeypatc
     monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
-    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid,Q", "--no-plots", "-o", str(out)]
+    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulation", "rigid,Q", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args, env={"COLUMNS": "200"})
     assert result.exit_code == 0, result.output
     for header in ("cone growth", "diss. power", "spin change", "quasi-steady part"):
@@ -237,7 +237,7 @@ def test_compare_interrupted_exits_130_and_keeps_no_partial_output(runner, tmp_p
     monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(full_order_runs, "full_order_for_run", interrupted)
     out = tmp_path / "cmp"
-    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots", "-o", str(out)]
+    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulation", "rigid", "--no-plots", "-o", str(out)]
     result = runner.invoke(app, args)
     assert result.exit_code == 130, result.output
     assert "--resume" in result.output and "error:" not in result.output

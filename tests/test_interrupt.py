@@ -250,7 +250,7 @@ def test_damaged_checkpoint_is_one_line(workdir):  # noqa: F811
 # ----------------------------------------------------------------------------- compare
 
 
-COMPARE = ["--window", "0.012 s", "--full-dt", "0.2 ms", "--formulations", "rigid,Q",
+COMPARE = ["--window", "0.012 s", "--full-dt", "0.2 ms", "--formulation", "rigid,Q",
            "--no-plots", "--json"]  # fmt: skip
 NOT_COMPARED = ("wall", "speedup", "steps_per_s")
 
@@ -317,7 +317,7 @@ def test_compare_never_scores_an_incomplete_reference(tmp_path, monkeypatch, mes
                                                       needle):  # fmt: skip
     _fake_full_order(monkeypatch, types.SimpleNamespace(status=1, message=message))
     out = tmp_path / "cmp"
-    result = _cli("compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots",
+    result = _cli("compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulation", "rigid", "--no-plots",
                   "-o", str(out))  # fmt: skip
     assert result.exit_code == code, result.output
     assert needle in result.stderr and not out.exists()
@@ -328,7 +328,7 @@ def test_compare_restart_discards_the_checkpoint(tmp_path, monkeypatch):
     checkpoint = tmp_path / "cmp" / ".fullorder-checkpoint.npz"  # inside -o
     checkpoint.parent.mkdir()
     checkpoint.write_bytes(b"old")
-    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulations", "rigid", "--no-plots",
+    args = ["compare", "paper-41hz-coarse", "--window", "0.2 s", "--formulation", "rigid", "--no-plots",
             "-o", str(tmp_path / "cmp")]  # fmt: skip
     both = _cli(*args, "--resume", "--restart")
     assert both.exit_code == 2 and checkpoint.read_bytes() == b"old"
@@ -350,7 +350,7 @@ def test_compare_draws_after_the_data_and_a_no_plots_rerun_removes_figures(tmp_p
     monkeypatch.setattr(full_order_runs, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(full_order_runs, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
     out = tmp_path / "cmp"
-    args = ["compare", "paper-41hz-coarse", "--window", "0.05 s", "--formulations", "Q", "-o", str(out)]
+    args = ["compare", "paper-41hz-coarse", "--window", "0.05 s", "--formulation", "Q", "-o", str(out)]
     assert _cli(*args).exit_code == 0
     figures = sorted(p.name for p in out.glob("*.png"))
     assert figures and (out / "comparison.json").is_file()

@@ -150,7 +150,7 @@ def test_a_compare_resolves_auto_modes_once(tmp_path, monkeypatch):
     monkeypatch.setattr(fullorder, "setup_for_run", setup_for_run)
     monkeypatch.setattr(fullorder, "estimate_for_run", lambda *a, **k: {"estimate_s": 1.0})
     monkeypatch.setattr(fullorder, "full_order_for_run", lambda r, dt, **k: _reduced_as_reference(r, dt))
-    args = ["compare", "paper-41hz-coarse", "--window", "0.05 s", "--formulations", "rigid,Q",
+    args = ["compare", "paper-41hz-coarse", "--window", "0.05 s", "--formulation", "rigid,Q",
             "--no-plots", "--json", "-o", str(tmp_path / "cmp")]  # fmt: skip
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output

@@ -217,7 +217,7 @@ def test_full_order_recorder_motion(workdir):
 
 def test_compare_animate_writes_the_full_order_motion_and_a_report(workdir):
     out = workdir / "cmp"
-    args = ["compare", str(workdir / "small-run.toml"), "--window", "4 ms", "--formulations",
+    args = ["compare", str(workdir / "small-run.toml"), "--window", "4 ms", "--formulation",
             "rigid,Q", "--animate", "--animate-frames", "3", "-o", str(out)]  # fmt: skip
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output

@@ -333,7 +333,7 @@ def test_compare_refuses_a_folder_without_room(tmp_path, monkeypatch):
     monkeypatch.setattr(outputs.shutil, "disk_usage", lambda p: type("U", (), {"free": 1e5})())
     out = tmp_path / "cmp"
     line = _one_error_line(_cli("compare", "paper-41hz-coarse", "--window", "0.2 s",
-                                "--formulations", "rigid", "--no-plots", "-o", str(out)))  # fmt: skip
+                                "--formulation", "rigid", "--no-plots", "-o", str(out)))  # fmt: skip
     assert "-o" in line and "MB free" in line and not out.exists()
 
 

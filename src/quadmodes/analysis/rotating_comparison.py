@@ -27,6 +27,7 @@ from quadmodes.analysis.rotating_matching import (
 )
 from quadmodes.analysis.rotating_modes import RotatingRoots, rotating_roots
 from quadmodes.fe.model import centre_of_mass
+from quadmodes.io.display_units import frequency_unit
 from quadmodes.rom.spin_axis import resolve_axis
 from quadmodes.structure.spinning import SpinningEquilibrium, relative_equilibrium
 
@@ -92,24 +93,25 @@ class ComparisonTable:
         ]
         return max(vals, default=float("nan"))
 
-    def to_text(self) -> str:
-        """Markdown table of the rows, then the extra full-order roots."""
-        head = "| spin (Hz) | branch | full order (Hz) |"
+    def to_text(self, unit="Hz") -> str:
+        """Markdown table of the rows, then the extra full-order roots; spin rates and
+        frequencies in ``unit`` ("Hz", "rpm" or "rad/s"; growth rates in 1/s)."""
+        u = frequency_unit(unit)
+        head = f"| spin ({u.name}) | branch | full order ({u.name}) |"
         sep = "|---|---|---|"
         for f in self.formulations:
-            head += f" {f} (Hz) | {f} error | {f} MAC |"
+            head += f" {f} ({u.name}) | {f} error | {f} MAC |"
             sep += "---|---|---|"
         head += " captured | rigid |"
         sep += "---|---|"
         lines = [head, sep]
         for r in self.rows:
-            line = f"| {r.spin_hz:g} | {r.label} | {r.full_hz:.4f} |"
+            line = f"| {u.from_hz(r.spin_hz):.6g} | {r.label} | {u.from_hz(r.full_hz):.6g} |"
             for f in self.formulations:
                 g = r.rom_growth[f]
                 grow = f" (Re λ {g:+.3g})" if g > 1e-6 * max(1.0, 2 * np.pi * r.full_hz) else ""
-                line += (
-                    f" {r.rom_hz[f]:.4f}{grow} | {100 * r.rel_error[f]:+.3f} % | {r.mac[f]:.3f} |"
-                )
+                line += (f" {u.from_hz(r.rom_hz[f]):.6g}{grow} | {100 * r.rel_error[f]:+.3f} % | "
+                         f"{r.mac[f]:.3f} |")  # fmt: skip
             line += f" {r.captured:.3f} | {r.rigid_fraction:.3f} |"
             lines.append(line)
         if any(r.captured < POORLY_CAPTURED for r in self.rows):
@@ -121,13 +123,13 @@ class ComparisonTable:
         if self.extra:
             lines += ["", "Full-order roots in the searched band without a reduced branch:", ""]
             lines += [
-                "| spin (Hz) | kind | full order (Hz) | captured | rigid |",
+                f"| spin ({u.name}) | kind | full order ({u.name}) | captured | rigid |",
                 "|---|---|---|---|---|",
             ]
             for r in self.extra:
                 lines.append(
-                    f"| {r.spin_hz:g} | {r.label} | {r.full_hz:.4f} | {r.captured:.3f} | "
-                    f"{r.rigid_fraction:.3f} |"
+                    f"| {u.from_hz(r.spin_hz):.6g} | {r.label} | {u.from_hz(r.full_hz):.6g} | "
+                    f"{r.captured:.3f} | {r.rigid_fraction:.3f} |"
                 )
         return "\n".join(lines)
 

@@ -9,6 +9,7 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import (
@@ -18,10 +19,12 @@ from quadmodes.cli.common import (
     LargeModelFlag,
     NoCacheFlag,
     UserError,
+    axis_option,
     case_argument,
     check_output_folder,
     deprecated_bare_number,
     err,
+    formulation_option,
     guard_model_size,
     guard_reduced_model,
     load_model_case,
@@ -30,8 +33,10 @@ from quadmodes.cli.common import (
     output_file_in,
     output_path,
     parse_formulations,
+    parse_units,
     progress_bars,
     staged_output,
+    units_option,
     write_file_in,
 )
 from quadmodes.io.atomic import write_text
@@ -55,8 +60,11 @@ def _axis_request(axis: str | None):
 
 def _campbell_summary(result, case_name: str, formulation: str) -> dict:
     """The JSON summary of ``campbell``: spin rates and branch frequencies (rad/s, and Hz as
-    ``rotating`` reports them; rotating frame), and the spin rates where the rotating stiffness
-    is not positive definite."""
+    ``rotating`` reports them; rotating frame; SI whatever ``--units``), the spin rates where
+    the rotating stiffness is not positive definite and the critical speeds (a branch meeting
+    an engine-order line f = kΩ)."""
+    from quadmodes.analysis.campbell_figure import engine_order_crossings
+
     return {
         "case": case_name,
         "formulation": formulation,
@@ -75,25 +83,36 @@ def _campbell_summary(result, case_name: str, formulation: str) -> dict:
         # where the free body's rotating stiffness changes definiteness (branches end there)
         "divergence_spin_rad_s": [float(w) for w in result.divergence],
         "divergence_spin_hz": [float(w) / (2 * np.pi) for w in result.divergence],
+        "critical_speeds": [{"spin_rad_s": c.spin, "spin_hz": c.spin / (2 * np.pi),
+                             "order": c.order, "branch": c.label}
+                            for c in engine_order_crossings(result)],  # fmt: skip
     }
 
 
-def _print_campbell(result, case_name: str, summary: dict) -> None:
-    """At most 9 spin rates by the first 6 branches, and where the stiffness is lost."""
-    freqs = np.asarray(result.frequency)
-    table = Table("spin (rad/s)", *result.labels[:6], title=f"{case_name}: rotating-frame (rad/s)")
+def _print_campbell(result, case_name: str, summary: dict, unit) -> None:
+    """At most 9 spin rates by the first 6 branches (in ``unit``), the critical speeds and
+    where the stiffness is lost."""
+    u = unit.name
+    freqs = unit.from_rad_s(np.asarray(result.frequency, float))
+    spins = unit.from_rad_s(np.asarray(result.spin, float))
+    table = Table(f"spin ({u})", *result.labels[:6], title=f"{case_name}: rotating-frame ({u})")
     for k in np.linspace(0, len(result.spin) - 1, min(9, len(result.spin))).astype(int):
         cells = [f"{v:.4g}" if np.isfinite(v) else "-" for v in freqs[k, :6]]
-        table.add_row(f"{result.spin[k]:.3g}", *cells)
+        table.add_row(f"{spins[k]:.4g}", *cells)
     out.print(table)
+    if summary["critical_speeds"]:
+        crit = Table(f"spin ({u})", "branch", "meets", title="critical speeds (f = kΩ)",
+                     caption="k = 1: a load fixed in space; 2: twice a turn")  # fmt: skip
+        for c in summary["critical_speeds"]:
+            crit.add_row(f"{unit.from_rad_s(c['spin_rad_s']):.4g}", escape(c["branch"]),
+                         f"{c['order']}Ω")  # fmt: skip
+        out.print(crit)
     for w in summary["divergence_spin_rad_s"]:
-        out.print(f"[bold red]divergence at {w:.4g} rad/s ({w / (2 * np.pi):.4g} Hz): the "
-                  "rotating stiffness changes definiteness; every branch ends there[/]")  # fmt: skip
+        out.print(f"[bold red]divergence at {unit.from_rad_s(w):.4g} {u}: the rotating stiffness "
+                  "changes definiteness; every branch ends there[/]")  # fmt: skip
     if summary["unstable_spin_rates_rad_s"] and not summary["divergence_spin_rad_s"]:
-        out.print(
-            f"[bold red]rotating stiffness not positive definite from "
-            f"{summary['unstable_spin_rates_rad_s'][0]:.4g} rad/s[/]"
-        )
+        w = unit.from_rad_s(summary["unstable_spin_rates_rad_s"][0])
+        out.print(f"[bold red]rotating stiffness not positive definite from {w:.4g} {u}[/]")
 
 
 FULL_ORDER_HELP = (
@@ -134,6 +153,13 @@ def _full_order_summary(markers) -> list[dict]:
     return out
 
 
+#: ``--formulation`` of the linearisations: one name (campbell) or a list (rotating).
+FormulationOne = formulation_option("Q, P, L or Q4", LINEAR_FORMULATIONS)
+FormulationList = formulation_option("comma-separated, from Q, P, L, Q4", LINEAR_FORMULATIONS,
+                                     listed=True)  # fmt: skip
+AxisOption = axis_option(AXIS_HELP)
+CampbellUnits = units_option("the table and campbell.png (campbell.nc/.csv stay SI)")
+RotatingUnits = units_option("the table (rotating.md too; --json stays in Hz)")
 CampbellCase = case_argument("model case (membrane or beam), name or TOML file")
 CampbellOutput = output_path("folder for campbell.png/.nc/.csv")
 
@@ -144,24 +170,31 @@ def campbell(
     spin_max: Annotated[str, typer.Option(
         help="highest spin rate, e.g. '45 Hz' (Kane's beam: '10 rad/s')")] = "45 Hz",
     n: Annotated[int, typer.Option("--points", "-n", help="number of spin rates")] = 41,
-    formulation: Annotated[str, typer.Option(help="Q, P, L or Q4")] = "Q",
-    axis: Annotated[str | None, typer.Option(help=AXIS_HELP + " (default: see above)")] = None,
+    formulation: FormulationOne = "Q",
+    modes: Annotated[int | None, typer.Option(
+        help="modes of the reduced model (sets modes.count; default: the case's)")] = None,
+    axis: AxisOption = None,
     full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP)] = None,
+    units: CampbellUnits = "Hz",
     output_dir: CampbellOutput = None,
     as_json: JsonFlag = False,
+    no_cache: NoCacheFlag = False,
     yes: LargeModelFlag = False,
 ) -> None:
     """Frequencies of the reduced model linearised about steady spin over a range of spin rates
     (gyroscopic coupling, centrifugal softening, quadratic-mode stiffening), tracked by MAC; by
     default a free body spins about its symmetry axis (the principal axis whose moment differs
     most from the other two), a clamped body on a hub about z; --axis chooses. --full-order adds
-    the full-order model's roots at a few spins as markers."""
+    the full-order model's roots at a few spins as markers. The table and campbell.png are in
+    --units (Hz by default), with the critical speeds where a branch meets f = kΩ."""
     from quadmodes.analysis.campbell_output import campbell_with_full_order
     from quadmodes.case import parse_quantity
+    from quadmodes.models.cache import caching_disabled
 
-    with one_line_errors():
+    with one_line_errors(), caching_disabled(no_cache):
         lo = parse_quantity(spin_min, "angular_rate", "--spin-min")
         hi = parse_quantity(spin_max, "angular_rate", "--spin-max")
+        unit = parse_units(units)
         if n < 1:
             raise UserError(f"--points: {n}; give at least 1 spin rate, e.g. 41")
         if hi < lo:
@@ -171,16 +204,16 @@ def campbell(
         request = _axis_request(axis)
         full_spins = parse_full_order(full_order)
         check_output_folder(output_dir)
-        c = load_model_case(case)
+        c = _with_mode_count(load_model_case(case), modes)
         if full_spins and c.kind == "beam" and c.beam.support == "clamped":
             raise UserError("--full-order: the full-order rotating-frame analysis is for free "
                             "bodies; this beam is clamped to a hub (drop --full-order)")  # fmt: skip
         guard_model_size(c, yes)
-        guard_reduced_model(c, None, yes, spins=True)
+        guard_reduced_model(c, modes, yes, spins=True, from_option=modes is not None)
         with progress_bars(True) as progress, staged_output(output_dir) as scratch:
             result, markers, _ = campbell_with_full_order(
                 c, lo, hi, n, axis=request, formulation=formulation, output_dir=scratch,
-                progress=progress, axis_option="--axis", full_order_spins=full_spins,
+                progress=progress, axis_option="--axis", full_order_spins=full_spins, unit=unit,
             )
     summary = _campbell_summary(result, c.name, formulation)
     if markers is not None:
@@ -188,17 +221,29 @@ def campbell(
     if as_json:
         sys.stdout.write(json.dumps(summary) + "\n")
         return
-    _print_campbell(result, c.name, summary)
+    _print_campbell(result, c.name, summary, unit)
     if output_dir is not None:
         out.print(f"outputs written to {output_dir}")
+
+
+def _with_mode_count(case, modes: int | None):
+    """``case`` with ``modes.count`` set to ``--modes`` (validated as the case file)."""
+    from quadmodes.case.editing import edit
+
+    if modes is None:
+        return case
+    if modes < 1:
+        raise UserError(f"--modes {modes}: must be at least 1; use e.g. 10")
+    return edit(case, [("modes.count", modes)], "--modes")
 
 
 # ------------------------------------------------------------------------------ rotating
 
 
-def _parse_spins_hz(spins: str) -> tuple[float, ...]:
-    """The comma-separated, non-negative spin rates (Hz) of ``--spins``: quantities ("0 Hz,
-    20 Hz, 300 rpm") or, as before, bare numbers of Hz (with a deprecation note)."""
+def _parse_spins_hz(spins: str, option: str = "--spin-rate") -> tuple[float, ...]:
+    """The comma-separated, non-negative spin rates (Hz) of ``--spin-rate`` (formerly
+    ``--spins``): quantities ("0 Hz, 20 Hz, 300 rpm") or, as before, bare numbers of Hz (with a
+    deprecation note)."""
     from quadmodes.case import QuantityError, parse_quantity
 
     items = [v.strip() for v in spins.split(",") if v.strip()]
@@ -206,15 +251,15 @@ def _parse_spins_hz(spins: str) -> tuple[float, ...]:
         spin_list = tuple(float(v) for v in items)
     except ValueError:
         try:
-            spin_list = tuple(parse_quantity(v, "frequency", "--spins") for v in items)
+            spin_list = tuple(parse_quantity(v, "frequency", option) for v in items)
         except QuantityError as exc:
             raise UserError(f'{exc}; give a comma-separated list such as "0 Hz, 20 Hz, '
                             '41 Hz"') from None  # fmt: skip
     else:
         if items:
-            deprecated_bare_number("--spins", spins, "Hz")
+            deprecated_bare_number(option, spins, "Hz")
     if not spin_list or any(v < 0 for v in spin_list):
-        raise UserError('--spins: give one or more non-negative spin rates, e.g. "0 Hz, 20 Hz, '
+        raise UserError(f'{option}: give one or more non-negative spin rates, e.g. "0 Hz, 20 Hz, '
                         '41 Hz"')  # fmt: skip
     return spin_list
 
@@ -242,7 +287,7 @@ def _rotating_summary(table) -> dict:
         "n_nodes": int(table.n_nodes),
         "rows": [_finite(dataclasses.asdict(r)) for r in table.rows],
         "unmatched_full_order_roots": [_finite(dataclasses.asdict(r)) for r in table.extra],
-        "text": table.to_text(),
+        "text": table.to_text(),  # Hz, whatever --units
     }
 
 
@@ -252,12 +297,13 @@ RotatingOutput = output_path("folder to write the Markdown table in (rotating.md
 
 def rotating_command(
     case: RotatingCase = DEFAULT_CASE,
-    spins: Annotated[
-        str, typer.Option(help='spin rates, comma-separated, e.g. "0 Hz, 20 Hz, 41 Hz"')
-    ] = "0 Hz, 20 Hz, 41 Hz",
+    spin_rate: Annotated[str, typer.Option(
+        "--spin-rate", help='spin rates, comma-separated, e.g. "0 Hz, 20 Hz, 41 Hz"')
+    ] = "0 Hz, 20 Hz, 41 Hz",  # fmt: skip
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
-    formulations: Annotated[str, typer.Option(help="comma-separated, from Q, P, L, Q4")] = "Q,L",
-    axis: Annotated[str, typer.Option(help=AXIS_HELP)] = "minor",
+    formulation: FormulationList = "Q,L",
+    axis: AxisOption = "minor",
+    units: RotatingUnits = "Hz",
     output: RotatingOutput = None,
     as_json: JsonFlag = False,
     no_cache: NoCacheFlag = False,
@@ -265,14 +311,16 @@ def rotating_command(
 ) -> None:
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
-    (campbell), branch by branch, matched by MAC. Frequencies in Hz, rotating frame."""
+    (campbell), branch by branch, matched by MAC. Frequencies in the rotating frame, in --units
+    (Hz by default; the JSON stays in Hz)."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
     from quadmodes.models.cache import caching_disabled
 
     with one_line_errors(), caching_disabled(no_cache):
         output = output_file_in(output, "rotating.md")
-        spin_list = _parse_spins_hz(spins)
-        names = parse_formulations(formulations, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
+        unit = parse_units(units)
+        spin_list = _parse_spins_hz(spin_rate)
+        names = parse_formulations(formulation, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
         request = _axis_request(axis)
         if modes < 1:
             raise UserError("--modes: must be at least 1")
@@ -283,7 +331,7 @@ def rotating_command(
             table = rotating_frequency_comparison(
                 c, spin_list, modes, names, axis=request, progress=bars, axis_option="--axis"
             )
-    text = table.to_text()
+    text = table.to_text(unit)
     if as_json:
         sys.stdout.write(json.dumps(_rotating_summary(table), indent=2) + "\n")
     else:

@@ -23,12 +23,13 @@ from quadmodes.cli.common import out
 from quadmodes.cli.compare_command import compare_command
 from quadmodes.cli.model_commands import calibrate, cases, modes, reduce_command, show_case
 from quadmodes.cli.run_commands import run_command
+from quadmodes.cli.shape import QuadmodesCommand
 from quadmodes.cli.sweep_command import sweep_command
 from quadmodes.cli.usage import OneLineUsageGroup
 from quadmodes.cli.validate_command import validate
 
 app = typer.Typer(
-    cls=OneLineUsageGroup,  # usage errors in one line, exit 2
+    cls=OneLineUsageGroup,  # QuadmodesGroup with usage errors in one line, exit 2
     no_args_is_help=True,
     add_completion=True,  # --install-completion, --show-completion (bash, zsh, fish, PowerShell)
 )
@@ -63,24 +64,24 @@ def global_options(
     verbosity.configure(quiet=quiet, verbose=verbose)
 
 
-@app.command()
+@app.command(cls=QuadmodesCommand)
 def version() -> None:
     """Print the package version."""
     out.print(__version__)
 
 
-app.command()(cases)
-app.command("show-case")(show_case)
-app.command()(modes)
-app.command()(calibrate)
-app.command()(validate)
-app.command("reduce")(reduce_command)
-app.command("run")(run_command)
-app.command()(campbell)
-app.command("compare")(compare_command)
-app.command("rotating")(rotating_command)
+app.command(cls=QuadmodesCommand)(cases)
+app.command("show-case", cls=QuadmodesCommand)(show_case)
+app.command(cls=QuadmodesCommand)(modes)
+app.command(cls=QuadmodesCommand)(calibrate)
+app.command(cls=QuadmodesCommand)(validate)
+app.command("reduce", cls=QuadmodesCommand)(reduce_command)
+app.command("run", cls=QuadmodesCommand)(run_command)
+app.command(cls=QuadmodesCommand)(campbell)
+app.command("compare", cls=QuadmodesCommand)(compare_command)
+app.command("rotating", cls=QuadmodesCommand)(rotating_command)
 app.add_typer(cache_app, name="cache")
-app.command("sweep")(sweep_command)
+app.command("sweep", cls=QuadmodesCommand)(sweep_command)
 
 
 def main() -> None:  # pragma: no cover - console entry point

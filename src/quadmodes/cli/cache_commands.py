@@ -10,8 +10,10 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli.common import JsonFlag, UserError, err, flag, one_line_errors, out
+from quadmodes.cli.shape import QuadmodesCommand, QuadmodesGroup
 
 cache_app = typer.Typer(
+    cls=QuadmodesGroup,
     no_args_is_help=True,
     add_completion=False,
     help="List or clear the cached reduced models, spectra and damping modes "
@@ -19,7 +21,7 @@ cache_app = typer.Typer(
 )
 
 
-@cache_app.command("list")
+@cache_app.command("list", cls=QuadmodesCommand)
 def cache_list(as_json: JsonFlag = False) -> None:
     """List the cache entries: case, kind, modes, reference spin, size and age."""
     from quadmodes.models.cache import cache_dir
@@ -47,7 +49,7 @@ def cache_list(as_json: JsonFlag = False) -> None:
     out.print(f"{len(entries)} entries, {format_size(total)}")
 
 
-@cache_app.command("clear")
+@cache_app.command("clear", cls=QuadmodesCommand)
 def cache_clear(yes: flag("--yes", "remove without asking") = False) -> None:
     """Remove every cache entry and its lock file (only files the cache wrote; other files in
     the folder are kept)."""

@@ -21,14 +21,12 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from quadmodes.cli import verbosity
+from quadmodes.cli import completion, verbosity
+from quadmodes.cli.completion import LINEAR_FORMULATIONS  # noqa: F401 (re-exported)
 from quadmodes.cli.consoles import err, out  # noqa: F401 (out: re-exported to the commands)
 from quadmodes.io import staging
 
 DEFAULT_CASE = "paper-membrane"
-
-#: The formulations a linearisation (campbell, rotating) accepts.
-LINEAR_FORMULATIONS = ("Q", "P", "L", "Q4")
 
 #: ``progress(stage, fraction)``: a stage name and its completed fraction in [0, 1].
 ProgressCallback = Callable[[str, float], None]
@@ -285,15 +283,17 @@ def load_model_case(case: str):
 
 
 def parse_formulations(
-    text: str, allowed: tuple[str, ...], *, use: str, none: str = "(none)"
-) -> tuple[str, ...]:
-    """The comma-separated formulation names of ``--formulations``, each one of ``allowed``.
+    text: str, allowed: tuple[str, ...], *, use: str, none: str = "(none)",
+    option: str = "--formulation",
+) -> tuple[str, ...]:  # fmt: skip
+    """The comma-separated formulation names of ``--formulation`` (formerly
+    ``--formulations``), each one of ``allowed``.
 
     ``use`` is the list the error message suggests, ``none`` what it says when none is given."""
     names = tuple(f.strip() for f in text.split(",") if f.strip())
     bad = [f for f in names if f not in allowed]
     if bad or not names:
-        raise UserError(f"--formulations: unknown {', '.join(bad) or none}; use {use}")
+        raise UserError(f"{option}: unknown {', '.join(bad) or none}; use {use}")
     return names
 
 
@@ -310,13 +310,52 @@ def output_path(help: str, *, optional: bool = True) -> Any:
     return Annotated[Path | None if optional else Path, typer.Option("-o", "--output", help=help)]
 
 
-def case_argument(help: str) -> Any:
-    """The CASE argument: a built-in case name or a TOML file."""
-    return Annotated[str, typer.Argument(help=help)]
+#: Completion of a CASE argument by the kind of case it takes.
+_CASE_COMPLETION = {"model": completion.complete_model_case, "run": completion.complete_run_case,
+                    "any": completion.complete_any_case}  # fmt: skip
+
+
+def case_argument(help: str, kind: str = "model") -> Any:
+    """The CASE argument: a built-in case name or a TOML file; the shell completes the built-in
+    cases of ``kind`` ("model", "run" or "any") and TOML files."""
+    return Annotated[str, typer.Argument(help=help, autocompletion=_CASE_COMPLETION[kind])]
+
+
+def units_option(what: str) -> Any:
+    """The ``--units`` option: the unit of the frequencies and spin rates of ``what``."""
+    return Annotated[str, typer.Option(
+        "--units", help=f"unit of {what}: Hz, rpm or rad/s",
+        autocompletion=completion.choices(*completion.UNITS))]  # fmt: skip
+
+
+def parse_units(text: str):
+    """The :class:`~quadmodes.io.display_units.FrequencyUnit` of ``--units`` (UserError
+    otherwise)."""
+    from quadmodes.io.display_units import frequency_unit
+
+    try:
+        return frequency_unit(text, "--units")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def formulation_option(help: str, choices: tuple[str, ...], *, listed: bool = False) -> Any:
+    """The ``--formulation`` option (one name, or with ``listed`` a comma-separated list; the old
+    spelling ``--formulations`` still works, :mod:`quadmodes.cli.shape`)."""
+    return Annotated[str | None, typer.Option(
+        "--formulation", help=help, autocompletion=completion.choices(*choices, listed=listed))]
+
+
+def axis_option(help: str) -> Any:
+    """The ``--axis`` option (a name or three numbers; the shell completes the names)."""
+    return Annotated[str | None, typer.Option(
+        "--axis", help=help, autocompletion=completion.choices(*completion.AXES))]
 
 
 #: A model case: built-in name or TOML file.
 ModelCase = case_argument("built-in case name or TOML file")
+#: A model or run case (show-case).
+AnyCase = case_argument("built-in case name or TOML file (model or run case)", "any")
 #: ``--json`` of the commands that print their summary as JSON.
 JsonFlag = flag("--json", "print JSON on stdout")
 #: ``--no-cache`` of the commands that build reduced models.
@@ -371,3 +410,18 @@ def write_file_in(path: Path, write: Callable[[Path], Any]) -> None:
     """``write(path)`` after creating the folder of ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     write(path)
+
+
+#: ``run``'s CASE argument (optional: both paper cases).
+RunCaseArgument = Annotated[str | None, typer.Argument(
+    help="run case (built-in name or TOML file); default: both paper cases",
+    autocompletion=completion.complete_run_case)]
+#: ``run --axis``: sets ``initial.spin_axis``.
+RunAxis = axis_option("body-frame spin axis (sets initial.spin_axis): x, y, z, minor, "
+                      "intermediate, major or three numbers such as 0,0,1; default: the run "
+                      "case's (the minor axis)")  # fmt: skip
+#: ``run --method`` and ``run --formulation`` (overrides of the run case).
+RunMethod = Annotated[str | None, typer.Option(
+    help="midpoint | backward-euler | adaptive", autocompletion=completion.choices(*completion.METHODS))]
+RunFormulation = Annotated[str | None, typer.Option(
+    help="Q | P | L | rigid | Q4", autocompletion=completion.choices(*completion.RUN_FORMULATIONS))]

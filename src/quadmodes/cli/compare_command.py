@@ -23,6 +23,7 @@ from quadmodes.cli.common import (
     check_output_folder,
     err,
     flag,
+    formulation_option,
     guard_model_size,
     guard_reduced_model,
     one_line_errors,
@@ -180,27 +181,36 @@ def _ratio(value) -> str:
     return "null" if value is None else f"×{value:.3g}"
 
 
+def _comparison_tables(payload: dict, plan: ComparisonPlan) -> tuple[Table, Table]:
+    """The two tables of a comparison, each narrow enough for 80 columns with every number
+    whole (no "…"): errors relative to the full order, then the long-window rates as reduced /
+    full with wall times and speed-ups."""
+    errors = Table("model", "envelope", "cone angle", "cone change", "spin rate",
+                   title=f"{plan.run.name}: {plan.window_s:g} s window, errors relative to "
+                   "full order")  # fmt: skip
+    rates = Table("model", "cone growth", "diss. power", "spin change", "wall (s)", "speed-up",
+                  title="long-window rates as reduced / full, wall times")  # fmt: skip
+    for table in (errors, rates):
+        for column in table.columns:
+            column.no_wrap = True  # numbers never break; the tables fit in 80 columns
+    fo = payload["full_order"]
+    errors.add_row("full order", *("—",) * 4)
+    rates.add_row("full order", *("—",) * 3, f"{fo['wall_s']:.3g}", "1")
+    for name, row in payload["formulations"].items():
+        errors.add_row(name, *(_num(row[k], ".2e") for k in (
+            "envelope_error", "cone_angle_error", "cone_angle_change_error", "spin_rate_error")))  # fmt: skip
+        rates.add_row(name, *(_ratio(row.get(k)) for k in ("cone_growth_ratio",
+                      "dissipated_power_ratio", "spin_rate_change_ratio")),
+                      _num(row["wall_s"], ".3g"), _num(row["speedup"], ".3g"))  # fmt: skip
+    return errors, rates
+
+
 def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None:
     """Errors relative to full order, long-window ratios reduced / full, wall times and
-    speed-ups, one row a model; then the quasi-steady interval, the full order's fitted rates
-    and the notes."""
-    table = Table(
-        "model", "envelope", "cone angle", "cone change", "spin rate", "cone growth",
-        "diss. power", "spin change", "wall (s)", "speed-up",
-        title=f"{plan.run.name}: {plan.window_s:g} s window, errors relative to full order, "
-        "long-window rates as reduced / full",
-    )  # fmt: skip
-    fo = payload["full_order"]
-    table.add_row("full order", *("—",) * 7, f"{fo['wall_s']:.3g}", "1")
-    for name, row in payload["formulations"].items():
-        table.add_row(
-            name, *(_num(row[k], ".2e") for k in ("envelope_error", "cone_angle_error",
-                                                  "cone_angle_change_error", "spin_rate_error")),
-            *(_ratio(row.get(k)) for k in ("cone_growth_ratio", "dissipated_power_ratio",
-                                           "spin_rate_change_ratio")),
-            _num(row["wall_s"], ".3g"), _num(row["speedup"], ".3g"),
-        )  # fmt: skip
-    out.print(table)
+    speed-ups, one row a model (two tables that keep their numbers in 80 columns); then the
+    quasi-steady interval, the full order's fitted rates and the notes."""
+    for table in _comparison_tables(payload, plan):
+        out.print(table)
     qs = payload.get("quasi_steady")
     if qs:
         f = qs["full_order"]
@@ -220,7 +230,9 @@ def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None
     out.print(f"results written to {escape(str(target))}")
 
 
-CompareCase = case_argument("run case (built-in name or TOML file)")
+CompareCase = case_argument("run case (built-in name or TOML file)", "run")
+CompareFormulations = formulation_option("comma-separated, from rigid, L, P, Q, Q4",
+                                         ("rigid", "L", "P", "Q", "Q4"), listed=True)  # fmt: skip
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
 RestartFlag = flag("--restart", "discard the checkpoint of an interrupted full-order run")
@@ -243,9 +255,7 @@ def compare_command(
     spin_rate: Annotated[
         str | None, typer.Option("--spin-rate", help='initial spin rate, e.g. "20 Hz"')
     ] = None,
-    formulations: Annotated[
-        str, typer.Option(help="comma-separated, from rigid, L, P, Q, Q4")
-    ] = "rigid,L,P,Q,Q4",
+    formulations: CompareFormulations = "rigid,L,P,Q,Q4",
     damping_cutoff: Annotated[
         str | None,
         typer.Option("--damping-cutoff", help='full-order damping: every FE mode below this, '
@@ -311,7 +321,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
                             from_option=modes is not None)  # fmt: skip
         checkpoint = _checkpoint_for(target, resume, restart)
         options = {"--window": window, "--full-dt": full_dt, "--modes": modes,
-                   "--spin-rate": spin_rate, "--formulations": formulations,
+                   "--spin-rate": spin_rate, "--formulation": formulations,
                    "--damping-cutoff": damping_cutoff}  # fmt: skip
         hint = _rerun_hint(case, options, target, plots, as_json)
         signals["stopped"] = lambda: _stopped_message(checkpoint, hint)

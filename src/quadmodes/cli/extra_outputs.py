@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from quadmodes.cli.common import UserError, flag
+from quadmodes.cli.completion import choices
 from quadmodes.runs.run_folder import Animation
 
 AnimateFlag = flag(
@@ -18,7 +19,8 @@ AnimateFlag = flag(
     "pyvista installed also motion.gif)",
 )
 AnimateFrame = Annotated[
-    str, typer.Option("--animate-frame", help="frame of --animate: inertial | body")
+    str, typer.Option("--animate-frame", help="frame of --animate: inertial | body",
+                      autocompletion=choices("inertial", "body"))
 ]
 AnimateFrames = Annotated[
     int, typer.Option("--animate-frames", help="number of frames of --animate (evenly spread)")

@@ -15,6 +15,7 @@ from rich.table import Table
 from quadmodes._version import __version__
 from quadmodes.cli.common import (
     DEFAULT_CASE,
+    AnyCase,
     JsonFlag,
     LargeModelFlag,
     ModelCase,
@@ -52,7 +53,7 @@ def cases(as_json: JsonFlag = False) -> None:
     out.print(table)
 
 
-def show_case(name: ModelCase, as_json: JsonFlag = False) -> None:
+def show_case(name: AnyCase, as_json: JsonFlag = False) -> None:
     """Print a case as TOML (copy it, edit it, pass the file to any command); --json: the same
     content as a JSON object."""
     import tomllib
@@ -266,7 +267,8 @@ def _reduced_summary(model, model_case, info: dict, output_file: Path | None) ->
     }
 
 
-ReducedCase = case_argument("model case, or run case (its model), built-in name or TOML file")
+ReducedCase = case_argument("model case, or run case (its model), built-in name or TOML file",
+                            "any")  # fmt: skip
 ReducedOutput = output_path("folder to write the reduced model in (reduced_model.nc)")
 
 

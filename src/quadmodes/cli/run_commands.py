@@ -16,6 +16,10 @@ from rich.table import Table
 from quadmodes.cli import extra_outputs as extras
 from quadmodes.cli.common import (
     NoCacheFlag,
+    RunAxis,
+    RunCaseArgument,
+    RunFormulation,
+    RunMethod,
     UserError,
     check_output_folder,
     err,
@@ -369,16 +373,14 @@ RunYesFlag = flag(
 
 
 def run_command(
-    case: Annotated[
-        str | None,
-        typer.Argument(help="run case (built-in name or TOML file); default: both paper cases"),
-    ] = None,
+    case: RunCaseArgument = None,
     output_dir: RunOutput = Path("out"),
     as_json: Annotated[bool, typer.Option("--json", help="print {case name: summary} as JSON")] = False,
-    method: Annotated[str | None, typer.Option(help="midpoint | backward-euler | adaptive")] = None,
+    method: RunMethod = None,
     dt: Annotated[str | None, typer.Option(help='time step, e.g. "0.25 ms"')] = None,
     duration: Annotated[str | None, typer.Option(help='simulated time, e.g. "4 s"')] = None,
-    formulation: Annotated[str | None, typer.Option(help="Q | P | L | rigid | Q4")] = None,
+    formulation: RunFormulation = None,
+    axis: RunAxis = None,
     spin_rate: Annotated[
         str | None,
         typer.Option(
@@ -422,7 +424,7 @@ def run_command(
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,
-                     spin_rate=spin_rate, modes=modes)  # fmt: skip
+                     spin_rate=spin_rate, modes=modes, axis=axis)  # fmt: skip
     flags = {"--dt-convergence": dt_convergence, "--mode-convergence": mode_convergence,
              "--no-plots": not plots}  # fmt: skip
     with sigterm_as_interrupt() as signals:

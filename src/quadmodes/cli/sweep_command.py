@@ -20,7 +20,18 @@ from rich.markup import escape
 
 from quadmodes.case import load_run_case, run_case_from_dict
 from quadmodes.cli.analysis_commands import FULL_ORDER_HELP, parse_full_order
-from quadmodes.cli.common import check_output_folder, err, one_line_errors, out, progress_bars
+from quadmodes.cli.common import (
+    axis_option,
+    case_argument,
+    check_output_folder,
+    err,
+    one_line_errors,
+    out,
+    parse_units,
+    progress_bars,
+    units_option,
+)
+from quadmodes.cli.completion import choices
 from quadmodes.sweeps.params import SweepError
 
 
@@ -55,11 +66,12 @@ def _plan(case: str, param: list[str], zipped: bool, time_run: bool, axis: str |
     return plan_from_texts(run, from_file + list(param or []), zipped or zip_file, time_run, axis)
 
 
-def _write(plan, outcome, directory: Path, plots: bool = True, fmt: str | None = None) -> dict:
+def _write(plan, outcome, directory: Path, plots: bool = True, fmt: str | None = None,
+           unit="Hz") -> dict:  # fmt: skip
     from quadmodes.sweeps.run import write_sweep_files
 
     command = shlex.join(["quadmodes", *sys.argv[1:]])
-    return write_sweep_files(plan, outcome, directory, command, plots, fmt)[1]
+    return write_sweep_files(plan, outcome, directory, command, plots, fmt, unit)[1]
 
 
 def _full_order(cases, directory: Path, client):
@@ -73,19 +85,22 @@ def _full_order(cases, directory: Path, client):
                                                        done / max(total, 1)))  # fmt: skip
 
 
-def _report(info: dict, directory: Path) -> None:
+def _report(info: dict, directory: Path, unit) -> None:
+    """The summary lines: counts, critical speeds and full-order spins in ``unit``, failures."""
+    u = unit.name
     out.print(f"sweep: {info['points']} points ({info['resumed']} from earlier files, "
               f"{info['failed']} failed) in {info['wall_s']:.1f} s -> "
               f"{escape(str(directory))}/{info.get('dataset', 'sweep.nc')}",
               highlight=False)  # fmt: skip
     for c in info["critical_speeds"]:
         partner = f" + {c['partner']}" if c["partner"] else ""
-        out.print(f"  critical speed {c['spin_hz']:.4g} Hz: {c['kind']} of {escape(c['branch'])}"
+        out.print(f"  critical speed {unit.from_hz(c['spin_hz']):.4g} {u}: {c['kind']} of "
+                  f"{escape(c['branch'])}"
                   f"{escape(partner)}", highlight=False)  # fmt: skip
     for spin in info.get("full_order", []):
         worst = max((abs(r["relative_error"]) for r in spin["roots"]
                      if r["relative_error"] is not None), default=float("nan"))  # fmt: skip
-        out.print(f"  full order at {spin['spin_hz']:.4g} Hz: {len(spin['roots'])} roots, "
+        out.print(f"  full order at {unit.from_hz(spin['spin_hz']):.4g} {u}: {len(spin['roots'])} roots, "
                   f"matched branches within {100 * worst:.3g} %", highlight=False)  # fmt: skip
     for message in info["failures"].values():
         err.print(f"warning: point failed: {escape(message)}", highlight=False, soft_wrap=True)
@@ -97,8 +112,15 @@ def _report(info: dict, directory: Path) -> None:
                   highlight=False, soft_wrap=True)  # fmt: skip
 
 
+SweepCase = case_argument("run case (built-in name or TOML file)", "run")
+SweepAxis = axis_option("body-frame spin axis of every point (sets initial.spin_axis): x, y, z, "
+                        "minor, intermediate, major or three numbers such as 0,0,1; default: "
+                        "the run case's initial.spin_axis")  # fmt: skip
+SweepUnits = units_option("the printed critical speeds and the figures (sweep.nc stays SI)")
+
+
 def sweep_command(
-    case: Annotated[str, typer.Argument(help="run case (built-in name or TOML file)")],
+    case: SweepCase,
     param: Annotated[list[str], typer.Option(
         "--param", help='PATH=VALUES, e.g. "initial.spin_rate=1 Hz:45 Hz:45" or '
         '"pressure.value=0.2 psi, 0.3 psi"; one value only overrides the field')] = None,
@@ -114,20 +136,20 @@ def sweep_command(
                                               "energy-sink estimate only")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="print the summary as JSON")] = False,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="write the PNG figures")] = True,
-    axis: Annotated[str | None, typer.Option(help="body-frame spin axis of every point (sets "
-                                             "initial.spin_axis): x, y, z, minor, "
-                                             "intermediate, major or three numbers such as "
-                                             "0,0,1; default: the run case's initial.spin_axis")] = None,
+    axis: SweepAxis = None,
     full_order: Annotated[str | None, typer.Option("--full-order", help=FULL_ORDER_HELP.replace(
         "campbell", "sweep").replace("sweep.png", "the Campbell diagram"))] = None,
-    fmt: Annotated[str | None, typer.Option("--format", help="netcdf (sweep.nc) or zarr "
+    fmt: Annotated[str | None, typer.Option("--format", autocompletion=choices("netcdf", "zarr"),
+                                            help="netcdf (sweep.nc) or zarr "
                                             "(sweep.zarr, the zarr extra); default netcdf, "
                                             "zarr above 256 MiB when installed")] = None,
+    units: SweepUnits = "Hz",
 ) -> None:
     """Sweep a run case over case fields: stability map, critical speeds, coning time constants.
 
-    Writes DIR/sweep.nc (one dimension per swept parameter; or sweep.zarr), sweep.json,
-    campbell.png, stability.png and energy_sink.png; finished points stay in DIR/points/ so that
+    Writes DIR/sweep.nc (one dimension per swept parameter; or sweep.zarr; SI), sweep.json,
+    campbell.png, stability.png and energy_sink.png (spin rates and frequencies in --units, Hz by
+    default); finished points stay in DIR/points/ so that
     the same command run again skips them."""
     from quadmodes.sweeps.engine import dask_client, execute
     from quadmodes.sweeps.full_order import full_order_cases
@@ -139,6 +161,7 @@ def sweep_command(
                              "workers); give one of them")  # fmt: skip
     with one_line_errors():
         fmt = check_format(fmt)
+        unit = parse_units(units)
         full_spins = parse_full_order(full_order)
         plan = _plan(case, param, zipped, not no_time_run, axis)
         cases = full_order_cases(plan, full_spins) if full_spins else []
@@ -158,10 +181,10 @@ def sweep_command(
             err.print(f"interrupted: the finished points are in {escape(str(output_dir))}/points; "
                       "run the same command again to go on", highlight=False)  # fmt: skip
             raise typer.Exit(code=130) from None
-    info = _write(plan, outcome, output_dir, plots, fmt)
+    info = _write(plan, outcome, output_dir, plots, fmt, unit)
     if as_json:
         out.print_json(json.dumps(info))
     else:
-        _report(info, output_dir)
+        _report(info, output_dir, unit)
     if outcome.failures or outcome.full_order_failures:
         raise typer.Exit(code=1)

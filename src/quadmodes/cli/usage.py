@@ -8,9 +8,9 @@ import sys
 from typing import Any
 
 import typer
-from typer.core import TyperGroup
 
 from quadmodes.cli.common import print_error
+from quadmodes.cli.shape import QuadmodesGroup
 
 
 def _click_class(name: str) -> type[Exception]:
@@ -29,8 +29,9 @@ def _where(exc: Exception) -> str:
     return f"{ctx.command_path} --help" if ctx is not None else "quadmodes --help"
 
 
-class OneLineUsageGroup(TyperGroup):
-    """The command group of ``quadmodes``: click's own main, but a usage error (an unknown
+class OneLineUsageGroup(QuadmodesGroup):
+    """The command group of ``quadmodes`` (:class:`~quadmodes.cli.shape.QuadmodesGroup`) with
+    click's own main, but a usage error (an unknown
     option or command, a value that is not a number) printed as one line naming where the
     options are listed; bare ``quadmodes`` still prints the help."""
 

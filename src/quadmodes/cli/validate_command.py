@@ -27,6 +27,7 @@ from quadmodes.cli.common import (
     user_errors,
     write_file_in,
 )
+from quadmodes.cli.completion import choices
 from quadmodes.io.atomic import write_text
 
 VALIDATION_SUITES = ("fe", "reduced", "full-order")
@@ -84,7 +85,8 @@ ValidateOutput = output_path("folder to write the tables in (validation.md)")
 SuiteOption = Annotated[
     list[str] | None,
     typer.Option(
-        "--suite", help="fe | reduced | full-order (repeat to combine; default: all three)"
+        "--suite", help="fe | reduced | full-order (repeat to combine; default: all three)",
+        autocompletion=choices("fe", "reduced", "full-order"),
     ),
 ]
 ConvergenceFlag = flag("--convergence/--no-convergence", "paper-model mesh convergence")

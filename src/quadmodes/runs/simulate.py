@@ -299,6 +299,7 @@ def apply_overrides(
     save_every: int | None = None,
     spin_rate: str | None = None,
     modes: int | str | None = None,
+    axis: str | None = None,
 ) -> RunCase:
     """``run`` with command-line overrides (quantity strings such as ``"0.25 ms"``), validated
     like the case file (:func:`quadmodes.case.editing.edit`); raises :class:`CaseError` naming
@@ -307,14 +308,19 @@ def apply_overrides(
     ``spin_rate`` sets ``initial.spin_rate`` (free-body run) or ``spinup.omega_s`` (spin-up);
     ``duration`` sets ``integration.duration`` or ``spinup.duration``; ``modes`` (a whole
     number, or "auto" for a free-body run) sets ``reduced.modes`` (a whole number drops
-    ``reduced.mode_margin``)."""
+    ``reduced.mode_margin``); ``axis`` (a name or "a,b,c") sets ``initial.spin_axis`` of a
+    free-body run."""
     from quadmodes.case.editing import edit
 
     values = (method, dt, duration, formulation, save_every, spin_rate)
-    if all(v is None for v in values) and modes is None:
+    if all(v is None for v in values) and modes is None and axis is None:
         return run
+    if axis is not None and run.spinup is not None:
+        raise CaseError("--axis: a hub-driven spin-up turns about its hub's axis; drop --axis",
+                        field="initial.spin_axis")  # fmt: skip
     changes = (_spinup_overrides if run.spinup is not None else _free_body_overrides)(*values)
     changes.append(("reduced.modes", None if modes is None else _modes_value(modes)))
+    changes.append(("initial.spin_axis", axis))
     return edit(run, [(k, v) for k, v in changes if v is not None], "command line")
 
 

@@ -2,18 +2,19 @@
 marked, the stability map (coning growth rate against spin, or a colour map against spin and a
 second parameter), and the energy-sink estimate against the simulated coning rate.
 
-Each function reads only the dataset (``sweep.nc``) and returns the paths written.
+Each function reads only the dataset (``sweep.nc``, SI) and returns the paths written; spin
+rates and frequencies are drawn in the unit chosen (``--units``: Hz by default, rpm, rad/s).
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from quadmodes.analysis.full_order_markers import draw_markers, markers_from_dataset
+from quadmodes.io.display_units import HZ, FrequencyUnit, family, family_colours, frequency_unit
 from quadmodes.io.figures import new_figure, save_png
 
 SPIN = "spin_rate"
@@ -26,45 +27,51 @@ def _first_line(ds: xr.Dataset) -> xr.Dataset:
     return ds.isel(other) if other else ds
 
 
-def campbell_figure(ds: xr.Dataset, path: Path) -> Path:
-    """Rotating-frame frequencies (Hz) of every branch against spin (Hz), by label; critical
-    speeds as vertical lines; the full-order roots (``full_order_*``) as diamonds."""
+def campbell_figure(ds: xr.Dataset, path: Path, unit: str | FrequencyUnit = HZ) -> Path:
+    """Rotating-frame frequencies of every branch against spin, in ``unit``, one colour per
+    family (never repeated), the legend outside; critical speeds as vertical lines named with
+    their spin; the full-order roots (``full_order_*``) as diamonds."""
+    unit = frequency_unit(unit)
     line = _first_line(ds)
-    spin_hz = line[SPIN].values / (2 * math.pi)
-    freq = line["branch_frequency"].values / (2 * math.pi)
+    spin = unit.from_rad_s(line[SPIN].values)
+    freq = unit.from_rad_s(line["branch_frequency"].values)
     labels = line["branch_label"].values
-    fig = new_figure((7.5, 4.8))
+    fig = new_figure((8.5, 4.8))
     ax = fig.add_subplot()
-    names = sorted({str(s).split(" #")[0] for s in labels.ravel() if str(s)})
-    colours = {n: f"C{i % 10}" for i, n in enumerate(names)}
-    for name in names:
-        mask = np.vectorize(lambda s, n=name: str(s).split(" #")[0] == n)(labels)
-        xs = np.broadcast_to(spin_hz[:, None], freq.shape)[mask]
-        ax.plot(xs, freq[mask], "o", ms=3, color=colours[name], label=name)
+    families = np.vectorize(lambda s: family(str(s)) if str(s) else "")(labels)
+    colours = family_colours(families.ravel())
+    for name, colour in colours.items():
+        mask = families == name
+        xs = np.broadcast_to(spin[:, None], freq.shape)[mask]
+        ax.plot(xs, freq[mask], "o", ms=3, color=colour, label=name)
     if "full_order_frequency" in ds:
-        draw_markers(ax, markers_from_dataset(ds), colours, 1 / (2 * math.pi))
+        draw_markers(ax, markers_from_dataset(ds), colours, unit.per_rad_s)
     for k in range(ds.sizes.get("critical", 0)):
-        f = float(ds["critical_speed_hz"].values[k])
+        f = unit.from_hz(float(ds["critical_speed_hz"].values[k]))
         what = f"{ds['critical_speed_kind'].values[k]}: {ds['critical_speed_branch'].values[k]}"
-        ax.axvline(f, color="k", ls="--", lw=0.8)
-        ax.annotate(f"{f:.2f} Hz\n{what}", (f, ax.get_ylim()[1] * 0.9), fontsize=7,
+        ax.axvline(f, color="k", ls="--", lw=0.8,
+                   label="critical speed" if k == 0 else "_nolegend_")  # fmt: skip
+        ax.annotate(f"{f:.4g} {unit.name}\n{what}", (f, ax.get_ylim()[1] * 0.9), fontsize=7,
                     rotation=90, ha="right", va="top")  # fmt: skip
-    ax.set_xlabel("spin rate (Hz)")
-    ax.set_ylabel("rotating-frame frequency (Hz)")
+    ax.set_xlabel(f"spin rate ({unit.name})")
+    ax.set_ylabel(f"rotating-frame frequency ({unit.name})")
     ax.set_title("Campbell diagram of the sweep (undamped, about the relative equilibrium)")
-    ax.legend(fontsize=7, ncol=2)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     return save_png(fig, path)
 
 
-def stability_figure(ds: xr.Dataset, path: Path) -> Path:
-    """Coning growth rate (1/s) against spin: energy-sink estimate, damped nutation root and the
-    simulation; with a second swept dimension a colour map of the energy-sink rate."""
+def stability_figure(ds: xr.Dataset, path: Path, unit: str | FrequencyUnit = HZ) -> Path:
+    """Coning growth rate (1/s) against spin (in ``unit``): energy-sink estimate, damped nutation
+    root and the simulation; with a second swept dimension a colour map of the energy-sink
+    rate."""
+    unit = frequency_unit(unit)
     other = [d for d in ds["energy_sink_growth_rate"].dims if d != SPIN]
     fig = new_figure((7.5, 4.8))
     ax = fig.add_subplot()
     if len(other) == 1:
         z = ds["energy_sink_growth_rate"].transpose(other[0], SPIN).values
-        x = ds[SPIN].values / (2 * math.pi)
+        x = unit.from_rad_s(ds[SPIN].values)
         y = ds[other[0]].values
         lim = float(np.nanmax(np.abs(z))) if np.isfinite(z).any() else 1.0
         mesh = ax.pcolormesh(x, y, z, shading="nearest", cmap="coolwarm", vmin=-lim, vmax=lim)
@@ -72,7 +79,7 @@ def stability_figure(ds: xr.Dataset, path: Path) -> Path:
         ax.set_ylabel(f"{other[0]} ({ds[other[0]].attrs.get('units', '')})")
     else:
         line = _first_line(ds)
-        x = line[SPIN].values / (2 * math.pi)
+        x = unit.from_rad_s(line[SPIN].values)
         for key, style, name in (("energy_sink_growth_rate", "o-", "energy-sink estimate"),
                                  ("nutation_growth_rate", "s--", "damped nutation root"),
                                  ("simulated_growth_rate", "^:", "time run (secular fit)")):
@@ -84,7 +91,7 @@ def stability_figure(ds: xr.Dataset, path: Path) -> Path:
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_ylabel("coning growth rate (1/s; > 0 grows)")
         ax.legend(fontsize=8)
-    ax.set_xlabel("spin rate (Hz)")
+    ax.set_xlabel(f"spin rate ({unit.name})")
     ax.set_title("Stability map")
     return save_png(fig, path)
 
@@ -108,13 +115,14 @@ def energy_sink_figure(ds: xr.Dataset, path: Path) -> Path:
     return save_png(fig, path)
 
 
-def sweep_figures(ds: xr.Dataset, directory: Path) -> list[Path]:
-    """Every figure that the dataset supports (a swept spin rate is needed)."""
+def sweep_figures(ds: xr.Dataset, directory: Path, unit: str | FrequencyUnit = HZ) -> list[Path]:
+    """Every figure that the dataset supports (a swept spin rate is needed), spin rates and
+    frequencies in ``unit``."""
     if SPIN not in ds.dims:
         return []
     directory = Path(directory)
-    paths = [campbell_figure(ds, directory / "campbell.png"),
-             stability_figure(ds, directory / "stability.png")]  # fmt: skip
+    paths = [campbell_figure(ds, directory / "campbell.png", unit),
+             stability_figure(ds, directory / "stability.png", unit)]  # fmt: skip
     if np.isfinite(ds["simulated_growth_rate"].values).any():
         paths.append(energy_sink_figure(ds, directory / "energy_sink.png"))
     return paths

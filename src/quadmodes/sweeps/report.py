@@ -10,6 +10,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes.io import report as rep
+from quadmodes.io.display_units import frequency_unit
 
 #: Headline variables shown per point when present (name fragments of sweep.nc variables).
 _HEADLINE = ("cone", "power", "spin_rate_change", "energy_sink", "time_constant")
@@ -37,16 +38,19 @@ def _point_table(ds: xr.Dataset) -> str:
     return rep.table(header, rows)
 
 
-def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str) -> Path:
+def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str,
+                       unit="Hz") -> Path:  # fmt: skip
     """Write ``directory/report.html`` for the sweep dataset ``ds`` and its summary ``info``
-    (:func:`quadmodes.sweeps.dataset.summary`); returns its path."""
+    (:func:`quadmodes.sweeps.dataset.summary`), spin rates and frequencies of its tables in
+    ``unit`` ("Hz", "rpm" or "rad/s"); returns its path."""
+    u = frequency_unit(unit)
     swept = [(d, f"{ds[d].size} values, {_label(ds[d])}") for d in ds.dims if d in ds.coords]
     counts = [("points", info["points"]), ("resumed from earlier files", info["resumed"]),
               ("failed", info["failed"]), ("wall time (s)", info["wall_s"]),
               ("command", command)]  # fmt: skip
     crit = info["critical_speeds"]
-    crit_body = (rep.table(["spin (Hz)", "kind", "branch", "partner"],
-                           [[c["spin_hz"], c["kind"], c["branch"], c["partner"] or "—"]
+    crit_body = (rep.table([f"spin ({u.name})", "kind", "branch", "partner"],
+                           [[u.from_hz(c["spin_hz"]), c["kind"], c["branch"], c["partner"] or "—"]
                             for c in crit])  # fmt: skip
                  if crit else rep.paragraph("none in the swept range"))
     failures = info.get("failures") or {}
@@ -57,12 +61,13 @@ def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str
     table = _point_table(ds)
     if table:
         sections.append(rep.Section("Headline numbers per point", table))
-    full = [[spin["spin_hz"], r["branch"], r["frequency_hz"],
+    full = [[u.from_hz(spin["spin_hz"]), r["branch"], u.from_hz(r["frequency_hz"]),
              "—" if r["relative_error"] is None else f"{100 * r['relative_error']:+.3f} %"]
             for spin in info.get("full_order", []) for r in spin["roots"]]  # fmt: skip
     if full:
         sections.append(rep.Section("Full-order linearisation", rep.table(
-            ["spin (Hz)", "matched branch", "full order (Hz)", "reduced vs full"], full)))
+            [f"spin ({u.name})", "matched branch", f"full order ({u.name})", "reduced vs full"],
+            full)))
     if failures:
         sections.append(rep.Section("Failed points", rep.key_values(sorted(failures.items()))))
     sections.append(rep.Section("Figures", rep.figures(directory, _FIGURES)))

@@ -33,10 +33,11 @@ def plan_from_texts(run: RunCase, texts: Sequence[str], zipped: bool = False,
 
 
 def write_sweep_files(plan: SweepPlan, outcome: SweepOutcome, directory: Path, command: str,
-                      plots: bool = True, fmt: str | None = None):  # fmt: skip
-    """``sweep.nc`` (or ``sweep.zarr``: ``fmt``, :func:`quadmodes.sweeps.store.choose_format`),
-    ``sweep.json``, the figures (``plots``) and ``report.html`` in ``directory``; returns
-    ``(dataset, summary dict)``."""
+                      plots: bool = True, fmt: str | None = None, unit="Hz"):  # fmt: skip
+    """``sweep.nc`` (or ``sweep.zarr``: ``fmt``, :func:`quadmodes.sweeps.store.choose_format`;
+    SI), ``sweep.json``, the figures (``plots``) and ``report.html`` in ``directory``, spin
+    rates and frequencies of the figures and the report's tables in ``unit`` ("Hz", "rpm" or
+    "rad/s"); returns ``(dataset, summary dict)``."""
     from quadmodes.sweeps.dataset import summary, sweep_dataset
     from quadmodes.sweeps.plots import sweep_figures
     from quadmodes.sweeps.report import write_sweep_report
@@ -45,9 +46,9 @@ def write_sweep_files(plan: SweepPlan, outcome: SweepOutcome, directory: Path, c
     path = write_dataset(ds, directory, choose_format(fmt, int(ds.nbytes)))
     info = summary(ds, outcome)
     info["dataset"] = path.name
-    info["figures"] = [p.name for p in sweep_figures(ds, directory)] if plots else []
+    info["figures"] = [p.name for p in sweep_figures(ds, directory, unit)] if plots else []
     write_text(directory / "sweep.json", json.dumps(info, indent=2) + "\n")
-    write_sweep_report(directory, ds, info, command)
+    write_sweep_report(directory, ds, info, command, unit)
     return ds, info
 
 
