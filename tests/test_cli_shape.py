@@ -150,7 +150,7 @@ def _complete(runner, words: str) -> list[str]:
 def test_completion_offers_case_names_and_choices(runner, tmp_path, monkeypatch):
     assert set(_complete(runner, "quadmodes campbell ")) >= set(builtin_case_names())
     assert set(_complete(runner, "quadmodes run ")) >= set(builtin_run_case_names(spinup=None))
-    assert _complete(runner, "quadmodes run paper-0") == ["paper-0.5hz"]
+    assert _complete(runner, "quadmodes run paper-0.5") == ["paper-0.5hz", "paper-0.5hz-large"]
     assert _complete(runner, "quadmodes campbell --units r") == ["rpm", "rad/s"]
     assert _complete(runner, "quadmodes run --axis m") == ["minor", "major"]
     assert "rigid" in _complete(runner, "quadmodes run --formulation ")
