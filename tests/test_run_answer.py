@@ -2,6 +2,7 @@
 standard error, the dissipated power, the energy-sink time constant and the stability verdict;
 the log decrement only for a free decay; the seed's slow case inside the taut range."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,8 +10,8 @@ import pytest
 from conftest import SMALL_CAPSULE
 from test_run import run_toml
 
-from quadmodes.analysis.energy_sink import energy_sink_cone_rate
-from quadmodes.analysis.run_answer import with_linear_answer
+from quadmodes.analysis.energy_sink import EnergySink, energy_sink_cone_rate
+from quadmodes.analysis.run_answer import verdict, with_linear_answer
 from quadmodes.case import load_run_case, run_case_from_toml
 from quadmodes.io import cf
 from quadmodes.runs import results, simulate
@@ -122,3 +123,31 @@ def test_paper_slow_case_starts_inside_the_taut_range():
     assert large[0] < 0.05
     # the onset is a property of the deformation's shape: the same amplitude both ways (m)
     assert small[1] == pytest.approx(large[1], rel=1e-6)
+
+
+def test_a_major_axis_spin_is_stable(tmp_path, small_reduced_model):
+    """The same capsule spun about its major (transverse) axis: the energy sink closes the
+    cone (I_a > I_t): verdict stable, negative time constant, and the run's cone decays."""
+    (tmp_path / "small.toml").write_text(SMALL_CAPSULE, encoding="utf-8")
+    text = run_toml(spin='"30 Hz"', cone='"10 deg"', amplitude='"0 in"', dt='"0.2 ms"',
+                    duration='"1 s"', save_every="5")  # fmt: skip
+    text = text.replace("bending_amplitude", 'spin_axis = "major"\nbending_amplitude')
+    setup = simulate.prepare(run_case_from_toml(text, base_dir=tmp_path), small_reduced_model)
+    s = results.summary(results.to_dataset(with_linear_answer(simulate.execute(setup))))
+    assert s["spin_stability"] == "stable" and s["coning_time_constant_s"] < 0
+    assert s["cone_growth_significant"] and s["cone_growth_rate_deg_per_s"] < 0
+    assert s["spin_verdict"].startswith("stable: the cone decays")
+
+
+def test_verdict_rule():
+    """The rule of analysis.run_answer: a divergence is unstable whatever σ; σ from the energy
+    sink when quasi-rigid, else from the damped nutation root; zero dissipation is neutral."""
+    sink = EnergySink(power=1.0, cone_rate=1.0, growth_rate=2e-3, time_constant=500.0,
+                      nutation_frequency=-250.0, axial_inertia=0.01, transverse_inertia=0.5,
+                      elastic_momentum_ratio=0.01, quasi_rigid=True)  # fmt: skip
+    assert verdict(sink, -1.0, 10.0) == ("unstable", 2e-3)
+    assert verdict(sink, -1.0, -10.0)[0] == "unstable"  # divergence
+    loose = dataclasses.replace(sink, quasi_rigid=False, elastic_momentum_ratio=0.5)
+    assert verdict(loose, -1e-3, 10.0) == ("stable", -1e-3)
+    still = dataclasses.replace(sink, power=0.0, growth_rate=0.0, time_constant=math.inf)
+    assert verdict(still, 0.0, 10.0) == ("neutral", 0.0)

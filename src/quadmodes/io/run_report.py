@@ -132,6 +132,10 @@ def _checks_section(summary: dict) -> Section:
                 f"(min eigenvalue {low} s⁻²)" if ok else f"NOT valid: {validity.get('message', '')}")  # fmt: skip
         if ok and low == "—":
             text = "valid (no elastic modes: nothing to check)"
+        deformation = summary.get("valid_initial_deformation")
+        if ok and deformation is not None:  # the second check: the initial deformation
+            text += ("; the initial deformation is within the reduced potential's range (its energy "
+                     "within 2 % of the FE model's condensed energy)")  # fmt: skip
         parts.append(paragraph(text, "ok" if ok else "bad"))
     dt_conv = summary.get("dt_convergence")
     if dt_conv:

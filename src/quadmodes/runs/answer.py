@@ -91,9 +91,13 @@ def answer_variables(result) -> tuple[dict[str, xr.Variable], dict]:
                             model.damping_ratio)  # fmt: skip
     q = fits.interval
     tau = fits.time_constant if fits.significant else math.nan
+    significant = cf.variable((), np.int8(fits.significant), "1", "secular cone growth "
+                              "distinguishable from 0 (|slope| >= 2 standard errors, growth over "
+                              "the fit >= 1e-10 of the cone angle) (1) or not (0)")  # fmt: skip
     values = (fits.cone.slope, fits.cone.se, fits.growth_rate, tau, fits.power.slope,
               fits.power.se, fits.spin.slope, q.start_s, q.end_s, q.decay_time_s)  # fmt: skip
     data = {k: cf.variable((), v, u, n) for (k, u, n), v in zip(_FIT_VARIABLES, values, strict=True)}
+    data["cone_growth_significant"] = significant
     attrs = {"quasi_steady_rule": q.rule}
     lin = getattr(result, "linear", None)
     if lin is not None:
@@ -134,9 +138,7 @@ def answer_summary(ds: xr.Dataset) -> dict:
     out = {
         "cone_growth_rate_deg_per_s": _get(ds, "cone_growth_rate", deg),
         "cone_growth_rate_se_deg_per_s": _get(ds, "cone_growth_rate_standard_error", deg),
-        "cone_growth_significant": bool(
-            abs(float(ds["cone_growth_rate"])) >= secular.Z_SIGNIFICANT
-            * float(ds["cone_growth_rate_standard_error"])),
+        "cone_growth_significant": bool(int(ds["cone_growth_significant"])),
         "cone_growth_fit_start_s": _get(ds, "quasi_steady_start"),
         "cone_growth_fit_end_s": _get(ds, "quasi_steady_end"),
         "quasi_steady_rule": str(ds.attrs.get("quasi_steady_rule", "")),
@@ -176,6 +178,8 @@ def _duration(seconds: float) -> str:
 def verdict_text(answer: dict) -> str:
     """One line: the spin's stability, its coning time constant and whether the run saw it."""
     stability, tau = answer["spin_stability"], answer["coning_time_constant_s"]
+    if stability == "neutral":
+        return "neutral: no dissipation, the cone keeps its angle (energy sink)"
     if stability not in ("stable", "unstable") or tau is None:
         return stability
     what = "grows" if stability == "unstable" else "decays"

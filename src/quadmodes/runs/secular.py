@@ -54,6 +54,10 @@ import numpy as np
 K_DECAY = math.log(100.0)
 #: A full-order slope counts as non-zero when |slope| ≥ Z_SIGNIFICANT standard errors.
 Z_SIGNIFICANT = 2.0
+#: A cone growth over the fit below this fraction of the mean cone angle is round-off of the
+#: integration, not growth (|H| holds to ~1e-13 over 10⁵ steps; two orders of margin), however
+#: small its standard error (an undamped body's cone drifts by ~1e-12 of itself).
+ROUND_OFF_GROWTH = 1e-10
 #: Fewest samples in the interval for a fit.
 MIN_SAMPLES = 8
 
@@ -191,7 +195,8 @@ class RunFits:
     ``power`` (W, the slope of the dissipated energy), ``spin`` (rad/s²) :class:`LineFit`;
     ``mean_cone`` (rad) the mean cone angle over the interval; ``growth_rate`` (1/s) the
     exponential coning rate σ = slope/mean cone and ``time_constant`` (s) 1/σ (inf for a zero
-    slope, negative: the cone decays); ``significant``: |slope| ≥ Z_SIGNIFICANT se."""
+    slope, negative: the cone decays); ``significant``: |slope| ≥ Z_SIGNIFICANT se and the
+    growth over the fit at least :data:`ROUND_OFF_GROWTH` of the mean cone angle."""
 
     interval: QuasiSteady
     cone: LineFit
@@ -210,7 +215,9 @@ class RunFits:
 
     @property
     def significant(self) -> bool:
-        return bool(abs(self.cone.slope) >= Z_SIGNIFICANT * self.cone.se)
+        growth = abs(self.cone.slope) * (self.interval.end_s - self.interval.start_s)
+        return bool(abs(self.cone.slope) >= Z_SIGNIFICANT * self.cone.se
+                    and growth >= ROUND_OFF_GROWTH * abs(self.mean_cone))  # fmt: skip
 
 
 def run_fits(t, cone_angle, dissipated_energy, spin_rate, frequencies_hz,

@@ -32,7 +32,7 @@ SCALARS = (
     ("simulated_growth_rate", "1/s", "simulated exponential coning rate: secular cone-growth "
      "rate / mean cone angle over the quasi-steady part"),
     ("cone_growth_significant", "1", "secular cone-growth rate distinguishable from 0 (|slope| "
-     ">= 2 standard errors)"),
+     ">= 2 standard errors and a growth over the fit >= 1e-10 of the cone angle)"),
     ("dissipated_power", "W", "mean dissipated power of the time run (slope of the dissipated "
      "energy over the quasi-steady part)"),
     ("spin_rate_change", "rad/s", "fitted spin-rate change over the quasi-steady part"),
