@@ -151,3 +151,20 @@ def test_spinning_reference_about_the_blade_axis_is_refused_naming_the_axis():
 def test_neutral_modes_are_the_frequencies_below_a_thousandth_of_the_spin():
     f = np.array([-2e-4, 1e-5, 0.1, -0.2]) / (2 * np.pi)  # ω (rad/s) at Ω = 1 rad/s
     np.testing.assert_array_equal(neutral_modes(f, 1.0), [True, True, False, False])
+
+
+def test_failed_capture_stops_the_cli_with_one_line_and_exit_2(monkeypatch):
+    """With the limit forced below the measured shares, `quadmodes rotating` stops: exit 2, one
+    error line (progress lines before it), no table."""
+    from typer.testing import CliRunner
+
+    import quadmodes.analysis.rotating_matching as matching
+    from quadmodes.cli.app import app
+
+    monkeypatch.setattr(matching, "CAPTURE_LIMIT", 0.5)
+    result = CliRunner().invoke(app, ["rotating", "string-blade-rotor", "--axis", "z", "--spins",
+                                      "0.1591549 Hz", "--modes", "9", "--formulations", "Q"])  # fmt: skip
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output and result.stdout == ""
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("error: capture check failed at 0.159155 Hz") and "rigidity" in last
