@@ -168,3 +168,39 @@ def test_failed_capture_stops_the_cli_with_one_line_and_exit_2(monkeypatch):
     assert "Traceback" not in result.output and result.stdout == ""
     last = result.stderr.strip().splitlines()[-1]
     assert last.startswith("error: capture check failed at 0.159155 Hz") and "rigidity" in last
+
+
+def test_reduced_model_about_the_spinning_state_about_the_normal_matches_the_full_order():
+    """Expanded about its spinning state about z (a run's ``initial.spin_axis``, here
+    "major"), the rotor's reduced model is the full order's linearisation projected on the
+    modes of its rotating-frame stiffness: every branch within 0.1 % at 1 and 2 rad/s (about
+    rest the same 9 modes are 2–29 % off: string modes at rest are not the spinning shapes)."""
+    from quadmodes.models.build import reduced_model_for
+
+    case = load_case("string-blade-rotor")
+    model = reduced_model_for(case, 9, spin=1.0, axis="major")
+    np.testing.assert_allclose(model.reference_axis, E_Z, atol=1e-12)
+    table = rotating_frequency_comparison(case, [1.0 / (2 * np.pi), 2.0 / (2 * np.pi)], 9,
+                                          ("Q",), axis="z", model=model)  # fmt: skip
+    assert len(table.rows) == 20 and table.max_error("Q") < 1e-3
+
+
+def test_a_run_about_the_spinning_state_spins_its_reference_about_its_own_axis(tmp_path):
+    """``reduced.reference = "spinning"`` with ``initial.spin_axis = "major"``: the reference
+    turns about the normal z (before: always the minor axis, the blade axis, refused)."""
+    from quadmodes.case import load_run_case
+    from quadmodes.runs.simulate import prepare
+
+    path = tmp_path / "rotor-run.toml"
+    path.write_text(
+        'name = "rotor-run"\nkind = "run"\nmodel = "string-blade-rotor"\n'
+        '[reduced]\nmodes = 9\nformulation = "Q"\nreference = "spinning"\n'
+        '[initial]\nspin_rate = "1 rad/s"\ncone_angle = "0.2 deg"\nbending_amplitude = "0 m"\n'
+        'spin_axis = "major"\n[integration]\ndt = "20 ms"\nduration = "1 s"\n'
+    )
+    run = load_run_case(path)
+    assert run.reference_axis == "major"
+    setup = prepare(run)
+    np.testing.assert_allclose(setup.model.reference_axis, E_Z, atol=1e-12)
+    assert setup.validity.valid, setup.validity.message()
+    np.testing.assert_allclose(setup.initial.spin_axis, E_Z, atol=1e-9)
