@@ -16,9 +16,9 @@ from quadmodes.analysis.rotating_modes import rotating_roots
 from quadmodes.case import load_case
 from quadmodes.case.editing import edit
 from quadmodes.fe.model import inertia_tensor
-from quadmodes.rom.spinning_reduction import neutral_modes, spinning_modes
+from quadmodes.rom.spinning_reduction import spinning_modes
 from quadmodes.structure.pipeline import structure_for_case
-from quadmodes.structure.spinning import relative_equilibrium
+from quadmodes.structure.spinning import neutral_modes, relative_equilibrium
 
 E_Z = np.array([0.0, 0.0, 1.0])
 R0, LENGTH, MU = 0.5, 10.0, 1420.0 * 1e-5  # hub rim (m), blade (m), kg/m
