@@ -58,6 +58,25 @@ def test_nutation_root_is_the_spin_at_default_settings(spin):
     assert got == pytest.approx(rigid, rel=2e-5)
 
 
+def test_a_heavy_hub_stays_rigid_in_fact():
+    """The same blades on a hub 10⁵ times heavier (10⁶ kg): the triad's distortion modes stay
+    above the blades' first axial frequency (the dynamic floor), so the nutation is still the
+    flat body's rigid value and the flap that of a string hinged at the rim (a fixed hub). (With
+    the bending-based penalty of before this hub's nutation came out at 1.11 Ω at 1 rad/s with
+    capture shares of 4200; without the axial floor its triad modes fell to 1.2 Ω and displaced
+    the string frequencies, docs/sails.md.)"""
+    changes = [(("hub", "mass"), "1e6 kg"), (("hub", "inertia_x"), "0.62508333e5 kg*m^2"),
+               (("hub", "inertia_y"), "0.62508333e5 kg*m^2"),
+               (("hub", "inertia_z"), "1.25e5 kg*m^2")]  # fmt: skip
+    s = structure_for_case(edit(load_case("string-blade-rotor"), changes, "test"))
+    i = np.linalg.eigvalsh(inertia_tensor(s, s.reference))
+    rigid = np.sqrt((i[2] - i[0]) * (i[2] - i[1]) / (i[0] * i[1]))
+    roots = roots_near(s, 1.0, [0.9, 1.04])
+    assert nearest(roots, rigid) == pytest.approx(rigid, rel=2e-5)
+    hinged = string_blade_ratios("hinged-flap", R0, LENGTH, MU)[0]  # the hub is a fixed hinge
+    assert nearest(roots, hinged) == pytest.approx(hinged, rel=5e-3)  # 40 el.: +0.24 %
+
+
 def test_reduced_comparison_passes_the_capture_check_and_matches_the_nutation():
     """`quadmodes rotating string-blade-rotor` at default settings: no capture error, the
     nutation branch equals the spin to 0.1 % at 1, 2, 4 rad/s."""
