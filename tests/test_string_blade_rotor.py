@@ -194,10 +194,10 @@ def test_reduced_model_about_the_spinning_state_about_the_normal_matches_the_ful
     "major"), the rotor's reduced model is the full order's linearisation projected on the
     modes of its rotating-frame stiffness: every branch within 0.1 % at 1 and 2 rad/s (about
     rest the same 9 modes are 2–29 % off: string modes at rest are not the spinning shapes)."""
-    from quadmodes.models.build import reduced_model_for
+    import quadmodes as qm
 
     case = load_case("string-blade-rotor")
-    model = reduced_model_for(case, 9, spin=1.0, axis="major")
+    model = qm.reduced_model(case, 9, spin="1 rad/s", spin_axis="major")
     np.testing.assert_allclose(model.reference_axis, E_Z, atol=1e-12)
     table = rotating_frequency_comparison(case, [1.0 / (2 * np.pi), 2.0 / (2 * np.pi)], 9,
                                           ("Q",), axis="z", model=model)  # fmt: skip
