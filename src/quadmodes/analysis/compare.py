@@ -263,7 +263,8 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
         kernel.warm_up()
     start = time.perf_counter()
     model = reduced_model_for(
-        run.model_case(), run.reduced.modes, progress, spin=run.reference_spin
+        run.model_case(), run.reduced.modes, progress, spin=run.reference_spin,
+        axis=run.reference_axis,
     )
     reduce_wall = time.perf_counter() - start
     results = {}

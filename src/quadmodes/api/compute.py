@@ -78,8 +78,8 @@ def modes_summary(modal) -> dict:
 
 
 def reduced_model(
-    case, n_modes: int = 5, *, spin: QuantityLike = 0.0, progress: Progress | None = None,
-    cache: bool = True,
+    case, n_modes: int = 5, *, spin: QuantityLike = 0.0, spin_axis=None,
+    progress: Progress | None = None, cache: bool = True,
 ):  # fmt: skip
     """The reduced model (quadratic modes, floating-frame arrays) of a model case, from the
     model cache ($QUADMODES_CACHE) unless ``cache`` is False.
@@ -91,6 +91,9 @@ def reduced_model(
     spin
         Angular rate of the state the model is expanded about: 0 (at rest) or e.g. "41 Hz";
         a bare float is rad/s.
+    spin_axis
+        The body axis of that spinning state, as ``initial.spin_axis`` ("x" … "major", or three
+        numbers); None: the minor axis (a flat membrane: its normal).
 
     Returns
     -------
@@ -100,7 +103,11 @@ def reduced_model(
     from quadmodes.models.build import reduced_model_for
 
     rate = si(spin, "angular_rate", "spin")
-    return reduced_model_for(_model(case), int(n_modes), progress, use_cache=cache, spin=rate)
+    axis = spin_axis  # a name, or three numbers in the text form the case and cache key use
+    if axis is not None and not isinstance(axis, str):
+        axis = ",".join(f"{float(v)!r}" for v in axis)
+    return reduced_model_for(_model(case), int(n_modes), progress, use_cache=cache, spin=rate,
+                             axis=axis)  # fmt: skip
 
 
 def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,

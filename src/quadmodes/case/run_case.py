@@ -164,6 +164,14 @@ class RunCase(Section):
             return 0.0
         return float(self.initial.spin_rate)
 
+    @property
+    def reference_axis(self) -> str | None:
+        """The body axis the spinning reference turns about: ``initial.spin_axis`` with
+        ``reduced.reference = "spinning"`` (None: the minor axis, or a flat membrane's normal)."""
+        if not self.reference_spin or self.initial.spin_axis in (None, "minor"):
+            return None
+        return self.initial.spin_axis
+
     def to_toml(self) -> str:
         """This run case as TOML text in SI units (see :func:`run_case_to_toml`)."""
         return run_case_to_toml(self)

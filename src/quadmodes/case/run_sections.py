@@ -79,7 +79,8 @@ class RunReduced(Section):
 
     ``reference``: the state the model is expanded about. ``"rest"``: the prestressed (inflated)
     state at rest, as the seed does. ``"spinning"``: the finite-element model's own centrifugal
-    relative equilibrium at the initial spin rate about the minor principal axis, with the modes
+    relative equilibrium at the initial spin rate about ``initial.spin_axis`` (default the minor
+    principal axis; a flat membrane: its normal), with the modes
     of its rotating-frame stiffness and the modal damping projected from the modes at rest
     (:mod:`quadmodes.rom.spinning_reduction`); the steady centrifugal stretch is then in the
     reference instead of in the modal coordinates."""

@@ -310,14 +310,16 @@ def reduce_command(
                 run_case, _ = resolve_modes(run_case, model_case)  # "auto" → N
             n_modes = modes if modes is not None else run_case.reduced.modes
             spin = run_case.reference_spin  # a run about its spinning state
+            axis = run_case.reference_axis
         else:
             model_case = load_model_case(case)
             n_modes = modes if modes is not None else DEFAULT_MODES
             guard_model_size(model_case, yes)
-            spin = 0.0
+            spin, axis = 0.0, None
         guard_reduced_model(model_case, n_modes, yes, from_option=modes is not None)
         with progress_bars(True) as progress:
-            model = reduced_model_for(model_case, n_modes, progress, info=info, spin=spin)
+            model = reduced_model_for(model_case, n_modes, progress, info=info, spin=spin,
+                                      axis=axis)  # fmt: skip
         if output_file is not None:
             write_file_in(output_file, lambda path: artifact.save_reduced_model(model, path))
     summary = _reduced_summary(model, model_case, info, output_file)

@@ -6,9 +6,9 @@ body coordinates ξ is at ``c + Σ ξ_i a_i``, so the hub's mass is isotropic an
 ``M_s = diag(m, S₁, S₂, S₃)`` with the second moments of mass ``S_i = ∫ρ ξ_i² dV =
 ½ tr I − I_ii`` (about the centre, body axes principal). The axes are held orthonormal by the
 quadratic strains ``½(a_i·a_i − 1)`` and ``a_i·a_j`` (a stiff triad, :func:`triad_stiffness`:
-its strain is a fixed small fraction of the attached structure's root strain under any load,
-spin-stiffened blades included, and its six distortion modes are far above the booms'). A boom's root node is not a node of its own: its DOFs are the linear
-images of the hub's, ``r = c + Σ ρ_i a_i``, ``t = Σ t_i a_i``, ``d₂ = Σ d₂ᵢ a_i``,
+its strain a small fraction of the roots' under any load, spin-stiffened blades included; its six
+distortion modes far above the booms'). A boom's root node is not a node of its own: its DOFs
+are the linear images of the hub's, ``r = c + Σ ρ_i a_i``, ``t = Σ t_i a_i``, ``d₂ = Σ d₂ᵢ a_i``,
 ``d₃ = Σ d₃ᵢ a_i`` (ρ the root point, ``t, d₂, d₃`` the boom frame, in hub coordinates), so the
 clamp is exact and stays exact for finite rotations. The root slope keeps unit length, i.e. zero
 axial strain at the root node (as a clamped cable).

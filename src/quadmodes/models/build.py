@@ -26,10 +26,12 @@ import numpy as np
 
 from quadmodes._version import __version__
 from quadmodes.case import Case, CaseError, Modes
+from quadmodes.fe.model import inertia_tensor
 from quadmodes.limits import REDUCED_MODES, check_count
 from quadmodes.models import cache
 from quadmodes.models.cache import Spectrum
 from quadmodes.rom import reduced as red
+from quadmodes.rom.spin_axis import axis_for_inertia
 from quadmodes.rom.spinning_reduction import reduce_spinning, spinning_modes
 from quadmodes.structure import pipeline
 from quadmodes.structure.labels import DEGENERATE_TOLERANCE, PAIR_TOLERANCE
@@ -94,7 +96,8 @@ def _check_pair_not_split(labels, freqs, n_modes: int) -> None:
         )
 
 
-def _provenance(case: Case, modal, n_modes: int, spin: float = 0.0) -> dict:
+def _provenance(case: Case, modal, n_modes: int, spin: float = 0.0,
+                axis: str | None = None) -> dict:  # fmt: skip
     """Provenance of the reduced model: case, its TOML, node and mode counts, version, key."""
     return {
         "case": case.name,
@@ -102,7 +105,7 @@ def _provenance(case: Case, modal, n_modes: int, spin: float = 0.0) -> dict:
         "n_nodes": int(modal.structure.n),
         "n_modes": n_modes,
         "quadmodes_version": __version__,
-        "content_key": cache.reduced_key(case, n_modes, spin),
+        "content_key": cache.reduced_key(case, n_modes, spin, axis),
     }
 
 
@@ -154,12 +157,14 @@ def modal_model_for(case: Case, count: int, progress: Progress | None = None):
 
 
 def build_reduced_model(
-    case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None, spin: float = 0.0
-) -> red.ReducedModel:
+    case: Case, n_modes: int = DEFAULT_MODES, progress: Progress | None = None, spin: float = 0.0,
+    axis: str | None = None,
+) -> red.ReducedModel:  # fmt: skip
     """Modal model of ``case`` (:func:`modal_model_for`), its lowest ``n_modes`` elastic modes,
     and :func:`quadmodes.rom.reduced.reduce` with the case's damping ratio and provenance; with
     ``spin`` ≠ 0 (rad/s) the model is expanded about the spinning state instead
-    (:func:`_build_spinning`).
+    (:func:`_build_spinning`), about the body axis ``axis`` (a request as
+    ``initial.spin_axis``; None: the minor axis).
 
     Raises :class:`CaseError` (field ``reduced.modes``) if the model has fewer modes or the cut
     splits a degenerate pair."""
@@ -167,7 +172,7 @@ def build_reduced_model(
     if n_modes < 1:
         raise CaseError(f"reduced.modes = {n_modes}: must be at least 1", field="reduced.modes")
     if spin:
-        return _build_spinning(case, n_modes, float(spin), progress)
+        return _build_spinning(case, n_modes, float(spin), progress, axis)
     modal = modal_model_for(case, n_modes + 2, progress)  # is a pair split? what count is not?
     freqs = np.asarray(modal.modes.frequencies_hz, float)
     labels = list(modal.labels)
@@ -199,21 +204,29 @@ def reference_spin(case: Case, spin: float = 0.0) -> float:
     return float(spin)
 
 
-def _spinning_modes_of(modal, count: int, spin: float):
+def _spinning_modes_of(modal, count: int, spin: float, axis: str | None = None):
     """:func:`~quadmodes.rom.spinning_reduction.spinning_modes` of a modal model at ``spin``
-    (rad/s): from its state at rest about the minor axis, or continued from its own spinning
-    reference (a membrane without stiffness at rest)."""
-    return spinning_modes(modal.structure, modal.x, count, spin, start=modal.spinning)
+    (rad/s): from its state at rest about the axis request ``axis`` (None: the minor axis;
+    resolved against the principal axes at rest, :func:`~quadmodes.rom.spin_axis.
+    axis_for_inertia`), or continued from its own spinning reference (a membrane without
+    stiffness at rest, about its normal)."""
+    e = None
+    if axis is not None and modal.spinning is None:
+        inertia = inertia_tensor(modal.structure, modal.x)
+        e = axis_for_inertia(inertia, axis, "initial.spin_axis")
+    return spinning_modes(modal.structure, modal.x, count, spin, e, start=modal.spinning)
 
 
-def _build_spinning(case: Case, n_modes: int, spin: float, progress) -> red.ReducedModel:
+def _build_spinning(case: Case, n_modes: int, spin: float, progress,
+                    axis: str | None = None) -> red.ReducedModel:  # fmt: skip
     """:func:`build_reduced_model` about the centrifugal relative equilibrium at ``spin``
-    (rad/s) about the minor principal axis (:mod:`quadmodes.rom.spinning_reduction`)."""
+    (rad/s) about the axis request ``axis`` (None: the minor principal axis;
+    :mod:`quadmodes.rom.spinning_reduction`)."""
     modal = modal_model_for(case, 1, progress)  # the inflated state at rest
     if progress:
         progress("spinning state", 0.0)
     try:
-        eq, modes, labels = _spinning_modes_of(modal, n_modes + 1, spin)
+        eq, modes, labels = _spinning_modes_of(modal, n_modes + 1, spin, axis)
     except ValueError as exc:
         raise CaseError(str(exc), field="reduced.reference") from None
     if progress:
@@ -225,7 +238,7 @@ def _build_spinning(case: Case, n_modes: int, spin: float, progress) -> red.Redu
     _check_pair_not_split(labels, freqs, n_modes)
     return reduce_spinning(
         modal.structure, modal.x, eq, freqs[:n_modes], modes.shapes[:n_modes], labels[:n_modes],
-        damping_ratio_of(case), progress, _provenance(case, modal, n_modes, spin),
+        damping_ratio_of(case), progress, _provenance(case, modal, n_modes, spin, axis),
     )  # fmt: skip
 
 
@@ -251,9 +264,11 @@ def reduced_model_for(
     use_cache: bool = True,
     info: dict | None = None,
     spin: float = 0.0,
+    axis: str | None = None,
 ) -> red.ReducedModel:
     """The reduced model of ``case`` with ``n_modes`` modes, expanded about the state spinning at
-    ``spin`` (rad/s; 0: at rest): the cache file (:func:`~quadmodes.models.cache.cache_path`)
+    ``spin`` (rad/s; 0: at rest) about the axis request ``axis`` (None: the minor axis;
+    ``RunCase.reference_axis``): the cache file (:func:`~quadmodes.models.cache.cache_path`)
     if it matches, else :func:`build_reduced_model`, stored (:func:`~quadmodes.models.cache.
     find_or_build`: under the file's lock, a read-only cache is not an error). ``use_cache``
     False, or :func:`~quadmodes.models.cache.caching_disabled`, builds without reading or
@@ -261,13 +276,15 @@ def reduced_model_for(
     "not saved (...)") and ``path``."""
     check_count(REDUCED_MODES, n_modes, "n_modes (reduced.modes)", "use fewer modes")
     info, spin = ({} if info is None else info), reference_spin(case, spin)
-    path = cache.cache_path(case, n_modes, spin)
+    axis = axis if spin and getattr(case, "spin", None) is None else None  # else unused
+    path = cache.cache_path(case, n_modes, spin, axis)
     info["path"] = str(path)
     return cache.find_or_build(
         path,
-        lambda p: cache.find_model(case, n_modes, p, spin),
+        lambda p: cache.find_model(case, n_modes, p, spin, axis),
         lambda: build_reduced_model(
-            case, n_modes, labelled(progress, f"{case.name} N={n_modes}{_spin_label(spin)}"), spin
+            case, n_modes, labelled(progress, f"{case.name} N={n_modes}{_spin_label(spin)}"),
+            spin, axis,
         ),
         cache.store_model,
         use_cache=use_cache, info=info, progress=progress,
@@ -310,7 +327,7 @@ def case_modes_model(case: Case, progress: Progress | None = None) -> red.Reduce
 
 def mode_spectrum(
     case: Case, count: int, progress: Progress | None = None, *, use_cache: bool = True,
-    spin: float = 0.0,
+    spin: float = 0.0, axis: str | None = None,
 ) -> Spectrum:  # fmt: skip
     """Frequencies (Hz) and labels of the lowest ``max(count, modes.count)`` elastic modes of
     ``case`` — with ``spin`` ≠ 0 (rad/s) those of the rotating-frame stiffness about the
@@ -318,24 +335,27 @@ def mode_spectrum(
     file if present, else computed (and saved, under the file's lock as for
     :func:`reduced_model_for`)."""
     count, spin = max(int(count), case.modes.count), reference_spin(case, spin)
+    axis = axis if spin and getattr(case, "spin", None) is None else None  # else unused
     return cache.find_or_build(
-        cache.spectrum_path(case, count, spin),
+        cache.spectrum_path(case, count, spin, axis),
         lambda p: cache.find_spectrum(p, count),
         lambda: _compute_spectrum(
-            case, count, labelled(progress, f"{case.name} spectrum{_spin_label(spin)}"), spin
+            case, count, labelled(progress, f"{case.name} spectrum{_spin_label(spin)}"), spin,
+            axis,
         ),
         lambda spec, p: cache.store_spectrum(case, spec, p),
         use_cache=use_cache, progress=progress,
     )  # fmt: skip
 
 
-def _compute_spectrum(case: Case, count: int, progress, spin: float) -> Spectrum:
+def _compute_spectrum(case: Case, count: int, progress, spin: float,
+                      axis: str | None = None) -> Spectrum:  # fmt: skip
     """The spectrum of :func:`mode_spectrum`, computed."""
     if not spin:
         return _spectrum_of(modal_model_for(case, count, progress))
     modal = modal_model_for(case, 1, progress)
     try:
-        _, modes, labels = _spinning_modes_of(modal, count, spin)
+        _, modes, labels = _spinning_modes_of(modal, count, spin, axis)
     except ValueError as exc:
         raise CaseError(str(exc), field="reduced.reference") from None
     return Spectrum(tuple(float(f) for f in modes.frequencies_hz), tuple(str(s) for s in labels))

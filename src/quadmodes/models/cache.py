@@ -129,11 +129,18 @@ def model_inputs(case: Case) -> str:
     return text
 
 
-def reduced_key(case: Case, n_modes: int, spin: float = 0.0) -> str:
+def _axis_line(axis: str | None) -> str:
+    """The key line of a spinning reference's axis request (none for the default axis)."""
+    return f"# reference_axis = {axis!r}\n" if axis is not None else ""
+
+
+def reduced_key(case: Case, n_modes: int, spin: float = 0.0, axis: str | None = None) -> str:
     """Content key of the reduced model of ``case`` with ``n_modes`` modes, expanded about the
-    state spinning at ``spin`` (rad/s; 0: at rest) (includes the package version and the
-    artifact format version, so that files of another format are not cache hits)."""
+    state spinning at ``spin`` (rad/s; 0: at rest) about the axis request ``axis`` (None: the
+    default) (includes the package version and the artifact format version, so that files of
+    another format are not cache hits)."""
     reference = f"# reduced.reference_spin = {float(spin)!r}\n" if spin else ""
+    reference += _axis_line(axis) if spin else ""
     return artifact.content_key(
         model_inputs(case)
         + f"\n# reduced.modes = {int(n_modes)}\n"
@@ -142,17 +149,19 @@ def reduced_key(case: Case, n_modes: int, spin: float = 0.0) -> str:
     )
 
 
-def cache_path(case: Case, n_modes: int, spin: float = 0.0) -> Path:
+def cache_path(case: Case, n_modes: int, spin: float = 0.0, axis: str | None = None) -> Path:
     """Cache file of the reduced model of ``case`` with ``n_modes`` modes (about ``spin``
-    rad/s), named by :func:`~quadmodes.models.cache_entries.entry_name`."""
-    name = entry_name("reduced", case.name, n_modes, reduced_key(case, n_modes, spin),
+    rad/s and ``axis``), named by :func:`~quadmodes.models.cache_entries.entry_name`."""
+    name = entry_name("reduced", case.name, n_modes, reduced_key(case, n_modes, spin, axis),
                       spin / (2 * np.pi))  # fmt: skip
     return cache_dir() / name
 
 
-def spectrum_path(case: Case, count: int, spin: float = 0.0) -> Path:
-    """Cache file (JSON) of the spectrum of ``case`` with ``count`` modes (about ``spin``)."""
+def spectrum_path(case: Case, count: int, spin: float = 0.0, axis: str | None = None) -> Path:
+    """Cache file (JSON) of the spectrum of ``case`` with ``count`` modes (about ``spin``,
+    ``axis``)."""
     reference = f"# spectrum reference_spin = {float(spin)!r}\n" if spin else ""
+    reference += _axis_line(axis) if spin else ""
     key = artifact.content_key(
         model_inputs(case) + f"\n# spectrum count = {int(count)}\n" + reference
     )
@@ -174,7 +183,7 @@ class Spectrum:
 
 
 def find_model(
-    case: Case, n_modes: int, path: Path, spin: float = 0.0
+    case: Case, n_modes: int, path: Path, spin: float = 0.0, axis: str | None = None
 ) -> tuple[ReducedModel | None, str]:
     """The model in the cache file ``path`` and "hit" if it is there, readable, its arrays match
     their checksum and it matches the key; else None and "miss" (no file) or "rebuilt" (corrupt,
@@ -185,7 +194,7 @@ def find_model(
         model = artifact.load_reduced_model(path, require_checksum=True)
     except artifact.ArtifactError:
         return None, "rebuilt"
-    key = reduced_key(case, n_modes, spin)
+    key = reduced_key(case, n_modes, spin, axis)
     built_from = model.provenance.get("case_toml", case.to_toml())  # another case's: foreign
     if (model.provenance.get("content_key") == key and model.n_modes == n_modes
             and built_from == case.to_toml()):  # fmt: skip

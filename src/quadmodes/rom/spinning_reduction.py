@@ -36,6 +36,7 @@ from quadmodes.structure.modes import ModalResult, compute_modes
 from quadmodes.structure.spinning import (
     SpinningEquilibrium,
     centrifugal_softening,
+    neutral_modes,
     relative_equilibrium,
 )
 
@@ -89,19 +90,6 @@ def spinning_modes(
         modes = replace(modes, frequencies_hz=np.where(neutral, 0.0, modes.frequencies_hz))
         labels = [f"{lab} (neutral)" if n else lab for lab, n in zip(labels, neutral, strict=True)]
     return eq, modes, labels
-
-
-#: A mode of the rotating-frame stiffness whose frequency is below this fraction of the spin,
-#: of either sign, is neutral: a motion with no stiffness of its own at this spin (a blade
-#: hinged on the axis turning about it, an exact symmetry), whose sign is round-off.
-NEUTRAL_RATIO = 1e-3
-
-
-def neutral_modes(frequencies_hz: np.ndarray, spin: float) -> np.ndarray:
-    """(N,) True where the rotating-frame frequency (Hz, negative: ω² < 0) is neutral at
-    ``spin`` (rad/s): ``|2πf| ≤`` :data:`NEUTRAL_RATIO` ``|Ω|``. The whole body's rotation about
-    the spin axis never appears here: the frame conditions remove it."""
-    return np.abs(2.0 * np.pi * np.asarray(frequencies_hz, float)) <= NEUTRAL_RATIO * abs(spin)
 
 
 def reduce_spinning(

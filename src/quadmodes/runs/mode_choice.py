@@ -110,14 +110,15 @@ def auto_mode_count(
 
 
 def covering_spectrum(
-    case: Case, cutoff_hz: float, progress: Progress | None = None, spin: float = 0.0
-) -> tuple[Spectrum, int, int]:
+    case: Case, cutoff_hz: float, progress: Progress | None = None, spin: float = 0.0,
+    axis: str | None = None,
+) -> tuple[Spectrum, int, int]:  # fmt: skip
     """Spectrum of ``case`` long enough for the ``"auto"`` rule at ``cutoff_hz`` and its
     ``(spectrum, N, below)``; the mode count doubles until a mode above the cut is known.
     Raises :class:`CaseError` (``reduced.modes``) beyond :data:`MAX_AUTO_MODES`."""
     count = case.modes.count
     while True:
-        spec = mode_spectrum(case, count, progress, spin=spin)
+        spec = mode_spectrum(case, count, progress, spin=spin, axis=axis)
         n, below = auto_mode_count(spec.labels, spec.frequencies_hz, cutoff_hz)
         if n is not None:
             return spec, n, below
@@ -154,12 +155,13 @@ def resolve_modes(
     spin = run.reference_spin
     floor = ""
     if spin:  # about the spinning state: never below twice its lowest mode (see the module)
-        lowest = mode_spectrum(case, case.modes.count, progress, spin=spin)
+        lowest = mode_spectrum(case, case.modes.count, progress, spin=spin,
+                               axis=run.reference_axis)  # fmt: skip
         f_low = float(lowest.frequencies_hz[0]) if lowest.frequencies_hz else 0.0
         if SPINNING_FLOOR * f_low > cutoff:
             cutoff = SPINNING_FLOOR * f_low
             floor = f" (raised to {SPINNING_FLOOR:g} × the lowest mode, {f_low:.4g} Hz)"
-    spec, n, below = covering_spectrum(case, cutoff, progress, spin)
+    spec, n, below = covering_spectrum(case, cutoff, progress, spin, run.reference_axis)
     extra = n - below
     kind = "mode of the rotating-frame stiffness" if spin else "elastic mode"
     rule = (

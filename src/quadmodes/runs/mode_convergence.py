@@ -158,7 +158,8 @@ def mode_convergence(
     rows = [_row(result, 0.0, None)]
     for n in next_counts(setup.model_case, int(run.reduced.modes), steps, progress):
         start = time.perf_counter()
-        model = reduced_model_for(setup.model_case, n, progress, spin=run.reference_spin)
+        model = reduced_model_for(setup.model_case, n, progress, spin=run.reference_spin,
+                                  axis=run.reference_axis)  # fmt: skip
         reduce_s = time.perf_counter() - start
         sub = simulate.prepare(with_modes(run, n), model, model_case=setup.model_case)
         rows.append(_row(simulate.execute(sub, progress), reduce_s, rows[-1]))

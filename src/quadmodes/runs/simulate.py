@@ -149,7 +149,8 @@ def prepare(
     run, choice = resolve_modes(run, model_case, progress)
     check_output_size(run)  # before the model is built: a results file too large to write
     if model is None:
-        model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin)
+        model = reduced_model_for(model_case, run.reduced.modes, progress, spin=run.reference_spin,
+                                  axis=run.reference_axis)  # fmt: skip
     else:
         check_model_case(model, model_case)
     model = _model_for_run(run, model)

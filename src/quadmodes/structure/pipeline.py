@@ -57,7 +57,11 @@ from quadmodes.structure.flat_spin import flat_spinning_equilibrium
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import ModalResult, compute_modes
 from quadmodes.structure.prestress import PrestressedState, inflate
-from quadmodes.structure.spinning import SpinningEquilibrium, centrifugal_softening
+from quadmodes.structure.spinning import (
+    SpinningEquilibrium,
+    centrifugal_softening,
+    neutral_modes,
+)
 
 Progress = Callable[[str, float], None]
 
@@ -344,6 +348,10 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
         "spin_rad_s": float(eq.spin),
         "spin_hz": float(eq.spin) / (2.0 * np.pi),
         "frequency_ratios": [float(2.0 * np.pi * f / eq.spin) for f in modes.frequencies_hz],
+        # neutral: kept as coordinates of zero stiffness; the rotation about the spin axis and
+        # the translation along it are removed by the frame conditions (docs/sails.md)
+        "neutral_modes": [int(i) + 1 for i in np.flatnonzero(neutral_modes(
+            modes.frequencies_hz, eq.spin))],
         "stress_resultant_min_n_per_m": float(resultants.min()),
         "stress_resultant_max_n_per_m": float(resultants.max()),
         "elements_in_compression": int(np.sum(resultants[:, 0] <= 0.0)),

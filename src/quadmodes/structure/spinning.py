@@ -113,6 +113,19 @@ def rotating_stiffness(structure: Structure, x: np.ndarray, spin: float, axis) -
     return (tangent_stiffness(structure, x) - centrifugal_softening(structure, spin, axis)).tocsr()
 
 
+#: A mode of the rotating-frame stiffness whose frequency is below this fraction of the spin,
+#: of either sign, is neutral: a motion with no stiffness of its own at this spin (a blade
+#: hinged on the axis turning about it, an exact symmetry), whose sign is round-off.
+NEUTRAL_RATIO = 1e-3
+
+
+def neutral_modes(frequencies_hz: np.ndarray, spin: float) -> np.ndarray:
+    """(N,) True where the rotating-frame frequency (Hz, negative: ω² < 0) is neutral at
+    ``spin`` (rad/s): ``|2πf| ≤`` :data:`NEUTRAL_RATIO` ``|Ω|``. The whole body's rotation about
+    the spin axis never appears here: the frame conditions remove it."""
+    return np.abs(2.0 * np.pi * np.asarray(frequencies_hz, float)) <= NEUTRAL_RATIO * abs(spin)
+
+
 def null_constraints(structure: Structure, x: np.ndarray, spin: float, axis) -> np.ndarray | None:
     """Mass-weighted frame conditions ``C`` (3n, k) for the bordered solve of a free body: the
     two null directions of the spinning problem (translation along e, rotation about e through the

@@ -36,7 +36,8 @@ def structural_key(point: PointCase) -> str:
     and restricted per point)."""
     run = point.run
     red_table = run.reduced.model_dump_json(exclude={"formulation"})
-    spin = repr(run.reference_spin) if run.reduced.reference == "spinning" else "rest"
+    spin = (repr((run.reference_spin, run.reference_axis)) if run.reduced.reference == "spinning"
+            else "rest")  # fmt: skip
     return f"{point.model_case.to_toml()}\n{red_table}\n{spin}"
 
 
@@ -51,7 +52,8 @@ def model_for_group(points: list[PointCase]) -> tuple[red.ReducedModel, list[int
     n = max(counts)
     if first.run.reduced.formulation == "rigid":
         n = max(n, 1)
-    model = reduced_model_for(first.model_case, n, spin=first.run.reference_spin)
+    model = reduced_model_for(first.model_case, n, spin=first.run.reference_spin,
+                              axis=first.run.reference_axis)  # fmt: skip
     return model, counts
 
 

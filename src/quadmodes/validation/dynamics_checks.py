@@ -267,7 +267,7 @@ def check_rotating_frame_spinning() -> list[Row]:
         run, choice = resolve_modes(apply_overrides(load_run_case("paper-41hz"),
                                                     spin_rate=f"{spin_hz} Hz"))  # fmt: skip
         case, n_modes = run.model_case(), choice.n_modes
-        rom = reduced_model_for(case, n_modes, spin=run.reference_spin)
+        rom = reduced_model_for(case, n_modes, spin=run.reference_spin, axis=run.reference_axis)
         table = rotating_frequency_comparison(case, (spin_hz,), n_modes, ("Q",), model=rom)
         for row in rotating_frame_rows(table, n_modes, True, tolerance=0.01):
             rows.append(replace(row, check=row.check.replace(" (N =", " about the spin (N ="),
