@@ -26,6 +26,7 @@ import xarray as xr
 from quadmodes.io import cf
 from quadmodes.io.atomic import write_text
 from quadmodes.io.outputs import write_netcdf
+from quadmodes.runs.path_results import path_attrs, path_summary, path_variables
 from quadmodes.signals import log_decrement
 
 FORMAT = "quadmodes-run-results"
@@ -178,8 +179,11 @@ def to_dataset(result) -> xr.Dataset:
     labels = list(model.labels[:n]) if n else []
     freqs = np.asarray(model.frequencies_hz[:n], float)
     data = _run_variables(result.diagnostics, q, w, s, sd, result.initial.bending_modes)
-    ds = xr.Dataset(data, coords=_mode_coords(sol.t, labels, freqs))
+    path_data, path_coords = path_variables(result)
+    ds = xr.Dataset({**data, **path_data},
+                    coords={**_mode_coords(sol.t, labels, freqs), **path_coords})  # fmt: skip
     ds.attrs.update(_run_attrs(result, n))
+    ds.attrs.update(path_attrs(result))
     return ds
 
 
@@ -336,6 +340,7 @@ def summary(ds: xr.Dataset) -> dict:
     else:
         out.update(log_decrement=None, bending_modes=[])
     out.update(validity_summary(ds))
+    out.update(path_summary(ds))  # valid: at the start and along the path
     out["n_modes"] = int(ds.attrs.get("n_modes", ds.sizes.get("mode", 0)))
     if "reference" in ds.attrs:  # the state the reduced model is expanded about
         out["reference"] = str(ds.attrs["reference"])
