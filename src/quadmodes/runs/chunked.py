@@ -254,7 +254,7 @@ def integrate_in_chunks(
         if not 0 <= state.steps <= n_total:
             raise ValueError(f"resume: {state.steps} steps done, the run has {n_total}")
         if event is not None:  # an event already in the saved samples ends it there again
-            state = event.after_chunk(state, integ, h)
+            state = event.after_resume(state, integ, h)
     start = time.perf_counter()
 
     def wall() -> float:

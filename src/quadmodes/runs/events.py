@@ -138,6 +138,15 @@ class EventMonitor:
         return dataclasses.replace(state, steps=int(round(t_new[j] / h)), y_last=y_new[j].copy(),
                                    e_d_offset=float(ed_new[j]), stop=stop, event=hit, **pieces)  # fmt: skip
 
+    def after_resume(self, state, integ, h: float):
+        """:meth:`after_chunk` on every sample of a resumed ``state`` (its pieces merged)."""
+        pieces = [k for k, p in enumerate(state.t) if len(p)]
+        if not pieces:
+            return state
+        merged = {name: (np.concatenate([getattr(state, name)[k] for k in pieces]),)
+                  for name in ("t", "y", "e_d")}  # fmt: skip
+        return self.after_chunk(dataclasses.replace(state, **merged), integ, h)
+
     def locate(self, ta, ya, ga, tb, yb, gb, integ, h) -> EventHit:
         """The :class:`EventHit` between the saved samples (ta, ya) and (tb, yb) (g = ga, gb):
         the steps between them integrated again (fixed-step methods), the first step past the
@@ -180,7 +189,7 @@ def event_monitor(system: rsys.ReducedSystem, y0: np.ndarray, until: str | None,
     axis0 = axis0 / np.linalg.norm(axis0)
     mon = EventMonitor(system, until, kind, level, axis0, 1.0)
     g0 = float(mon.g(np.zeros(1), y0[None, :])[0])
-    if g0 == 0.0:
+    if abs(g0) <= 1e-9 * max(1.0, abs(level)):  # on the level to round-off: ill-posed
         raise ValueError(f"integration.until = {until!r}: the run starts on that level")
     return dataclasses.replace(mon, side0=float(np.sign(g0)))
 
