@@ -92,3 +92,46 @@ def test_run_writes_the_path_and_its_event(workdir):  # noqa: F811
                                    "--until", "cone 100 deg"])  # fmt: skip
     assert bad.exit_code == 2 and "integration.until" in bad.output
     assert len([line for line in bad.output.splitlines() if line.strip()]) == 1
+
+
+def test_rotating_frequencies_of_uncoupled_modes_are_their_own():
+    """Modes with no rotation coupling (J2 = D = 0): the rotating-frame frequencies are √Λ/2π
+    at any angular velocity."""
+    from test_integrators import hand_model
+
+    from quadmodes.runs.spin_check import frequency_difference, rotating_frequencies
+
+    sys = rsys.reduced_system(hand_model(np.diag([1.0, 2.0, 3.0]), lam=[4.0, 9.0, 100.0]), "Q")
+    got = rotating_frequencies(sys, np.array([3.0, 0.1, 0.0]))
+    assert got == pytest.approx(np.array([2.0, 3.0, 10.0]) / (2 * math.pi), rel=1e-12)
+    assert frequency_difference(got, got) == 0.0
+    assert frequency_difference(1.01 * got, got) == pytest.approx(0.01)
+
+
+@pytest.mark.parametrize("eps", [0.004, 0.05])
+def test_measured_range_replaces_the_bound(monkeypatch, eps):
+    """Past the a-priori bound, the range is what the rebuilt model measures: the whole path when
+    its frequencies agree within 1 % at the largest departure, else δ_ext × 1 % / ε."""
+    from quadmodes.runs import path_validity as pv
+    from quadmodes.runs import spin_check
+
+    base = rigid_system()
+    sys = dataclasses.replace(base, reference_omega=50.0 * E1)
+    fall = np.linspace(0.0, 0.08, 9)
+    y = np.array([rsys.pack_state(sys, omega=(1 - f) * 50.0 * E1) for f in fall])
+    t = np.arange(len(fall), dtype=float)
+    sol, setup = SimpleNamespace(t=t, y=y), SimpleNamespace(system=sys)
+    diag = SimpleNamespace(spin_rate=(1 - fall) * 50.0, cone_angle=np.zeros(len(t)))
+    monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(w @ E1), eps))
+    bound = path_validity(setup, sol, diag)
+    assert bound.left_at == 2.0  # a 1 % spin fall is δ = 1.99 % ≤ 2 %, 2 % is past it
+    out = pv.with_measured_range(bound, setup, sol, diag)
+    d_ext = 1 - 0.92**2
+    assert out.measured_spin == pytest.approx(0.92 * 50.0) and out.measured_error == eps
+    if eps <= pv.FREQUENCY_TOLERANCE:
+        assert out.left_at is None and out.centrifugal_limit == pytest.approx(d_ext)
+    else:
+        limit = d_ext * pv.FREQUENCY_TOLERANCE / eps
+        assert out.centrifugal_limit == pytest.approx(limit)
+        k = int(np.argmax(1 - (1 - fall) ** 2 > limit))
+        assert out.left_at == t[k] and "measured" in out.left_reason

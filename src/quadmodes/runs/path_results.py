@@ -75,6 +75,9 @@ def path_attrs(result) -> dict:
             path_modal_amplitude_peak_time=float(path.amplitude_peak_time),
             path_modal_amplitude_error=float(path.amplitude_error),
             path_slack_onset_fraction=float(path.amplitude_slack_fraction),
+            centrifugal_measured_spin_rate=float(path.measured_spin),
+            centrifugal_measured_spin_rate_units="rad/s",
+            centrifugal_measured_frequency_error=float(path.measured_error),
         )  # fmt: skip
     until = result.run.integration.until if result.run.integration is not None else None
     if until:
@@ -118,6 +121,8 @@ def path_summary(ds: xr.Dataset) -> dict:
             "min_rotating_stiffness_s-2": _f(ds, "path_min_rotating_stiffness"),
             "modal_amplitude_peak_m": _f(ds, "path_modal_amplitude_peak"),
             "modal_amplitude_error": _f(ds, "path_modal_amplitude_error"),
+            "centrifugal_measured_at_spin_hz": _hz(_f(ds, "centrifugal_measured_spin_rate")),
+            "centrifugal_measured_frequency_error": _f(ds, "centrifugal_measured_frequency_error"),
             "message": str(ds.attrs.get("path_message", "")),
         })  # fmt: skip
     if "until" in ds.attrs:
