@@ -135,3 +135,17 @@ def test_measured_range_replaces_the_bound(monkeypatch, eps):
         assert out.centrifugal_limit == pytest.approx(limit)
         k = int(np.argmax(1 - (1 - fall) ** 2 > limit))
         assert out.left_at == t[k] and "measured" in out.left_reason
+
+
+def test_api_simulate_until(workdir):  # noqa: F811
+    """qm.simulate(..., until=...): the event and the path on the result; the run case records
+    it (integration.until in its TOML, so results.nc replays it)."""
+    import quadmodes as qm
+
+    (workdir / "r.toml").write_text(run_toml(duration='"0.05 s"'), encoding="utf-8")
+    result = qm.simulate(str(workdir / "r.toml"), until="time 0.0071 s", check_deformation=False)
+    assert result.complete and result.event.time == pytest.approx(0.0071)
+    assert result.event.step == 36 and result.solution.t[-1] == pytest.approx(0.008)
+    assert 'until = "time 0.0071 s"' in result.run.to_toml()
+    assert result.path is not None and result.path.unchecked == ("modal amplitudes",)
+    assert not result.path.valid  # amplitudes not checked against the FE model: not valid

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quadmodes.io.path_report import path_parts
 from quadmodes.io.report import (
     Section,
     figures,
@@ -120,6 +121,7 @@ def _checks_section(summary: dict) -> Section:
         if ok and low == "—":
             text = "valid (no elastic modes: nothing to check)"
         parts.append(paragraph(text, "ok" if ok else "bad"))
+    parts += path_parts(summary)  # the model along the path, the until event, cone times
     if summary.get("dt_convergence"):
         rows = [(1e3 * r["dt_s"], r["steps"], r["cone_angle_deg"], r["rel_change_cone_angle_deg"],
                  r["spin_rate_hz"], r["rel_change_spin_rate_hz"]) for r in summary["dt_convergence"]]  # fmt: skip
