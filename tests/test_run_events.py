@@ -182,3 +182,32 @@ def test_a_run_that_starts_on_its_level_is_refused(body):
     theta0 = math.degrees(math.atan2(I3 * W0[2], I1 * W0[0]))
     with pytest.raises(ValueError, match="starts on that level"):
         event_monitor(sys, y0, f"cone {theta0!r} deg", np.array([1.0, 0.0, 0.0]))
+
+
+def test_flat_spin_time_matches_the_jacobi_solution():
+    """A torque-free body circling its major axis e3 (ω0 = (0.3, 0, 2) rad/s), started a
+    quarter period on, where H is farthest from e3: "flat spin X" (the angle between H and the
+    major axis below X) is reached when the Jacobi solution's angle, arccos(I3 ω3 / |H|), falls
+    to X."""
+    from scipy.special import ellipk
+    from test_integrators import jacobi_solution
+
+    sys = rigid_system()
+    w0 = np.array([0.3, 0.0, 2.0])
+    e2, h2 = I1 * w0[0] ** 2 + I3 * w0[2] ** 2, (I1 * w0[0]) ** 2 + (I3 * w0[2]) ** 2
+    rate = math.sqrt((I3 - I2) * (h2 - e2 * I1) / (I1 * I2 * I3))
+    m = (I2 - I1) * (e2 * I3 - h2) / ((I3 - I2) * (h2 - e2 * I1))
+    t_q = ellipk(m) / rate
+
+    def angle(t):
+        return np.arccos(I3 * jacobi_solution(I1, I2, I3, w0, np.atleast_1d(t_q + t))[:, 2]
+                         / math.sqrt(h2))  # fmt: skip
+
+    lo, hi = float(angle(t_q)[0]), float(angle(0.0)[0])
+    assert hi - lo > math.radians(1.0)
+    level = 0.5 * (lo + hi)
+    t_exact = brentq(lambda t: float(angle(t)[0]) - level, 0.0, t_q)
+    y0 = rsys.pack_state(sys, omega=jacobi_solution(I1, I2, I3, w0, np.array([t_q]))[0])
+    text = f"flat spin {math.degrees(level)!r} deg"
+    hit = run(sys, y0, integ(text, duration="4 s")).event
+    assert hit is not None and abs(hit.time - t_exact) < 1e-5
