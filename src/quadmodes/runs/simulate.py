@@ -240,8 +240,9 @@ def execute(
             system, init.y0, run.integration, progress, run.name, max_chunks,
             checkpoint=checkpoint, resume=resume, event=run_event(system, init, run),
         )  # fmt: skip
-    except Interrupted as stop:
-        raise Interrupted(_result(setup, stop.partial), stop.saved, stop.reason) from None
+    except Interrupted as stop:  # no FE check of the path on the way out
+        partial = _result(dataclasses.replace(setup, fe_checks=False), stop.partial)
+        raise Interrupted(partial, stop.saved, stop.reason) from None
     return _result(setup, chunks)
 
 
@@ -388,7 +389,8 @@ def dt_convergence(
             integ = run.integration.model_copy(
                 update={"dt": run.integration.dt / f, "save_every": run.integration.save_every * f}
             )
-            sub = dataclasses.replace(setup, run=run.model_copy(update={"integration": integ}))
+            sub = dataclasses.replace(setup, run=run.model_copy(update={"integration": integ}),
+                                      fe_checks=False)  # the table needs the end values only
             result = execute(sub, progress)
         d = result.diagnostics
         row = {
