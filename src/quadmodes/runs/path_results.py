@@ -40,7 +40,7 @@ def path_variables(result) -> tuple[dict, dict]:
         inside = t < path.left_at if path.left_at is not None else np.ones(len(t), bool)
         data["model_in_range"] = cf.variable(
             ("time",), inside.astype(np.int8), "1", "1 while the path is inside the reduced "
-            "model's range (centrifugal load, rotating stiffness, modal amplitudes), then 0")  # fmt: skip
+            "model's range by the checks made (attribute path_checked), then 0")  # fmt: skip
     marks = cone_times(t, result.diagnostics.cone_angle)
     coords = {"cone_mark": cf.coordinate("cone_mark", np.array(list(marks), float), "degree",
                                          "cone angle mark")}  # fmt: skip
