@@ -141,7 +141,8 @@ def _stiffness(system: rsys.ReducedSystem, w: np.ndarray) -> tuple[np.ndarray, n
     return idx, np.asarray(vals)
 
 
-def _first(t: np.ndarray, bad: np.ndarray) -> int | None:
+def _first(bad: np.ndarray) -> int | None:
+    """Index of the first True of ``bad`` (None if none)."""
     hits = np.flatnonzero(bad)
     return int(hits[0]) if len(hits) else None
 
@@ -166,13 +167,13 @@ def _centrifugal_failure(t, w, w_ref, spin_limit, basis: str):
     spin_hz = float(np.linalg.norm(w_ref)) / (2 * math.pi)
     if spin_limit is None:
         delta = centrifugal_departure(w, w_ref)
-        k = _first(t, delta > CENTRIFUGAL_LIMIT)
+        k = _first(delta > CENTRIFUGAL_LIMIT)
         return None if k is None else (k, (
             f"the centrifugal load departs by {100 * delta[k]:.3g} % from the model's at "
             f"{spin_hz:.5g} Hz (limit {100 * CENTRIFUGAL_LIMIT:g} %: ±"
             f"{100 * FREQUENCY_TOLERANCE:g} % in the rotating-frame frequencies)"))  # fmt: skip
     spin, tilt = spin_and_tilt(w, w_ref)
-    ks, kt = _first(t, spin > spin_limit), _first(t, tilt > CENTRIFUGAL_LIMIT)
+    ks, kt = _first(spin > spin_limit), _first(tilt > CENTRIFUGAL_LIMIT)
     if ks is not None and (kt is None or ks <= kt):
         return ks, (f"the spin departs by {100 * spin[ks]:.3g} % (in Ω²) from the model's "
                     f"{spin_hz:.5g} Hz (limit {100 * spin_limit:.3g} %: {basis})")  # fmt: skip
@@ -284,7 +285,7 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag) -> PathValid
             good = max(good, float(amp[j]))
         else:
             bad = min(bad, float(amp[j]))
-    k = _first(t, amp > good * (1.0 + 1e-12)) or 0
+    k = _first(amp > good * (1.0 + 1e-12)) or 0
     where = f"at the largest modal amplitude (t = {t[peak]:.6g} s)"
     reason = (f"the FE model's condensed energy did not converge {where}" if math.isinf(err) else
               f"the reduced potential is {100 * err:.3g} % off the FE model's condensed energy "
