@@ -265,7 +265,7 @@ ROWS: list[tuple[str, str, tuple[str, ...]]] = [
     ("mesh-file-huge-reduce", "reduce {d}/huge-mesh.toml", ("geometry.file", "QUADMODES_MAX_MESH_BYTES")),
     ("mesh-fifo-reduce", "reduce {d}/fifo-mesh.toml", ("geometry.file", "not a regular file")),
     ("mesh-stl-nodes", "modes {d}/stl-nodes-mesh.toml -o {d}/out", ("geometry.file", "500,002 nodes", "QUADMODES_MAX_MESH_NODES")),
-    ("run-output-huge", "run paper-0.5hz --duration '20000 s' --yes -o {d}/out", ("integration.save_every", "save_every = 12", "QUADMODES_MAX_OUTPUT_BYTES")),
+    ("run-output-huge", "run paper-0.5hz --duration '20000 s' --yes -o {d}/out", ("integration.save_every", "save_every = 13", "QUADMODES_MAX_OUTPUT_BYTES")),
     # ---- issue 24 item 4: mesh files checked, plausible values
     ("mesh-two-bodies", "modes {d}/two-bodies-mesh.toml -o {d}/out", ("geometry.file", "2 separate closed parts")),
     ("mesh-in-millimetres", "modes {d}/mm-mesh.toml -o {d}/out", ("geometry.file_unit", '"mm"')),

@@ -113,7 +113,7 @@ def reduced_model(
 def simulate(run, *, model_case: Case | None = None, model=None, progress: Progress | None = None,
              check_deformation: bool = True, checkpoint: str | os.PathLike[str] | None = None,
              resume: bool = False, checkpoint_every: QuantityLike = "10 s",
-             allow_coarse_step: bool = False):  # fmt: skip
+             allow_coarse_step: bool = False, until: str | None = None):  # fmt: skip
     """Integrate a run case: a free-body run (``[initial]``, ``[integration]``) or a hub-driven
     spin-up (``[spinup]``).
 
@@ -127,6 +127,10 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
     model
         An already reduced model to use (else from the cache); one built from another case
         than the run's model case is refused (``CaseError`` naming ``model``).
+    until
+        End the run on an event before its duration (``integration.until``): "cone 60 deg",
+        "spin 30 Hz", "time 10 s" or "flat spin"; located to the step, in ``result.event``
+        (None if not reached), the summary's ``until`` and ``results.nc``.
     allow_coarse_step
         Run a time step of fewer than 2 steps per period of the spin or of the highest
         retained mode (refused otherwise, as ``quadmodes run`` without ``--yes``); under 10
@@ -148,13 +152,18 @@ def simulate(run, *, model_case: Case | None = None, model=None, progress: Progr
     -------
     quadmodes.runs.simulate.RunResult or SpinupRun
         ``solution`` (t (nt,) s, y (nt, 7 + 2N)), ``diagnostics`` (angular momentum kg m^2/s,
-        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``, ``validity``;
+        energies J, spin rate rad/s, cone angle rad), ``complete``, ``reason``, ``validity``
+        (at the start), ``path`` (the model's validity along the path), ``event``;
         :func:`summary` gives what ``quadmodes run`` prints.
     """
     from quadmodes.analysis.run_answer import with_linear_answer
     from quadmodes.runs import simulate as sim
 
     run = _run(run)
+    if until is not None:
+        from quadmodes.case.editing import edit
+
+        run = edit(run, [("integration.until", until)], "until")
     if run.spinup is not None:
         return sim.simulate_spinup(run, model, model_case=model_case)
     if checkpoint is None:

@@ -23,6 +23,7 @@ from quadmodes.case.fields import (
     quantity,
     whole_number,
 )
+from quadmodes.case.run_events import until_field
 from quadmodes.case.units import format_quantity
 
 
@@ -151,13 +152,16 @@ class RunInitial(Section):
 
 class RunIntegration(Section):
     """Time integration: method, step ``dt`` (s; the sampling step for "adaptive"), duration
-    (s), keep every ``save_every``-th step, relative tolerance ``rtol`` ("adaptive" only)."""
+    (s), keep every ``save_every``-th step, relative tolerance ``rtol`` ("adaptive" only);
+    ``until`` (optional): an event that ends the run before its duration, e.g. "cone 60 deg"
+    (:mod:`quadmodes.case.run_events`)."""
 
     method: choice("midpoint", "backward-euler", "adaptive") = "midpoint"
     dt: quantity("time", "0.5 ms", positive, "ms")
     duration: quantity("time", "4 s", positive, "s")
     save_every: integer(4, 1) = 1
     rtol: quantity("dimensionless", "1e-9", _rtol) = 1e-9
+    until: Annotated[str | None, BeforeValidator(until_field), FieldMeta('"cone 60 deg"')] = None
 
     @model_validator(mode="after")
     def check_span(self) -> Self:

@@ -14,6 +14,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from quadmodes.cli import extra_outputs as extras
+from quadmodes.cli import path_rows
 from quadmodes.cli.common import (
     NoCacheFlag,
     RunAxis,
@@ -82,6 +83,7 @@ _RUN_ROWS = [
     ("valid: spin (Λ − ωᵀJ2ω > 0 up to it)", "valid_spin", "{}"),
     ("valid: initial deformation (energy within 2 % of the FE model's; —: none)",
      "valid_initial_deformation", "{}"),
+    *path_rows.PATH_ROWS,  # the path's validity, the until event, the times to cone angles
 ]  # fmt: skip
 
 #: (label, summary key, format) of a spin-up's summary table.
@@ -113,7 +115,7 @@ def _print_run_summaries(summaries: dict[str, dict], spinups: set[str], output_d
         rows = _SPINUP_ROWS if name in spinups else _RUN_ROWS
         table = Table("quantity", "value", title=f"{name}: run summary")
         for label, key, fmt in rows:
-            table.add_row(label, _format_row(summary, key, fmt))
+            table.add_row(label, path_rows.format_row(summary, key, fmt, _format_row))
         out.print(table)
         if summary.get("stability_rule"):
             out.print(escape(f"stability rule: {summary['stability_rule']}"), highlight=False,
@@ -395,7 +397,7 @@ def run_command(
             "reduced.mode_margin (default 2.5) × the spin frequency, pairs whole"
         ),
     ] = None,
-    dt_convergence: DtConvergenceFlag = False,
+    until: path_rows.UntilOption = None, dt_convergence: DtConvergenceFlag = False,  # fmt: skip
     mode_convergence: ModeConvergenceFlag = False,
     plots: RunPlotsFlag = True,
     resume: RunResumeFlag = False,
@@ -424,7 +426,7 @@ def run_command(
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,
-                     spin_rate=spin_rate, modes=modes, axis=axis)  # fmt: skip
+                     spin_rate=spin_rate, modes=modes, axis=axis, until=until)  # fmt: skip
     flags = {"--dt-convergence": dt_convergence, "--mode-convergence": mode_convergence,
              "--no-plots": not plots}  # fmt: skip
     with sigterm_as_interrupt() as signals:

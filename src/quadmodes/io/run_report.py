@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quadmodes.io.path_report import path_parts
 from quadmodes.io.report import (
     Section,
     figures,
@@ -137,6 +138,7 @@ def _checks_section(summary: dict) -> Section:
             text += ("; the initial deformation is within the reduced potential's range (its energy "
                      "within 2 % of the FE model's condensed energy)")  # fmt: skip
         parts.append(paragraph(text, "ok" if ok else "bad"))
+    parts += path_parts(summary)  # the model along the path, the until event, cone times
     dt_conv = summary.get("dt_convergence")
     if dt_conv:
         rows = [(1e3 * r["dt_s"], r["steps"], r["cone_growth_rate_deg_per_s"],

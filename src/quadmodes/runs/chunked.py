@@ -71,6 +71,7 @@ class ChunkedRun:
     solution: Solution
     reason: str
     wall_s: float
+    event: object = None  # the EventHit of an ``until`` event (quadmodes.runs.events), or None
 
 
 def _integrate_chunk(system, y: np.ndarray, ta: float, tb: float, integ, h: float):
@@ -117,6 +118,7 @@ class ChunkProgress:
     y_last: np.ndarray
     e_d_offset: float
     stop: _Stop | None = None
+    event: object = None  # where an ``until`` event ended the run (quadmodes.runs.events)
 
     @classmethod
     def start(cls, y0: np.ndarray, chunk: int) -> ChunkProgress:
@@ -187,10 +189,13 @@ class Interrupted(KeyboardInterrupt):
         self.partial, self.saved, self.reason = partial, saved, reason
 
 
-def _loop(system, integ, progress, name, state: ChunkProgress, h, adaptive, checkpoint, wall):
+def _loop(system, integ, progress, name, state: ChunkProgress, h, adaptive, checkpoint, wall,
+          event=None):  # fmt: skip
     """Integrate chunk after chunk from ``state`` to ``integ.n_steps``, saving a checkpoint
-    whenever ``checkpoint.due()`` and at the end. Returns (the last progress, True if Ctrl-C
-    stopped it); the progress is always a consistent one (see :class:`ChunkProgress`)."""
+    whenever ``checkpoint.due()`` and at the end; ``event`` (an ``after_chunk(state, integ,
+    h)``, :class:`quadmodes.runs.events.EventMonitor`) may stop it after a chunk. Returns (the
+    last progress, True if Ctrl-C stopped it); the progress is always a consistent one (see
+    :class:`ChunkProgress`)."""
     n_total = integ.n_steps
     try:
         while state.steps < n_total and state.stop is None:
@@ -201,6 +206,8 @@ def _loop(system, integ, progress, name, state: ChunkProgress, h, adaptive, chec
                 state = state.stopped(stop)
                 break
             state = state.add(sol, k1, h, adaptive)
+            if event is not None and state.stop is None:
+                state = event.after_chunk(state, integ, h)
             if checkpoint is not None and state.stop is None:
                 if state.steps == n_total or checkpoint.due():
                     checkpoint.save(state, wall())
@@ -221,6 +228,7 @@ def integrate_in_chunks(
     *,
     checkpoint: Checkpointer | None = None,
     resume: tuple[ChunkProgress, float] | None = None,
+    event=None,
 ) -> ChunkedRun:
     """Integrate ``system`` from ``y0`` (7+2N,) over ``integ.duration`` (s) with the settings of
     ``integ`` (the run case's ``[integration]``: method, dt, rtol, save_every) in at most
@@ -232,7 +240,9 @@ def integrate_in_chunks(
     from its last whole chunk with the same chunks, so the result is the uninterrupted one bit
     for bit (every chunk starts from the saved state exactly as it did in the uninterrupted
     run). Ctrl-C raises :class:`Interrupted` carrying the run up to its last whole chunk (saved
-    to ``checkpoint`` first, if any)."""
+    to ``checkpoint`` first, if any). ``event``: an ``until`` event
+    (:class:`quadmodes.runs.events.EventMonitor`) checked after every chunk (and on the samples
+    of a resumed checkpoint), which ends the run complete where it is reached."""
     n_total = integ.n_steps
     h = integ.duration / n_total
     adaptive = integ.method == "adaptive"
@@ -243,6 +253,8 @@ def integrate_in_chunks(
         state, wall_before = resume
         if not 0 <= state.steps <= n_total:
             raise ValueError(f"resume: {state.steps} steps done, the run has {n_total}")
+        if event is not None:  # an event already in the saved samples ends it there again
+            state = event.after_resume(state, integ, h)
     start = time.perf_counter()
 
     def wall() -> float:
@@ -250,7 +262,8 @@ def integrate_in_chunks(
 
     if progress:
         progress(name, state.steps / n_total)
-    state, interrupted = _loop(system, integ, progress, name, state, h, adaptive, checkpoint, wall)
+    state, interrupted = _loop(system, integ, progress, name, state, h, adaptive, checkpoint, wall,
+                               event)  # fmt: skip
     if interrupted:
         _interrupted(system, y0, integ, state, h, checkpoint, wall)
     return _finish(system, y0, integ, state, h, wall(), state.stop or _Stop(0, "ok", ""))
@@ -263,7 +276,7 @@ def _finish(system, y0, integ, state: ChunkProgress, h, wall_s, stop: _Stop) -> 
     t_all, y_all, ed_all = state.merged(y0, system.n_state)
     merged = Solution(t_all, y_all, integ.method, stats, stop.status, stop.message, ed_all,
                       None if adaptive else h)  # fmt: skip
-    return ChunkedRun(merged, stop.reason, wall_s)
+    return ChunkedRun(merged, stop.reason, wall_s, state.event)
 
 
 def _interrupted(system, y0, integ, state, h, checkpoint, wall) -> NoReturn:

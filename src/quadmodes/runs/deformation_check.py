@@ -92,7 +92,9 @@ def initial_slack_onset(setup, structure=None) -> tuple[float, float, float] | N
 
 def with_deformation_check(setup, progress=None):
     """``setup`` with its validity carrying :func:`initial_deformation_energies` (unchanged
-    when the run has no initial deformation or no validity)."""
+    when the run has no initial deformation or no validity), marked to check the path's modal
+    amplitudes the same way (``fe_checks``, :mod:`quadmodes.runs.path_validity`)."""
+    setup = dataclasses.replace(setup, fe_checks=True)
     if setup.validity is None or setup.system.n_modes == 0:
         return setup
     if not np.any(rsys.split_state(setup.system, setup.initial.y0)[2]):

@@ -231,9 +231,10 @@ def check_run_length(run, *, allow_long: bool = False) -> None:
 #: Modes assumed for the output estimate of ``reduced.modes = "auto"`` (paper-41hz keeps 16).
 AUTO_MODES_ESTIMATE = 16
 #: Numbers per saved sample of results.nc besides the 2N modal coordinates and velocities
-#: (time, quaternion, angular velocity and momentum, principal axis, energies, spin, cone, ...):
-#: paper-0.5hz holds 288 bytes a sample with N = 5 (211 on disk, compressed).
-SAMPLE_NUMBERS = 27
+#: (time, quaternion, angular velocity and momentum, principal axis, energies, spin, cone, ...,
+#: the modal amplitude and the centrifugal departure of the path's validity check):
+#: paper-0.5hz holds 288 bytes a sample with N = 5 (211 on disk, compressed) without those two.
+SAMPLE_NUMBERS = 29
 
 
 def output_bytes(run, n_modes: int | None = None) -> float:

@@ -29,6 +29,8 @@ from quadmodes.io import cf
 from quadmodes.io.atomic import write_text
 from quadmodes.io.outputs import write_netcdf
 from quadmodes.runs.answer import answer_summary, answer_variables
+from quadmodes.runs.path_results import path_attrs, path_summary, path_variables
+from quadmodes.runs.validity_results import validity_attrs, validity_summary
 from quadmodes.signals import log_decrement
 
 FORMAT = "quadmodes-run-results"
@@ -182,8 +184,11 @@ def to_dataset(result) -> xr.Dataset:
     freqs = np.asarray(model.frequencies_hz[:n], float)
     data = _run_variables(result.diagnostics, q, w, s, sd, result.initial.bending_modes)
     answer, answer_attrs = answer_variables(result)
-    ds = xr.Dataset({**data, **answer}, coords=_mode_coords(sol.t, labels, freqs))
+    path_data, path_coords = path_variables(result)
+    ds = xr.Dataset({**data, **answer, **path_data},
+                    coords={**_mode_coords(sol.t, labels, freqs), **path_coords})  # fmt: skip
     ds.attrs.update(_run_attrs(result, n), **answer_attrs)
+    ds.attrs.update(path_attrs(result))
     return ds
 
 
@@ -197,74 +202,6 @@ def mode_choice_attrs(choice) -> dict:
     if choice.cutoff_hz is not None:
         attrs.update(mode_margin=float(choice.margin), mode_cutoff_hz=float(choice.cutoff_hz))
     return attrs
-
-
-def validity_attrs(validity) -> dict:
-    """results.nc attributes of a :class:`quadmodes.runs.validity.Validity` (empty if None):
-    ``valid`` (1/0), ``rotating_stiffness_min_eigenvalue`` (s-2, at the run's spin),
-    ``validity_spin_rate`` (rad/s) and ``validity_lost_at_spin_rate`` (rad/s; NaN if never)."""
-    if validity is None:
-        return {}
-    lost = validity.lost_at
-    return {
-        "valid": int(validity.valid),
-        "valid_spin": int(validity.spin_valid),  # the two checks: spin, initial deformation
-        "valid_initial_deformation": int(validity.initial_deformation_valid),
-        "rotating_stiffness_min_eigenvalue": float(validity.min_eigenvalue),
-        "rotating_stiffness_min_eigenvalue_units": "s^-2",
-        "validity_spin_rate": float(validity.spin_rate),
-        "validity_lost_at_spin_rate": float("nan") if lost is None else float(lost),
-        "validity_message": validity.message(),
-        "initial_deformation_energy_reduced": float(validity.deformation_energy_reduced),
-        "initial_deformation_energy_condensed": float(validity.deformation_energy_condensed),
-        "initial_deformation_energy_units": "J",
-        # where the membrane first loses tension along the initial deformation (linearised)
-        "slack_onset_fraction": float(validity.slack_onset_fraction),
-        "slack_onset_amplitude": float(validity.slack_onset_amplitude),
-        "slack_onset_amplitude_units": "m",
-        "slack_membrane_fraction": float(validity.slack_fraction),
-    }
-
-
-def validity_summary(ds: xr.Dataset) -> dict:
-    """JSON-ready validity fields read back from the attributes of a results dataset."""
-    if "valid" not in ds.attrs:
-        return {}
-    lost = _float(ds.attrs.get("validity_lost_at_spin_rate", float("nan")))
-    checked = math.isfinite(float(ds.attrs.get("initial_deformation_energy_reduced", math.nan)))
-    return {
-        "valid": bool(int(ds.attrs["valid"])),
-        "valid_spin": bool(int(ds.attrs.get("valid_spin", ds.attrs["valid"]))),
-        "valid_initial_deformation": bool(int(ds.attrs.get("valid_initial_deformation", 1)))
-        if checked else None,  # None: no initial deformation to check
-        "rotating_stiffness_min_eigenvalue": _float(
-            ds.attrs.get("rotating_stiffness_min_eigenvalue", float("nan"))
-        ),
-        "validity": {
-            "valid": bool(int(ds.attrs["valid"])),
-            "rotating_stiffness_min_eigenvalue": _float(
-                ds.attrs.get("rotating_stiffness_min_eigenvalue", float("nan"))
-            ),
-            "rotating_stiffness_min_eigenvalue_units": "s^-2",
-            "spin_rate_rad_s": _float(ds.attrs.get("validity_spin_rate", float("nan"))),
-            "lost_at_spin_rate_rad_s": lost,
-            "message": str(ds.attrs.get("validity_message", "")),
-            # the initial deformation beside the FE model's condensed energy (J; null if unchecked)
-            "initial_deformation_energy_reduced_J": _float(
-                ds.attrs.get("initial_deformation_energy_reduced", float("nan"))
-            ),
-            "initial_deformation_energy_condensed_J": _float(
-                ds.attrs.get("initial_deformation_energy_condensed", float("nan"))
-            ),
-            "slack_onset_fraction_of_initial_deformation": _float(
-                ds.attrs.get("slack_onset_fraction", float("nan"))
-            ),
-            "slack_onset_amplitude_m": _float(ds.attrs.get("slack_onset_amplitude", float("nan"))),
-            "slack_membrane_fraction_at_initial_deformation": _float(
-                ds.attrs.get("slack_membrane_fraction", float("nan"))
-            ),
-        },
-    }
 
 
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
@@ -351,6 +288,7 @@ def summary(ds: xr.Dataset) -> dict:
         out.update(log_decrement=None, bending_modes=[])
     out.update(answer_summary(ds))
     out.update(validity_summary(ds))
+    out.update(path_summary(ds))  # valid: at the start and along the path
     out["n_modes"] = int(ds.attrs.get("n_modes", ds.sizes.get("mode", 0)))
     if "reference" in ds.attrs:  # the state the reduced model is expanded about
         out["reference"] = str(ds.attrs["reference"])

@@ -41,8 +41,10 @@ from quadmodes.runs.chunked import (
     integrate_in_chunks,
 )
 from quadmodes.runs.deformation_check import with_deformation_check
+from quadmodes.runs.events import EventHit, run_event
 from quadmodes.runs.initial import InitialState, initial_state
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
+from quadmodes.runs.path_validity import PathValidity, run_path_validity
 from quadmodes.runs.resources import check_output_size
 from quadmodes.runs.run_checks import check_model_case, check_run_step
 from quadmodes.runs.validity import Validity, initial_validity, rotating_validity
@@ -82,6 +84,8 @@ class RunResult:
     # the linear answer at the spin (quadmodes.analysis.run_answer.LinearAnswer: energy-sink
     # time constant, stability), attached by the caller (a layer above the runs); None if not
     linear: object | None = None
+    event: EventHit | None = None
+    path: PathValidity | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +103,7 @@ class RunSetup:
     initial: InitialState
     validity: Validity | None = None
     mode_choice: ModeChoice | None = None
+    fe_checks: bool = False  # the FE model checks the path's modal amplitudes (as quadmodes run)
 
 
 def _model_for_run(run: RunCase, model: red.ReducedModel) -> red.ReducedModel:
@@ -161,12 +166,14 @@ def prepare(
     if coarse:
         init = dataclasses.replace(init, notes=(*init.notes, coarse))
     validity = initial_validity(system, init.y0, run.reduced.formulation)
+    run_event(system, init, run)  # a run that starts on its until level: refused here
     setup = RunSetup(run, model_case, model, system, init, validity, choice)
     return with_deformation_check(setup, progress) if check_deformation else setup
 
 
 def _result(setup: RunSetup, chunks) -> RunResult:
-    """The :class:`RunResult` of ``setup`` integrated to ``chunks`` (a ChunkedRun)."""
+    """The :class:`RunResult` of ``setup`` integrated to ``chunks`` (a ChunkedRun), with the
+    model's validity checked along the path (:mod:`quadmodes.runs.path_validity`)."""
     run, system, init = setup.run, setup.system, setup.initial
     diag = diagnostics(system, chunks.solution, spin_axis=init.spin_axis)
     return RunResult(
@@ -183,6 +190,8 @@ def _result(setup: RunSetup, chunks) -> RunResult:
         notes=init.notes,
         validity=setup.validity,
         mode_choice=setup.mode_choice,
+        event=chunks.event,
+        path=run_path_validity(setup, chunks.solution, diag),
     )
 
 
@@ -232,10 +241,11 @@ def execute(
     try:
         chunks = integrate_in_chunks(
             system, init.y0, run.integration, progress, run.name, max_chunks,
-            checkpoint=checkpoint, resume=resume,
+            checkpoint=checkpoint, resume=resume, event=run_event(system, init, run),
         )  # fmt: skip
-    except Interrupted as stop:
-        raise Interrupted(_result(setup, stop.partial), stop.saved, stop.reason) from None
+    except Interrupted as stop:  # no FE check of the path on the way out
+        partial = _result(dataclasses.replace(setup, fe_checks=False), stop.partial)
+        raise Interrupted(partial, stop.saved, stop.reason) from None
     return _result(setup, chunks)
 
 
@@ -259,9 +269,11 @@ def simulate(
     return execute(setup, progress, max_chunks)
 
 
-def _spinup_overrides(method, dt, duration, formulation, save_every, spin_rate) -> list:
+def _spinup_overrides(method, dt, duration, formulation, save_every, spin_rate,
+                      until=None) -> list:  # fmt: skip
     """The (field, value) changes of command-line overrides to a spin-up run (``[spinup]``)."""
-    for option, value in (("method", method), ("dt", dt), ("save_every", save_every)):
+    for option, value in (("method", method), ("dt", dt), ("save_every", save_every),
+                          ("until", until)):  # fmt: skip
         if value is not None:
             raise CaseError(
                 f"--{option.replace('_', '-')}: not used by a hub-driven spin-up ([spinup] "
@@ -272,9 +284,10 @@ def _spinup_overrides(method, dt, duration, formulation, save_every, spin_rate) 
             ("reduced.formulation", formulation)]  # fmt: skip
 
 
-def _free_body_overrides(method, dt, duration, formulation, save_every, spin_rate) -> list:
+def _free_body_overrides(method, dt, duration, formulation, save_every, spin_rate,
+                         until=None) -> list:  # fmt: skip
     """The (field, value) changes of command-line overrides to a free-body run."""
-    return [("initial.spin_rate", spin_rate), ("integration.method", method),
+    return [("integration.until", until), ("initial.spin_rate", spin_rate), ("integration.method", method),
             ("integration.dt", dt), ("integration.duration", duration),
             ("integration.save_every", save_every), ("reduced.formulation", formulation)]  # fmt: skip
 
@@ -301,6 +314,7 @@ def apply_overrides(
     spin_rate: str | None = None,
     modes: int | str | None = None,
     axis: str | None = None,
+    until: str | None = None,
 ) -> RunCase:
     """``run`` with command-line overrides (quantity strings such as ``"0.25 ms"``), validated
     like the case file (:func:`quadmodes.case.editing.edit`); raises :class:`CaseError` naming
@@ -310,10 +324,10 @@ def apply_overrides(
     ``duration`` sets ``integration.duration`` or ``spinup.duration``; ``modes`` (a whole
     number, or "auto" for a free-body run) sets ``reduced.modes`` (a whole number drops
     ``reduced.mode_margin``); ``axis`` (a name or "a,b,c") sets ``initial.spin_axis`` of a
-    free-body run."""
+    free-body run; ``until`` (e.g. "cone 60 deg") sets ``integration.until``."""
     from quadmodes.case.editing import edit
 
-    values = (method, dt, duration, formulation, save_every, spin_rate)
+    values = (method, dt, duration, formulation, save_every, spin_rate, until)
     if all(v is None for v in values) and modes is None and axis is None:
         return run
     if axis is not None and run.spinup is not None:

@@ -1,0 +1,79 @@
+"""The rows of a run's summary table about its path (the model's validity along it, the
+``--until`` event, the times to cone angles) and the ``--until`` option of ``quadmodes run``."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+UntilOption = Annotated[
+    str | None,
+    typer.Option(
+        "--until",
+        help='end the run on an event: "cone 60 deg", "spin 30 Hz", "time 10 s" or "flat spin" '
+        "(located to the step; --duration stays the longest it may run)",
+    ),
+]
+
+
+def _path_valid(summary: dict) -> str | None:
+    path = summary.get("path_validity")
+    if path is None:
+        return None
+    if path["valid"]:
+        return "True (" + ", ".join(path["checked"]) + " checked)"
+    return "False: " + (path.get("message") or "")
+
+
+def _left(summary: dict) -> str | None:
+    path = summary.get("path_validity")
+    if path is None:
+        return None
+    if path.get("left_range_at_s") is None:
+        return "not within the run"
+    return (f"t = {path['left_range_at_s']:.6g} s (spin {path['left_range_spin_hz']:.5g} Hz, cone "
+            f"{path['left_range_cone_deg']:.4g} deg)")  # fmt: skip
+
+
+def _spin_range(summary: dict) -> str | None:
+    rng = (summary.get("path_validity") or {}).get("spin_range_hz") or [None, None]
+    if None in rng:
+        return None
+    return f"{rng[0]:.5g} – {rng[1]:.5g}"
+
+
+def _until(summary: dict) -> str | None:
+    ev = summary.get("until")
+    if ev is None:
+        return None
+    if not ev["reached"]:
+        return f"{ev['event']}: not reached"
+    return (f"{ev['event']}: t = {ev['time_s']:.6g} s (step {ev['step']}; cone "
+            f"{ev['cone_angle_deg']:.4g} deg, spin {ev['spin_rate_hz']:.5g} Hz)")  # fmt: skip
+
+
+def _cone_times(summary: dict) -> str | None:
+    times = summary.get("time_to_cone_s")
+    if not times:
+        return None
+    return ", ".join(f"{m}°: {'—' if v is None else f'{v:.4g}'}" for m, v in times.items())
+
+
+#: (label, function of the summary, "") rows of the free-body run summary.
+PATH_ROWS = [
+    ("reduced model valid along the path", _path_valid, ""),
+    ("path leaves the model's range at", _left, ""),
+    ("model's spin range (centrifugal load, Hz)", _spin_range, ""),
+    ("until", _until, ""),
+    ("time to cone angle (s)", _cone_times, ""),
+]
+
+
+def format_row(summary: dict, key, fmt: str, plain) -> str:
+    """A row's cell: ``key(summary)`` for the rows above ("—" when None), else
+    ``plain(summary, key, fmt)``."""
+    if callable(key):
+        value = key(summary)
+        return "—" if value is None else value
+    return plain(summary, key, fmt)

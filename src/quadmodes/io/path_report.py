@@ -1,0 +1,51 @@
+"""The part of a run's ``report.html`` about its path (:mod:`quadmodes.io.run_report` calls
+:func:`path_parts`): the reduced model's validity along the path and where the path leaves its
+range, the ``until`` event and the times to given cone angles, from the run's summary dict."""
+
+from __future__ import annotations
+
+from quadmodes.io.report import format_value, key_values, paragraph, table
+
+
+def _validity(path: dict) -> list[str]:
+    ok = bool(path.get("valid"))
+    checked = ", ".join(path.get("checked") or []) or "nothing"
+    text = (f"valid along the path ({checked} checked)" if ok
+            else f"NOT valid along the path: {path.get('message', '')}")  # fmt: skip
+    rng = path.get("spin_range_hz") or [None, None]
+    rows = [
+        ("checked", checked),
+        ("not checked", ", ".join(path.get("unchecked") or []) or "—"),
+        ("leaves the model's range at t (s)", format_value(path.get("left_range_at_s"))),
+        ("spin there (Hz)", format_value(path.get("left_range_spin_hz"), ".5g")),
+        ("cone angle there (deg)", format_value(path.get("left_range_cone_deg"), ".4g")),
+        ("largest departure of the centrifugal load", format_value(path.get("centrifugal_departure_max"), ".3g")),
+        ("its limit", format_value(path.get("centrifugal_departure_limit"), ".3g")),
+        ("spin range of the model (Hz)", "—" if None in rng else f"{rng[0]:.5g} – {rng[1]:.5g}"),
+        ("model rebuilt at (Hz)", format_value(path.get("centrifugal_measured_at_spin_hz"), ".5g")),
+        ("its rotating-frame frequency difference", format_value(path.get("centrifugal_measured_frequency_error"), ".2e")),
+        ("largest modal amplitude |s| (kg^0.5 m)", format_value(path.get("modal_amplitude_peak_m"), ".4g")),
+        ("reduced potential error there", format_value(path.get("modal_amplitude_error"), ".3g")),
+    ]  # fmt: skip
+    return [paragraph(text, "ok" if ok else "bad"), key_values(rows, "the model along the path")]
+
+
+def path_parts(summary: dict) -> list[str]:
+    """HTML parts (paragraphs, tables) about the path of a free-body run (none for a spin-up)."""
+    parts: list[str] = []
+    if summary.get("path_validity"):
+        parts += _validity(summary["path_validity"])
+    ev = summary.get("until")
+    if ev:
+        text = (f"until {ev['event']}: reached at t = {format_value(ev.get('time_s'))} s (step "
+                f"{ev.get('step')}, cone {format_value(ev.get('cone_angle_deg'), '.4g')} deg, spin "
+                f"{format_value(ev.get('spin_rate_hz'), '.5g')} Hz; located to the "
+                f"{ev.get('located', 'step')})" if ev.get("reached")
+                else f"until {ev['event']}: not reached within the run's duration")  # fmt: skip
+        parts.append(paragraph(text))
+    times = summary.get("time_to_cone_s")
+    if times:
+        rows = [(f"{mark} deg", format_value(t)) for mark, t in times.items()]
+        parts.append(table(("cone angle", "first reached at t (s)"), rows,
+                           "times to cone angles (interpolated between saved samples)"))  # fmt: skip
+    return parts

@@ -1,0 +1,151 @@
+"""The reduced model's validity along a run's path: the departure of the centrifugal load in
+closed form, the path leaving the range where the spin leaves it, and what `quadmodes run`
+writes about the path and its `--until` event."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from test_run import run_toml, workdir  # noqa: F401  (fixture)
+from test_run_events import rigid_system
+from typer.testing import CliRunner
+
+from quadmodes.cli.app import app
+from quadmodes.rom import system as rsys
+from quadmodes.runs import results as res
+from quadmodes.runs.path_validity import (
+    CENTRIFUGAL_LIMIT,
+    centrifugal_departure,
+    path_validity,
+    spin_range,
+)
+
+E1 = np.array([1.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("eps", [-0.1, -0.01, 0.003, 0.05])
+def test_departure_of_a_spin_change_is_the_relative_change_of_its_square(eps):
+    """ω = (1 + ε) Ω e: C(ω) − C(Ω e) = ((1 + ε)² − 1) Ω² (eeᵀ − I), norm |(1 + ε)² − 1| Ω²."""
+    omega = 30.0
+    got = centrifugal_departure((1 + eps) * omega * E1, omega * E1)
+    assert got[0] == pytest.approx(abs((1 + eps) ** 2 - 1), rel=1e-12)
+
+
+@pytest.mark.parametrize("beta_deg", [0.5, 1.0, 5.0, 30.0])
+def test_departure_of_a_tilt_is_its_sine(beta_deg):
+    """|ω| = Ω tilted by β: C(ω) − C(Ω e) = Ω² (nnᵀ − eeᵀ), eigenvalues ±sin β and 0."""
+    b = math.radians(beta_deg)
+    n = np.array([math.cos(b), math.sin(b), 0.0])
+    assert centrifugal_departure(7.0 * n, 7.0 * E1)[0] == pytest.approx(math.sin(b), rel=1e-12)
+
+
+def test_spin_range_ends_on_the_limit():
+    lo, hi = spin_range(100.0)
+    d = centrifugal_departure(np.array([lo * E1, hi * E1]), 100.0 * E1)
+    assert d == pytest.approx([CENTRIFUGAL_LIMIT, CENTRIFUGAL_LIMIT], rel=1e-12)
+
+
+def test_valid_flag_flips_where_the_spin_leaves_the_range():
+    """A body about a model expanded at Ω_ref whose spin falls by 0, 0.5, …, 2.5 %: valid up
+    to the sample past Ω_ref √(1 − 2 %) (0.99 Ω_ref), where the path leaves the range."""
+    base = rigid_system()
+    omega_ref = 50.0
+    sys = dataclasses.replace(base, reference_omega=omega_ref * E1)  # as if expanded there
+    fall = np.array([0.0, 0.005, 0.0099, 0.0101, 0.02, 0.025])
+    y = np.array([rsys.pack_state(sys, omega=(1 - f) * omega_ref * E1) for f in fall])
+    t = 0.1 * np.arange(len(fall))
+    sol = SimpleNamespace(t=t, y=y)
+    diag = SimpleNamespace(spin_rate=(1 - fall) * omega_ref, cone_angle=np.zeros(len(t)))
+    setup = SimpleNamespace(system=sys)
+    inside = path_validity(setup, SimpleNamespace(t=t[:3], y=y[:3]), diag)
+    assert inside.valid and inside.left_at is None and inside.checked[0] == "centrifugal load"
+    out = path_validity(setup, sol, diag)
+    assert not out.valid and out.left_at == pytest.approx(0.3)
+    assert out.left_spin == pytest.approx(0.9899 * omega_ref)
+    assert "centrifugal load" in out.message() and "0.3 s" in out.message()
+    assert out.centrifugal_max == pytest.approx(1 - 0.975**2)
+
+
+def test_run_writes_the_path_and_its_event(workdir):  # noqa: F811
+    """`quadmodes run --until "time …"`: the event in the summary and results.nc (with units),
+    the path's checks, the times to cone angles; a bad event is one line and exit 2."""
+    (workdir / "r.toml").write_text(run_toml(duration='"0.05 s"'), encoding="utf-8")
+    out_dir = workdir / "out"
+    got = CliRunner().invoke(app, ["run", str(workdir / "r.toml"), "-o", str(out_dir), "--json",
+                                   "--no-plots", "--until", "time 0.0123 s"])  # fmt: skip
+    assert got.exit_code == 0, got.output
+    summary = res.json.loads(got.stdout)["small-run"]
+    assert summary["until"]["reached"] and summary["until"]["time_s"] == pytest.approx(0.0123)
+    assert summary["t_end_s"] == pytest.approx(0.013)  # the saved sample after it (5 steps)
+    path = summary["path_validity"]
+    assert "rotating-frame stiffness" in path["checked"] and "modal amplitudes" in path["checked"]
+    assert summary["valid"] == (summary["valid_at_start"] and path["valid"])
+    ds = res.load_results(out_dir / "small-run" / "results.nc")
+    assert ds.attrs["until"] == "time 0.0123 s" and ds.attrs["until_time_units"] == "s"
+    assert ds["time_to_cone"].attrs["units"] == "s" and ds["cone_mark"].attrs["units"] == "degree"
+    assert ds["modal_amplitude"].attrs["units"] == "m" and "long_name" in ds["model_in_range"].attrs
+    bad = CliRunner().invoke(app, ["run", str(workdir / "r.toml"), "-o", str(out_dir / "b"),
+                                   "--until", "cone 100 deg"])  # fmt: skip
+    assert bad.exit_code == 2 and "integration.until" in bad.output
+    assert len([line for line in bad.output.splitlines() if line.strip()]) == 1
+
+
+def test_rotating_frequencies_of_uncoupled_modes_are_their_own():
+    """Modes with no rotation coupling (J2 = D = 0): the rotating-frame frequencies are √Λ/2π
+    at any angular velocity."""
+    from test_integrators import hand_model
+
+    from quadmodes.runs.spin_check import frequency_difference, rotating_frequencies
+
+    sys = rsys.reduced_system(hand_model(np.diag([1.0, 2.0, 3.0]), lam=[4.0, 9.0, 100.0]), "Q")
+    got = rotating_frequencies(sys, np.array([3.0, 0.1, 0.0]))
+    assert got == pytest.approx(np.array([2.0, 3.0, 10.0]) / (2 * math.pi), rel=1e-12)
+    assert frequency_difference(got, got) == 0.0
+    assert frequency_difference(1.01 * got, got) == pytest.approx(0.01)
+
+
+@pytest.mark.parametrize("eps", [0.004, 0.05])
+def test_measured_range_replaces_the_bound(monkeypatch, eps):
+    """Past the a-priori bound, the range is what the rebuilt model measures: the whole path when
+    its frequencies agree within 1 % at the largest departure, else δ_ext × 1 % / ε."""
+    from quadmodes.runs import path_validity as pv
+    from quadmodes.runs import spin_check
+
+    base = rigid_system()
+    sys = dataclasses.replace(base, reference_omega=50.0 * E1)
+    fall = np.linspace(0.0, 0.08, 9)
+    y = np.array([rsys.pack_state(sys, omega=(1 - f) * 50.0 * E1) for f in fall])
+    t = np.arange(len(fall), dtype=float)
+    sol, setup = SimpleNamespace(t=t, y=y), SimpleNamespace(system=sys)
+    diag = SimpleNamespace(spin_rate=(1 - fall) * 50.0, cone_angle=np.zeros(len(t)))
+    monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(w @ E1), eps))
+    bound = path_validity(setup, sol, diag)
+    assert bound.left_at == 2.0  # a 1 % spin fall is δ = 1.99 % ≤ 2 %, 2 % is past it
+    out = pv.with_measured_range(bound, setup, sol, diag)
+    d_ext = 1 - 0.92**2
+    assert out.measured_spin == pytest.approx(0.92 * 50.0) and out.measured_error == eps
+    if eps <= pv.FREQUENCY_TOLERANCE:
+        assert out.left_at is None and out.centrifugal_limit == pytest.approx(d_ext)
+    else:
+        limit = d_ext * pv.FREQUENCY_TOLERANCE / eps
+        assert out.centrifugal_limit == pytest.approx(limit)
+        k = int(np.argmax(1 - (1 - fall) ** 2 > limit))
+        assert out.left_at == t[k] and "measured" in out.left_reason
+
+
+def test_api_simulate_until(workdir):  # noqa: F811
+    """qm.simulate(..., until=...): the event and the path on the result; the run case records
+    it (integration.until in its TOML, so results.nc replays it)."""
+    import quadmodes as qm
+
+    (workdir / "r.toml").write_text(run_toml(duration='"0.05 s"'), encoding="utf-8")
+    result = qm.simulate(str(workdir / "r.toml"), until="time 0.0071 s", check_deformation=False)
+    assert result.complete and result.event.time == pytest.approx(0.0071)
+    assert result.event.step == 36 and result.solution.t[-1] == pytest.approx(0.008)
+    assert 'until = "time 0.0071 s"' in result.run.to_toml()
+    assert result.path is not None and result.path.unchecked == ("modal amplitudes",)
+    assert not result.path.valid  # amplitudes not checked against the FE model: not valid
