@@ -105,6 +105,7 @@ def _print_modes_summary(name: str, summary: dict) -> None:
             f"{100 * p['volume_change']:.3f} %, stress resultants "
             f"{p['stress_resultant_min_n_per_m']:.3g}–{p['stress_resultant_max_n_per_m']:.3g} N/m, "
             f"{p['elements_in_compression']} elements in compression"
+            + (f", {p['elements_wrinkled']} wrinkled" if p.get("elements_wrinkled") else "")
         )
     if spinning:
         out.print(
