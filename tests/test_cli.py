@@ -146,7 +146,7 @@ def test_show_case_round_trips(runner):
     assert case_from_toml(result.stdout) == load_case("paper-membrane")
 
 
-def test_show_case_of_a_file_prints_si_toml_that_loads_back(runner, tmp_path):
+def test_show_case_of_a_file_prints_it_as_written_and_it_loads_back(runner, tmp_path):
     path = _write_case(tmp_path, _sphere_toml())
     result = runner.invoke(app, ["show-case", str(path)])
     assert result.exit_code == 0, result.output

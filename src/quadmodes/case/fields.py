@@ -66,18 +66,22 @@ Check = Callable[[float], str | None]
 
 
 def positive(x: float) -> str | None:
+    """> 0"""
     return None if x > 0 else "must be positive"
 
 
 def nonnegative(x: float) -> str | None:
+    """≥ 0"""
     return None if x >= 0 else "must not be negative"
 
 
 def ratio(x: float) -> str | None:
+    """0 ≤ value < 1"""
     return None if 0 <= x < 1 else "must satisfy 0 <= ratio < 1"
 
 
 def poisson(nu: float) -> str | None:
+    """−1 < value < 0.5"""
     if nu >= 0.5:
         return "must be below 0.5 for an isotropic membrane"
     if nu <= -1:
@@ -86,6 +90,7 @@ def poisson(nu: float) -> str | None:
 
 
 def at_least_one(x: float) -> str | None:
+    """≥ 1"""
     return None if x >= 1 else "must be at least 1"
 
 
@@ -99,8 +104,10 @@ def quantity(
     check: Check | None = None,
     display: str | None = None,
     optional: bool = False,
+    allowed: str | None = None,
 ) -> Any:
-    """Annotated float field read from a quantity string and stored in SI."""
+    """Annotated float field read from a quantity string and stored in SI; ``allowed``: the
+    allowed values in words (default: the docstring of ``check``)."""
     dimensionless = dimension == "dimensionless"
     shown = example if dimensionless else f'"{example}"'
 
@@ -116,7 +123,7 @@ def quantity(
             raise field_error("case_value", f"{problem}; use e.g. {shown}")
         return si
 
-    meta = FieldMeta(shown, dimension, display)
+    meta = FieldMeta(shown, dimension, display, allowed or (check.__doc__ if check else None))
     if optional:
         return Annotated[float | None, BeforeValidator(validate), meta]
     return Annotated[float, BeforeValidator(validate), meta]
@@ -137,7 +144,10 @@ def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
             check_limit(value, limit, example)
         return value
 
-    return Annotated[int, BeforeValidator(validate), FieldMeta(str(example))]
+    bound = f"; at most {limit.default:,.0f} (${limit.env})" if limit is not None else ""
+    allowed = f"whole number ≥ {minimum}{bound}"
+    return Annotated[int, BeforeValidator(validate), FieldMeta(str(example), None, None, allowed,
+                                                               minimum)]  # fmt: skip
 
 
 def check_limit(value: int, limit: Limit, example: object) -> None:
@@ -161,7 +171,8 @@ def text(example: str) -> Any:
 
 def choice(*options: str) -> Any:
     """Annotated string field that must be one of ``options`` (the first is the example)."""
-    return Annotated[Literal[options], FieldMeta(toml_value(options[0]))]  # type: ignore[valid-type]
+    allowed = ", ".join(toml_value(o) for o in options)
+    return Annotated[Literal[options], FieldMeta(toml_value(options[0]), allowed=allowed)]  # type: ignore[valid-type]
 
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")

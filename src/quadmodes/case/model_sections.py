@@ -190,6 +190,7 @@ class Pressure(Section):
         "0.3 psi",
         lambda p: None if p > 0 else "must be positive for a membrane",
         "psi",
+        allowed="> 0",
     )
     gas_law_exponent: quantity("dimensionless", "0", nonnegative) = 0.0
     steps: integer(1, 1, INFLATION_STEPS) = 1
