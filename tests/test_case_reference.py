@@ -151,3 +151,15 @@ def test_show_case_checks_run_case_files_and_prints_them_as_written(tmp_path):
     (tmp_path / "mine.toml").write_text(MODEL.replace('"10 in"', '"10 kg"'))
     result = runner.invoke(app, ["show-case", str(tmp_path / "run.toml")])
     assert result.exit_code == 2 and "geometry.diameter" in result.output  # its model checked
+
+
+def test_the_walk_through_cases_load_and_declare_the_schema():
+    """docs/your-own-body.md's case files: written from the reference, valid, and pointing
+    taplo at the schema with a header directive."""
+    from quadmodes.case import load_case, load_run_case
+
+    folder = ROOT / "docs" / "examples"
+    run = load_run_case(folder / "flat-cylinder-5hz.toml")
+    assert run.model_case() == load_case(folder / "flat-cylinder.toml")
+    for path in folder.glob("*.toml"):
+        assert path.read_text().startswith("#:schema ../case-schema.json\n")
