@@ -126,3 +126,30 @@ def test_flat_cylinder_modes_include_the_bending_pair():
     labels = model.labels
     assert any(lab.startswith("bending") for lab in labels)
     assert np.all(model.modes.frequencies_hz > 1.0)  # no mechanism from the wrinkled rim
+
+
+def test_equilibrium_does_not_depend_on_the_load_steps(inflated):
+    """An elastic body's inflated state is path independent: four load steps (a quarter of the
+    pressure first, grown on quick success) reach the one-step state, up to a rigid motion (the
+    frame conditions hold per increment): the same stresses and volume."""
+    case, structure, x, state = inflated
+    stepped = case.model_copy(update={"pressure": case.pressure.model_copy(update={"steps": 4})})
+    _, state4 = reference_state(stepped, structure_for_case(stepped))
+    largest = np.abs(state.stress_resultants).max()
+    assert np.abs(state4.stress_resultants - state.stress_resultants).max() < 1e-6 * largest
+    assert state4.volume == pytest.approx(state.volume, rel=1e-9)
+    assert state4.residual_norm < 1e-8
+
+
+def test_newton_alone_fails_from_the_drawn_flat_ends_and_continuation_succeeds():
+    """The negative control: from the stress-free drawn shape (8 cm edges) Newton at full
+    pressure does not converge (the flat discs have no stiffness out of their plane); the
+    pseudo-transient continuation from the same start does."""
+    from quadmodes.fe.model import with_load_factor, with_tension_field
+
+    case = _case(edge="8 cm")
+    loaded = with_load_factor(with_tension_field(structure_for_case(case), False), 1.0)
+    with pytest.raises(prestress.ConvergenceError):
+        prestress.solve_static(loaded, loaded.reference)
+    _, rel, _ = prestress.solve_pseudo_transient(loaded, loaded.reference)
+    assert rel < 1e-8

@@ -89,8 +89,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "value": "gauge inflation pressure p",
         "gas_law_exponent": "polytropic exponent κ of the gas (p V^κ constant during vibration); "
         "0 keeps p constant, 1 isothermal, 1.4 adiabatic air",
-        "steps": "load steps of the inflation: the first pressure increment is value / steps; "
-        "raise it when the inflation fails",
+        "steps": "load steps of the inflation: the first pressure increment is value / steps "
+        "(default 1: the whole pressure at once, cut automatically where that fails); raise it "
+        "when the inflation fails",
     },
     "EndBody": {
         "name": "the body's name (used in mode labels, e.g. \"rocking (tip)\")",

@@ -129,11 +129,14 @@ def quantity(
     return Annotated[float, BeforeValidator(validate), meta]
 
 
-def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
+def integer(example: int, minimum: int, limit: Limit | None = None, optional: bool = False) -> Any:
     """Annotated whole-number field (no booleans, no fractions); at most ``limit`` (a bound of
-    :mod:`quadmodes.limits`, read when the case is validated) when given."""
+    :mod:`quadmodes.limits`, read when the case is validated) when given; ``optional``: None
+    allowed (the field left out)."""
 
-    def validate(value: Any) -> int:
+    def validate(value: Any) -> int | None:
+        if value is None and optional:
+            return None
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         if isinstance(value, bool) or not isinstance(value, int):
@@ -146,8 +149,8 @@ def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
 
     bound = f"; at most {limit.default:,.0f} (${limit.env})" if limit is not None else ""
     allowed = f"whole number ≥ {minimum}{bound}"
-    return Annotated[int, BeforeValidator(validate), FieldMeta(str(example), None, None, allowed,
-                                                               minimum)]  # fmt: skip
+    meta = FieldMeta(str(example), None, None, allowed, minimum)
+    return Annotated[int | None if optional else int, BeforeValidator(validate), meta]
 
 
 def check_limit(value: int, limit: Limit, example: object) -> None:

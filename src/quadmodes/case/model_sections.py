@@ -182,8 +182,8 @@ class Pressure(Section):
     The inflation follows the pressure from zero in increments of ``value / steps`` at first;
     an increment whose equilibrium is not found is halved, one found quickly doubles the next
     (at most ``value / steps``), and where Newton fails, pseudo-transient continuation takes over
-    (:func:`quadmodes.structure.prestress.inflate`). Raise ``steps`` for a body that only
-    inflates along a finely followed path."""
+    (:func:`quadmodes.structure.prestress.inflate`). Raise ``steps`` (default 1) for a body that
+    only inflates along a finely followed path."""
 
     value: quantity(
         "pressure",
@@ -193,7 +193,7 @@ class Pressure(Section):
         allowed="> 0",
     )
     gas_law_exponent: quantity("dimensionless", "0", nonnegative) = 0.0
-    steps: integer(1, 1, INFLATION_STEPS) = 1
+    steps: integer(10, 1, INFLATION_STEPS, optional=True) = None
 
 
 _INERTIA = quantity("inertia", "1e-5 kg m^2", nonnegative, "kg*m^2", optional=True)

@@ -244,7 +244,7 @@ def reference_state(
         )
     # Inflated from the stress-free (slack) state under SVK, then relaxed by the wrinkling law
     # when the case has it (the two laws agree wherever the membrane is taut).
-    state = inflate(structure, steps=case.pressure.steps, progress=progress)
+    state = inflate(structure, steps=case.pressure.steps or 1, progress=progress)
     minor, major = state.stress_resultants[:, 0], state.stress_resultants[:, 1]
     compressed = float(np.mean(minor < -1e-9 * np.abs(major).max()))
     if compressed > 0.05:
