@@ -324,7 +324,8 @@ def test_newton_failure(runner, tmp_path, monkeypatch):
     def failing_inflate(*args, **kwargs):
         raise ConvergenceError(
             "inflation: Newton did not converge (relative residual 1.00e-03 after 40 "
-            "iterations);\nuse more inflation steps, a finer mesh, or check the pressure"
+            "iterations);\nraise [pressure] steps (now 1), use a finer mesh ([mesh] edge_length) or check "
+            "the pressure"
         )
 
     monkeypatch.setattr("quadmodes.structure.pipeline.inflate", failing_inflate)

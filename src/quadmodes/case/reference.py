@@ -4,7 +4,7 @@ Every field of a model case (:class:`~quadmodes.case.model_case.Case`) and of a 
 (:class:`~quadmodes.case.run_case.RunCase`) with its meaning (:mod:`quadmodes.case.field_docs`),
 dimension and units, default, allowed values and an example (the field's own
 :class:`~quadmodes.case.meta.FieldMeta`). :func:`reference_markdown` is ``docs/case-reference.md``,
-:func:`json_schema` ``docs/case-schema.json`` (draft-07, read by TOML language servers such as
+:func:`json_schema` ``docs/case-schema.json`` (draft-04, read by TOML language servers such as
 taplo / Even Better TOML); ``tests/test_case_reference.py`` fails when the checked-in files
 differ from what the code generates.
 
@@ -241,28 +241,30 @@ def _field_schema(model: type[BaseModel], name: str, info: FieldInfo) -> dict[st
 
 def _table_schema(model: type[BaseModel]) -> dict[str, Any]:
     fields = model.model_fields
-    return {
+    schema = {
         "type": "object",
         "description": TABLE_DOCS[model.__name__],
         "properties": {name: _field_schema(model, name, info) for name, info in fields.items()},
         "required": [name for name, info in fields.items() if info.is_required()],
         "additionalProperties": False,
     }
+    if not schema["required"]:  # draft-04 wants a non-empty list, or none
+        del schema["required"]
+    return schema
 
 
 def json_schema() -> dict[str, Any]:
-    """The JSON Schema (draft-07) of a case file: a run case when ``kind = "run"``, else a
-    model case."""
+    """The JSON Schema of a case file, a model case or a run case (their ``kind`` tells them
+    apart). Draft-04 keywords only (``examples`` aside, which older readers ignore): taplo's
+    validator is documented to read draft 4."""
     definitions = {m.__name__: _table_schema(m) for _, m in tables(Case) + tables(RunCase)}
     return {
-        "$schema": "http://json-schema.org/draft-07/schema#",
+        "$schema": "http://json-schema.org/draft-04/schema#",
         "title": "quadmodes case file",
         "description": "A quadmodes model case (kind = membrane, beam, spacecraft) or run case "
         "(kind = run); docs/case-reference.md",
         "type": "object",
-        "if": {"properties": {"kind": {"const": "run"}}, "required": ["kind"]},
-        "then": {"$ref": "#/definitions/RunCase"},
-        "else": {"$ref": "#/definitions/Case"},
+        "anyOf": [{"$ref": "#/definitions/Case"}, {"$ref": "#/definitions/RunCase"}],
         "definitions": definitions,
     }
 
