@@ -82,14 +82,29 @@ def _default(model: type[BaseModel], name: str, info: FieldInfo) -> str:
     return toml_value(value)
 
 
+#: Units a quantity of each dimension is commonly given in (any unit pint reads is accepted).
+_COMMON_UNITS = {
+    "length": "m, cm, mm, in, ft",
+    "pressure": "Pa, kPa, psi, Mpsi, GPa",
+    "density": "kg/m^3, g/cm^3, lb/in^3",
+    "mass": "kg, g, lb",
+    "inertia": "kg*m^2, g*cm^2",
+    "angular_rate": "rad/s, Hz, rpm",
+    "angle": "rad, deg",
+    "time": "s, ms",
+    "area": "m^2, mm^2, in^2",
+    "second_moment": "m^4, mm^4, in^4",
+}
+
+
 def _unit(model: type[BaseModel], name: str) -> str:
     meta = field_meta(model, name)
     if meta.dimension is None:
         return ""
     if meta.dimension == "dimensionless":
         return "dimensionless (a number, or e.g. \"2 %\")"
-    shown = f", e.g. {meta.display}" if meta.display and meta.display != si_unit(meta.dimension) else ""
-    return f"{DIMENSIONS[meta.dimension].noun[2:].strip()} (SI {si_unit(meta.dimension)}{shown})"
+    common = _COMMON_UNITS.get(meta.dimension, si_unit(meta.dimension))
+    return f"{DIMENSIONS[meta.dimension].noun[2:].strip()} (SI {si_unit(meta.dimension)}; {common})"
 
 
 def _kind(model: type[BaseModel], name: str, info: FieldInfo) -> str:
@@ -184,7 +199,7 @@ meaning on hover, and unknown keys flagged.
 
   In VS Code the setting `"evenBetterToml.schema.associations"` does the same
   (`{".*/cases/.*\\\\.toml": "file:///path/to/case-schema.json"}`). Check a file from the shell
-  with `taplo check --schema file://$PWD/docs/case-schema.json my-case.toml`.
+  with `taplo lint --schema file://$PWD/docs/case-schema.json my-case.toml`.
 * The schema checks types, allowed choices and whole numbers; the rules that involve several
   fields (which fields a shape needs, an end body smaller than its cap, units of quantities)
   are checked by quadmodes itself: `quadmodes show-case my-case.toml` validates a file and
