@@ -21,14 +21,7 @@ from quadmodes.cli.analysis_commands import campbell, rotating_command
 from quadmodes.cli.cache_commands import cache_app
 from quadmodes.cli.common import out
 from quadmodes.cli.compare_command import compare_command
-from quadmodes.cli.model_commands import (
-    calibrate,
-    cases,
-    modes,
-    reduce_command,
-    schema,
-    show_case,
-)
+from quadmodes.cli.model_commands import calibrate, cases, modes, reduce_command, schema, show_case
 from quadmodes.cli.run_commands import run_command
 from quadmodes.cli.sweep_command import sweep_command
 from quadmodes.cli.validate_command import validate
