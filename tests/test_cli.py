@@ -146,7 +146,7 @@ def test_show_case_round_trips(runner):
     assert case_from_toml(result.stdout) == load_case("paper-membrane")
 
 
-def test_show_case_of_a_file_prints_si_toml_that_loads_back(runner, tmp_path):
+def test_show_case_of_a_file_prints_it_as_written_and_it_loads_back(runner, tmp_path):
     path = _write_case(tmp_path, _sphere_toml())
     result = runner.invoke(app, ["show-case", str(path)])
     assert result.exit_code == 0, result.output
@@ -324,7 +324,8 @@ def test_newton_failure(runner, tmp_path, monkeypatch):
     def failing_inflate(*args, **kwargs):
         raise ConvergenceError(
             "inflation: Newton did not converge (relative residual 1.00e-03 after 40 "
-            "iterations);\nuse more inflation steps, a finer mesh, or check the pressure"
+            "iterations);\nraise [pressure] steps (now 1), use a finer mesh ([mesh] edge_length) or check "
+            "the pressure"
         )
 
     monkeypatch.setattr("quadmodes.structure.pipeline.inflate", failing_inflate)

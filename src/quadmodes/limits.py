@@ -84,6 +84,9 @@ class Limit:
 #: Elastic modes a model case computes (``modes.count``): the eigensolver keeps count × 3n
 #: numbers; the built-in cases use 6 to 40.
 MODE_COUNT = Limit("QUADMODES_MAX_MODES", 500, "elastic modes")
+#: First load steps of the inflation (``pressure.steps``): each step is at least one Newton
+#: solve of the whole structure; the built-in cases use 1.
+INFLATION_STEPS = Limit("QUADMODES_MAX_INFLATION_STEPS", 1000, "inflation load steps")
 #: Elastic modes of a reduced model (``reduced.modes``, ``--modes``), a hard bound even with
 #: ``--yes``: the quartic terms alone hold N⁴ numbers (150 modes: 4 GB); the paper cases use 5.
 REDUCED_MODES = Limit("QUADMODES_MAX_REDUCED_MODES", 150, "modes of a reduced model")

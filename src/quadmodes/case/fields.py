@@ -68,18 +68,22 @@ Check = Callable[[float], str | None]
 
 
 def positive(x: float) -> str | None:
+    """> 0"""
     return None if x > 0 else "must be positive"
 
 
 def nonnegative(x: float) -> str | None:
+    """≥ 0"""
     return None if x >= 0 else "must not be negative"
 
 
 def ratio(x: float) -> str | None:
+    """0 ≤ value < 1"""
     return None if 0 <= x < 1 else "must satisfy 0 <= ratio < 1"
 
 
 def poisson(nu: float) -> str | None:
+    """−1 < value < 0.5"""
     if nu >= 0.5:
         return "must be below 0.5 for an isotropic membrane"
     if nu <= -1:
@@ -88,6 +92,7 @@ def poisson(nu: float) -> str | None:
 
 
 def at_least_one(x: float) -> str | None:
+    """≥ 1"""
     return None if x >= 1 else "must be at least 1"
 
 
@@ -101,8 +106,10 @@ def quantity(
     check: Check | None = None,
     display: str | None = None,
     optional: bool = False,
+    allowed: str | None = None,
 ) -> Any:
-    """Annotated float field read from a quantity string and stored in SI."""
+    """Annotated float field read from a quantity string and stored in SI; ``allowed``: the
+    allowed values in words (default: the docstring of ``check``)."""
     dimensionless = dimension == "dimensionless"
     shown = example if dimensionless else f'"{example}"'
 
@@ -118,7 +125,7 @@ def quantity(
             raise field_error("case_value", f"{problem}; use e.g. {shown}")
         return si
 
-    meta = FieldMeta(shown, dimension, display)
+    meta = FieldMeta(shown, dimension, display, allowed or (check.__doc__ if check else None))
     if optional:
         return Annotated[float | None, BeforeValidator(validate), meta]
     return Annotated[float, BeforeValidator(validate), meta]
@@ -136,11 +143,14 @@ def whole_number(value: Any) -> int | None:
     return None
 
 
-def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
+def integer(example: int, minimum: int, limit: Limit | None = None, optional: bool = False) -> Any:
     """Annotated whole-number field (no booleans, no fractions); at most ``limit`` (a bound of
-    :mod:`quadmodes.limits`, read when the case is validated) when given."""
+    :mod:`quadmodes.limits`, read when the case is validated) when given; ``optional``: None
+    allowed (the field left out)."""
 
-    def validate(value: Any) -> int:
+    def validate(value: Any) -> int | None:
+        if value is None and optional:
+            return None
         value = whole_number(value)
         if value is None:
             raise field_error("case_value", f"must be a whole number; use e.g. {example}")
@@ -150,7 +160,10 @@ def integer(example: int, minimum: int, limit: Limit | None = None) -> Any:
             check_limit(value, limit, example)
         return value
 
-    return Annotated[int, BeforeValidator(validate), FieldMeta(str(example))]
+    bound = f"; at most {limit.default:,.0f} (${limit.env})" if limit is not None else ""
+    allowed = f"whole number ≥ {minimum}{bound}"
+    meta = FieldMeta(str(example), None, None, allowed, minimum)
+    return Annotated[int | None if optional else int, BeforeValidator(validate), meta]
 
 
 def check_limit(value: int, limit: Limit, example: object) -> None:
@@ -174,7 +187,8 @@ def text(example: str) -> Any:
 
 def choice(*options: str) -> Any:
     """Annotated string field that must be one of ``options`` (the first is the example)."""
-    return Annotated[Literal[options], FieldMeta(toml_value(options[0]))]  # type: ignore[valid-type]
+    allowed = ", ".join(toml_value(o) for o in options)
+    return Annotated[Literal[options], FieldMeta(toml_value(options[0]), allowed=allowed)]  # type: ignore[valid-type]
 
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")

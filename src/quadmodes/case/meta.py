@@ -15,11 +15,14 @@ from pydantic import BaseModel
 
 @dataclass(frozen=True)
 class FieldMeta:
-    """Per-field metadata: TOML example, unit dimension (None if not a quantity), display unit."""
+    """Per-field metadata: TOML example, unit dimension (None if not a quantity), display unit,
+    the allowed values in words (for the case reference) and a whole number's least value."""
 
     example: str
     dimension: str | None = None
     display: str | None = None
+    allowed: str | None = None
+    minimum: int | None = None
 
 
 def toml_value(value: object) -> str:

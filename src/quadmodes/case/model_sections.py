@@ -28,7 +28,7 @@ from quadmodes.case.fields import (
     text,
 )
 from quadmodes.case.units import QuantityError, parse_quantity
-from quadmodes.limits import MODE_COUNT
+from quadmodes.limits import INFLATION_STEPS, MODE_COUNT
 
 _CAP_FIELDS = ("length", "front_cap_diameter", "rear_cap_diameter", "diameter", "file")
 _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
@@ -176,15 +176,24 @@ class Material(Section):
 
 
 class Pressure(Section):
-    """Inflation pressure (Pa, gauge) and polytropic gas-law exponent (0 = constant)."""
+    """Inflation pressure (Pa, gauge), polytropic gas-law exponent (0 = constant) and the
+    load steps of the inflation.
+
+    The inflation follows the pressure from zero in increments of ``value / steps`` at first;
+    an increment whose equilibrium is not found is halved, one found quickly doubles the next
+    (at most ``value / steps``), and where Newton fails, pseudo-transient continuation takes over
+    (:func:`quadmodes.structure.prestress.inflate`). Raise ``steps`` (default 1) for a body that
+    only inflates along a finely followed path."""
 
     value: quantity(
         "pressure",
         "0.3 psi",
         lambda p: None if p > 0 else "must be positive for a membrane",
         "psi",
+        allowed="> 0",
     )
     gas_law_exponent: quantity("dimensionless", "0", nonnegative) = 0.0
+    steps: integer(10, 1, INFLATION_STEPS, optional=True) = None
 
 
 _INERTIA = quantity("inertia", "1e-5 kg m^2", nonnegative, "kg*m^2", optional=True)

@@ -28,10 +28,12 @@ from quadmodes.case.units import format_quantity
 
 
 def _cone(theta: float) -> str | None:
+    """0 deg ≤ value < 90 deg"""
     return None if 0.0 <= theta < 0.5 * math.pi else "must satisfy 0 deg <= cone_angle < 90 deg"
 
 
 def _rtol(x: float) -> str | None:
+    """0 < value < 1"""
     return None if 0.0 < x < 1.0 else "must satisfy 0 < rtol < 1"
 
 
@@ -61,6 +63,7 @@ def _modes(value: Any) -> int | str:
 
 
 def _margin(x: float) -> str | None:
+    """≥ 1"""
     return None if x >= 1.0 else "must be at least 1 (modes up to mode_margin × spin frequency)"
 
 
@@ -86,7 +89,8 @@ class RunReduced(Section):
     (:mod:`quadmodes.rom.spinning_reduction`); the steady centrifugal stretch is then in the
     reference instead of in the modal coordinates."""
 
-    modes: Annotated[int | Literal["auto"], BeforeValidator(_modes), FieldMeta("5")] = 5
+    modes: Annotated[int | Literal["auto"], BeforeValidator(_modes),
+                     FieldMeta("5", allowed='whole number ≥ 1, or "auto"')] = 5  # fmt: skip
     formulation: choice("Q", "P", "L", "rigid", "Q4") = "Q"
     mode_margin: quantity("dimensionless", "2.5", _margin, optional=True) = None
     reference: choice("rest", "spinning") = "rest"

@@ -21,7 +21,7 @@ from quadmodes.cli.analysis_commands import campbell, rotating_command
 from quadmodes.cli.cache_commands import cache_app
 from quadmodes.cli.common import out
 from quadmodes.cli.compare_command import compare_command
-from quadmodes.cli.model_commands import calibrate, cases, modes, reduce_command, show_case
+from quadmodes.cli.model_commands import calibrate, cases, modes, reduce_command, schema, show_case
 from quadmodes.cli.run_commands import run_command
 from quadmodes.cli.shape import QuadmodesCommand
 from quadmodes.cli.sweep_command import sweep_command
@@ -72,6 +72,7 @@ def version() -> None:
 
 app.command(cls=QuadmodesCommand)(cases)
 app.command("show-case", cls=QuadmodesCommand)(show_case)
+app.command(cls=QuadmodesCommand)(schema)
 app.command(cls=QuadmodesCommand)(modes)
 app.command(cls=QuadmodesCommand)(calibrate)
 app.command(cls=QuadmodesCommand)(validate)

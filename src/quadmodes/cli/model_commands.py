@@ -1,4 +1,5 @@
-"""Commands on the structural model: ``cases``, ``show-case``, ``modes``, ``calibrate``, ``reduce``."""
+"""Commands on the structural model: ``cases``, ``show-case``, ``schema``, ``modes``,
+``calibrate``, ``reduce``."""
 
 from __future__ import annotations
 
@@ -54,8 +55,9 @@ def cases(as_json: JsonFlag = False) -> None:
 
 
 def show_case(name: AnyCase, as_json: JsonFlag = False) -> None:
-    """Print a case as TOML (copy it, edit it, pass the file to any command); --json: the same
-    content as a JSON object."""
+    """Print a case as TOML (copy it, edit it, pass the file to any command): a built-in model
+    or run case, or a case file (model or run case: checked, then printed as written, with its
+    units and comments); --json: the same content as a JSON object."""
     import tomllib
 
     from quadmodes.case import builtin_case_names, builtin_case_text, builtin_run_case_names
@@ -64,8 +66,31 @@ def show_case(name: AnyCase, as_json: JsonFlag = False) -> None:
         if name in builtin_case_names() or name in builtin_run_case_names(spinup=None):
             text = builtin_case_text(name)
         else:
-            text = load_model_case(name).to_toml()
+            text = checked_case_text(name)
     sys.stdout.write(json.dumps(tomllib.loads(text), indent=2) + "\n" if as_json else text)
+
+
+def checked_case_text(path: str) -> str:
+    """The text of the case file ``path`` after validating it as a run case (``kind = "run"``)
+    or a model case; a problem raises the case error naming the field."""
+    from quadmodes.case import builtin_case_names, load_case, load_run_case
+    from quadmodes.case.toml_reading import parse_toml, read_case_file
+
+    text, _ = read_case_file(path, "case", builtin_case_names())
+    if parse_toml(text, path).get("kind") == "run":
+        load_run_case(path).model_case()  # the run and its model
+    else:
+        load_case(path)
+    return text
+
+
+def schema(markdown: Annotated[bool, typer.Option("--markdown", help="print the case-file "
+           "reference (docs/case-reference.md) instead")] = False) -> None:  # fmt: skip
+    """Print the JSON Schema of case files (docs/case-schema.json) for editors: TOML language
+    servers such as taplo / Even Better TOML read it (docs/case-reference.md, "Editor support")."""
+    from quadmodes.case.reference import reference_markdown, schema_text
+
+    sys.stdout.write(reference_markdown() if markdown else schema_text())
 
 
 # ------------------------------------------------------------------------------ modes
@@ -106,6 +131,7 @@ def _print_modes_summary(name: str, summary: dict) -> None:
             f"{100 * p['volume_change']:.3f} %, stress resultants "
             f"{p['stress_resultant_min_n_per_m']:.3g}–{p['stress_resultant_max_n_per_m']:.3g} N/m, "
             f"{p['elements_in_compression']} elements in compression"
+            + (f", {p['elements_wrinkled']} wrinkled" if p.get("elements_wrinkled") else "")
         )
     if spinning:
         out.print(
