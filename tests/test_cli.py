@@ -29,7 +29,7 @@ from quadmodes.structure.prestress import ConvergenceError
 
 BUILTINS = [
     "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
-    "paper-membrane-rim", "sphere", "spinning-disc", "two-blade-rotor",
+    "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc", "two-blade-rotor",
 ]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi
 

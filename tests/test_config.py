@@ -19,7 +19,7 @@ from quadmodes.case import (
 
 BUILTINS = [
     "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
-    "paper-membrane-rim", "sphere", "spinning-disc", "two-blade-rotor",
+    "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc", "two-blade-rotor",
 ]
 
 

@@ -30,15 +30,24 @@ from quadmodes.case.fields import (
 from quadmodes.case.units import QuantityError, parse_quantity
 from quadmodes.limits import MODE_COUNT
 
-_CAP_FIELDS = ("length", "front_cap_diameter", "rear_cap_diameter", "diameter", "file")
+_CAP_FIELDS = (
+    "length", "front_cap_diameter", "rear_cap_diameter", "diameter", "inner_diameter",
+    "side_length", "file",
+)  # fmt: skip
 _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
     "sphere-cone": ("length", "front_cap_diameter", "rear_cap_diameter"),
     "sphere": ("diameter",),
     "capsule": ("length", "diameter"),
     "flat-cylinder": ("length", "diameter"),
     "disc": ("diameter",),
+    "annulus": ("diameter", "inner_diameter"),
+    "square": ("side_length", "inner_diameter"),
     "file": ("file",),
 }
+#: Flat open membranes: no pressure, held taut by their spin (``[spin]``); those with a central
+#: hole are clamped on its edge to a rigid hub (``[hub]``).
+FLAT_SHAPES = ("disc", "annulus", "square")
+HUB_SHAPES = ("annulus", "square")
 
 
 class Geometry(Section):
@@ -48,14 +57,20 @@ class Geometry(Section):
     by a tangent cone; a capsule is a cylinder with hemispherical ends; a flat-cylinder has
     flat end discs; ``file`` is a mesh file (relative paths are taken from the case file).
     A ``disc`` is an open flat membrane in the plane normal to the axis (no pressure: it is
-    held taut by its spin, ``[spin]``).
+    held taut by its spin, ``[spin]``); an ``annulus`` (outer ``diameter``) and a ``square``
+    sail (``side_length``) are flat too, with a central hole of ``inner_diameter`` whose edge
+    is clamped to a rigid hub (``[hub]``).
     """
 
-    shape: choice("sphere-cone", "sphere", "capsule", "flat-cylinder", "disc", "file")
+    shape: choice(
+        "sphere-cone", "sphere", "capsule", "flat-cylinder", "disc", "annulus", "square", "file"
+    )
     length: quantity("length", "60 in", positive, "in", optional=True) = None
     front_cap_diameter: quantity("length", "5 in", positive, "in", optional=True) = None
     rear_cap_diameter: quantity("length", "20 in", positive, "in", optional=True) = None
     diameter: quantity("length", "20 in", positive, "in", optional=True) = None
+    inner_diameter: quantity("length", "1.6 m", positive, "m", optional=True) = None
+    side_length: quantity("length", "14 m", positive, "m", optional=True) = None
     file: Annotated[str | None, FieldMeta('"body.vtu"')] = None
     #: the length unit of the mesh file's coordinates (default metres), e.g. "mm", "in"
     file_unit: Annotated[str | None, FieldMeta('"mm"')] = None
@@ -122,6 +137,14 @@ class Geometry(Section):
                     'for a ball use shape = "sphere"',
                     "length",
                 )
+        outer = self.side_length if self.shape == "square" else self.diameter
+        if self.inner_diameter is not None and self.inner_diameter >= 0.9 * outer:
+            raise field_error(
+                "case_rule",
+                f"{self.inner_diameter:.4g} m must be below 0.9 × the outer size {outer:.4g} m; "
+                "use a smaller hub",
+                "inner_diameter",
+            )
         if self.file_unit is not None and self.shape != "file":
             raise field_error(
                 "case_rule", 'only used with shape = "file" (a mesh file); remove it', "file_unit"
@@ -132,6 +155,8 @@ class Geometry(Section):
         """Radius (m) of the sphere or end disc at ``pole`` ("front"/"rear"); None for a file."""
         if self.shape == "file":
             return None
+        if self.shape == "square":
+            return (self.side_length or 0.0) / 2
         if self.shape == "sphere-cone":
             cap = self.front_cap_diameter if pole == "front" else self.rear_cap_diameter
             return (cap or 0.0) / 2
@@ -197,6 +222,17 @@ class Spin(Section):
     (:mod:`quadmodes.structure.flat_spin`)."""
 
     rate: quantity("angular_rate", "1 rad/s", positive)
+
+
+class TipMass(Section):
+    """A point mass (kg) at a corner of a square sail, bonded to the membrane within ``patch``
+    (m) of the corner and spread over that patch (by area): its load converges as the mesh is
+    refined (fe/hub_membrane.py)."""
+
+    name: text("+x+y")
+    corner: choice("+x+y", "-x+y", "-x-y", "+x-y")
+    mass: quantity("mass", "0.5 kg", positive, "kg")
+    patch: quantity("length", "0.3 m", positive, "m")
 
 
 class EndBody(Section):

@@ -71,7 +71,7 @@ def in_plane_equilibrium(
     its centre of mass: ``(x (n, 3) m, relative residual, iterations)``."""
     if not structure.is_free:
         raise ValueError("flat spinning equilibrium: only free membranes are supported")
-    if not is_flat(x_flat, axis):
+    if not is_flat(x_flat[structure.translational], axis):
         raise ValueError("flat spinning equilibrium: the membrane is not flat normal to the axis")
     e = unit_axis(axis)
     centre = default_centre(structure, x_flat)

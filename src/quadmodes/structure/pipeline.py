@@ -25,7 +25,7 @@ from quadmodes.fe.build import (
     build_membrane_structure,
 )
 from quadmodes.fe.hub import BoomSpec, HubSpec, build_hub_structure
-from quadmodes.fe.membrane import MembraneSet
+from quadmodes.fe.hub_membrane import PointMassSpec, build_hub_membrane_structure
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
@@ -35,6 +35,7 @@ from quadmodes.fe.model import (
 )
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.mesh.flat import disc_surface
+from quadmodes.mesh.hub_flat import annulus_surface, hub_ring_nodes, square_surface
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
     capsule_profile,
@@ -95,8 +96,13 @@ def revolution_profile(case: Case):
 def surface_for_case(case: Case) -> TriangleSurface:
     """The stress-free membrane surface of a membrane case (m)."""
     revolution = revolution_profile(case)
-    if case.geometry.shape == "disc":
-        surface = disc_surface(0.5 * case.geometry.diameter, case.mesh.edge_length)
+    g, h = case.geometry, case.mesh.edge_length
+    if g.shape == "disc":
+        surface = disc_surface(0.5 * g.diameter, h)
+    elif g.shape == "annulus":
+        surface = annulus_surface(0.5 * g.diameter, 0.5 * g.inner_diameter, h)
+    elif g.shape == "square":
+        surface = square_surface(g.side_length, 0.5 * g.inner_diameter, h)
     elif revolution is not None:
         profile, refine = revolution
         surface = mesh_revolution(profile, case.mesh.edge_length, case.mesh.elements_per_radius,
@@ -197,7 +203,27 @@ def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> St
         lumped_mass=case.mesh.mass_matrix == "lumped",
         tension_field=m.wrinkling == "tension-field",
     )
+    if case.hub is not None:
+        return hub_membrane_structure(case, surface, spec)
     return build_membrane_structure(surface.points, surface.triangles, spec, end_body_specs(case))
+
+
+def hub_membrane_structure(case: Case, surface: TriangleSurface, spec: MembraneSpec) -> Structure:
+    """The structure of a flat membrane clamped on its hole's edge to the case's rigid
+    ``[hub]`` (centred on the membrane's plane), with its ``[[tip_mass]]`` on the corners
+    (:mod:`quadmodes.fe.hub_membrane`)."""
+    h, g = case.hub, case.geometry
+    half = 0.5 * (g.side_length or 0.0)
+    tips = [
+        PointMassSpec(t.name, t.mass, (half * float(t.corner[0] + "1"),
+                                       half * float(t.corner[2] + "1"), 0.0), t.patch)
+        for t in case.tip_mass
+    ]  # fmt: skip
+    return build_hub_membrane_structure(
+        surface.points, surface.triangles, spec, HubSpec(h.mass, (h.inertia_x, h.inertia_y,
+                                                                  h.inertia_z)),
+        hub_ring_nodes(surface.points, 0.5 * g.inner_diameter), h.rigidity, tips,
+    )  # fmt: skip
 
 
 #: Spin axis of a flat membrane: its normal, the body axis z of every built-in shape.
@@ -338,7 +364,7 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
     largest displacement from the stress-free state (m)."""
     resultants = np.concatenate([
         e.principal_stress_resultants(eq.x) for e in structure.elements
-        if isinstance(e, MembraneSet)
+        if hasattr(e, "principal_stress_resultants")
     ])  # fmt: skip
     return {
         "spin_rad_s": float(eq.spin),
@@ -347,7 +373,8 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
         "stress_resultant_min_n_per_m": float(resultants.min()),
         "stress_resultant_max_n_per_m": float(resultants.max()),
         "elements_in_compression": int(np.sum(resultants[:, 0] <= 0.0)),
-        "max_displacement_m": float(np.linalg.norm(eq.x - structure.reference, axis=1).max()),
+        "max_displacement_m": float(np.linalg.norm(
+            (eq.x - structure.reference)[structure.translational], axis=1).max()),
         "relative_residual": float(eq.residual),
     }
 
