@@ -28,7 +28,7 @@ from quadmodes.mesh.surface import TriangleSurface
 from quadmodes.structure.prestress import ConvergenceError
 
 BUILTINS = [
-    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "capsule", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane", "paper-membrane-coarse",
     "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc", "two-blade-rotor",
 ]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi

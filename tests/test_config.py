@@ -18,7 +18,7 @@ from quadmodes.case import (
 )
 
 BUILTINS = [
-    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "capsule", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane", "paper-membrane-coarse",
     "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc", "two-blade-rotor",
 ]
 

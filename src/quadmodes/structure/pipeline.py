@@ -362,10 +362,11 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
     """JSON-ready figures of a spinning reference state: spin (rad/s, Hz), the modes'
     frequency ratios ω/Ω (rotating frame), the principal stress resultants (N/m) and the
     largest displacement from the stress-free state (m)."""
-    resultants = np.concatenate([
-        e.principal_stress_resultants(eq.x) for e in structure.elements
-        if hasattr(e, "principal_stress_resultants")
-    ])  # fmt: skip
+    sets = [e for e in structure.elements if hasattr(e, "principal_stress_resultants")]
+    resultants = np.concatenate([e.principal_stress_resultants(eq.x) for e in sets])
+    area = np.concatenate([e.area0 if hasattr(e, "area0") else e.inner.area0 for e in sets])
+    centres = np.concatenate([_centroids(e, eq.x) for e in sets])
+    k = int(np.argmin(resultants[:, 0]))
     return {
         "spin_rad_s": float(eq.spin),
         "spin_hz": float(eq.spin) / (2.0 * np.pi),
@@ -373,10 +374,22 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
         "stress_resultant_min_n_per_m": float(resultants.min()),
         "stress_resultant_max_n_per_m": float(resultants.max()),
         "elements_in_compression": int(np.sum(resultants[:, 0] <= 0.0)),
+        # where the membrane is least taut (the slack-onset check of a flat spinning membrane:
+        # its out-of-plane modes change no strain to first order, so it is the state's own)
+        "compressed_area_fraction": float(area[resultants[:, 0] <= 0.0].sum() / area.sum()),
+        "least_tension_n_per_m": float(resultants[k, 0]),
+        "least_tension_position_m": centres[k].tolist(),
         "max_displacement_m": float(np.linalg.norm(
             (eq.x - structure.reference)[structure.translational], axis=1).max()),
         "relative_residual": float(eq.residual),
     }
+
+
+def _centroids(element_set, x: np.ndarray) -> np.ndarray:
+    """Element centroids ``(ne, 3)`` (m) of a membrane set (or an image set's) at ``x``."""
+    if hasattr(element_set, "inner"):  # fe.hub_membrane.ImageSet: its virtual node positions
+        return element_set._virtual(x).reshape(len(element_set.conn), -1, 3).mean(axis=1)
+    return x[element_set.conn].mean(axis=1)
 
 
 def mode_slack_onsets(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> list:
