@@ -142,3 +142,36 @@ def test_case_rules():
                                  "patch": "0.2 m"}]}, "test")  # fmt: skip
     with pytest.raises(CaseError, match="inner_diameter"):
         edit(ann, {"geometry.inner_diameter": None}, "test")
+
+
+def test_open_mesh_file_without_pressure(tmp_path):
+    """A flat open surface read from a mesh file (meshio) with a ``[spin]`` and no pressure: the
+    annulus's own mesh as a .vtu, on the same hub (``geometry.inner_diameter``), has the
+    built-in case's modes; without a hub the disc's; a surface that is not flat is refused."""
+    import meshio
+
+    from quadmodes.mesh.flat import disc_surface
+    from quadmodes.structure.pipeline import build_modal_model
+
+    ann = edit(load_case("spinning-annulus"), {"modes.count": 6}, "test")
+    s = annulus_surface(5.0, 0.8, 0.5)
+    meshio.write(tmp_path / "ann.vtu", meshio.Mesh(s.points, [("triangle", s.triangles)]))
+    geometry = {"shape": "file", "file": str(tmp_path / "ann.vtu"), "inner_diameter": "1.6 m"}
+    from_file = edit(ann, {"geometry": geometry}, "test")
+    a, b = build_modal_model(ann), build_modal_model(from_file)
+    np.testing.assert_allclose(b.modes.frequencies_hz, a.modes.frequencies_hz, rtol=1e-9)
+    d = disc_surface(1.0, 0.125)
+    meshio.write(tmp_path / "disc.vtu", meshio.Mesh(d.points, [("triangle", d.triangles)]))
+    disc = edit(load_case("spinning-disc"), {"mesh.edge_length": "0.125 m", "geometry.diameter": "2 m",
+                                             "modes.count": 5}, "test")  # fmt: skip
+    disc_file = edit(disc, {"geometry": {"shape": "file", "file": str(tmp_path / "disc.vtu")}},
+                     "test")  # fmt: skip
+    np.testing.assert_allclose(build_modal_model(disc_file).modes.frequencies_hz,
+                               build_modal_model(disc).modes.frequencies_hz, rtol=1e-9)  # fmt: skip
+    bent = d.points.copy()
+    bent[:, 2] = 0.01 * bent[:, 0] ** 2
+    meshio.write(tmp_path / "bent.vtu", meshio.Mesh(bent, [("triangle", d.triangles)]))
+    with pytest.raises(ValueError, match="must be flat in a plane normal to z"):
+        build_modal_model(edit(disc_file, {"geometry.file": str(tmp_path / "bent.vtu")}, "test"))
+    with pytest.raises(CaseError, match="needs both"):
+        edit(from_file, {"geometry.inner_diameter": None}, "test")

@@ -110,18 +110,29 @@ class Case(Section):
                 )
 
     @property
+    def _flat(self) -> bool:
+        """A flat membrane without pressure: a disc, an annulus, a square, or a mesh file with
+        a ``[spin]`` table."""
+        if self.kind != "membrane" or self.geometry is None:
+            return False
+        shape = self.geometry.shape
+        return shape in FLAT_SHAPES or (shape == "file" and self.spin is not None)
+
+    @property
     def _hub_shape(self) -> bool:
-        """A flat membrane clamped to a rigid hub (an annulus or a square sail)."""
-        return self.kind == "membrane" and self.geometry is not None and (
-            self.geometry.shape in HUB_SHAPES
+        """A flat membrane clamped to a rigid hub (an annulus, a square sail, or a flat mesh
+        file with a ``[hub]``)."""
+        if self.kind != "membrane" or self.geometry is None:
+            return False
+        return self.geometry.shape in HUB_SHAPES or (
+            self.geometry.shape == "file" and self.hub is not None
         )
 
     def _check_spin_table(self) -> None:
         """A flat membrane (disc, annulus, square) has no stiffness at rest: no ``[pressure]``
         (it is open), a ``[spin]`` table and no end bodies (yet); every other body has no
         ``[spin]`` table."""
-        flat = self.kind == "membrane" and self.geometry.shape in FLAT_SHAPES
-        if not flat:
+        if not self._flat:
             if self.spin is not None:
                 raise field_error(
                     "case_rule",
@@ -158,6 +169,22 @@ class Case(Section):
         whose damping is the membrane's (``material.damping_ratio``); ``[[tip_mass]]`` tables
         only on a square sail, one per corner."""
         see = 'see "quadmodes show-case spinning-annulus"'
+        file = self.kind == "membrane" and self.geometry.shape == "file"
+        if file and (self.hub is not None) != (self.geometry.inner_diameter is not None):
+            missing = "geometry.inner_diameter" if self.hub is not None else "hub"
+            raise field_error(
+                "case_rule",
+                "a mesh file on a hub needs both [hub] and geometry.inner_diameter (its boundary "
+                "nodes within that diameter of the z axis are clamped to the hub); give both",
+                missing,
+            )
+        if file and self.hub is not None and self.spin is None:
+            raise field_error(
+                "case_rule",
+                "a mesh file on a hub is a flat membrane without pressure: give a [spin] table "
+                'instead of [pressure], e.g. rate = "1 rad/s"',
+                "spin",
+            )
         if self._hub_shape:
             if self.hub is None:
                 raise field_error(
@@ -197,9 +224,8 @@ class Case(Section):
 
     def _check_membrane_tables(self) -> None:
         see = 'see "quadmodes show-case paper-membrane"'
-        flat = self.geometry is not None and self.geometry.shape in FLAT_SHAPES
         for section in _MEMBRANE_SECTIONS:
-            if section == "pressure" and flat:
+            if section == "pressure" and self._flat:
                 continue  # checked by _check_spin_table
             if getattr(self, section) is None:
                 raise field_error(

@@ -48,6 +48,8 @@ _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
 #: hole are clamped on its edge to a rigid hub (``[hub]``).
 FLAT_SHAPES = ("disc", "annulus", "square")
 HUB_SHAPES = ("annulus", "square")
+#: Fields a shape may take besides its own: a mesh file on a hub names the hub's diameter.
+_OPTIONAL_SHAPE_FIELDS: dict[str, tuple[str, ...]] = {"file": ("inner_diameter",)}
 
 
 class Geometry(Section):
@@ -111,7 +113,7 @@ class Geometry(Section):
                     f'missing; shape = "{self.shape}" needs it, e.g. {name} = {example}',
                     name,
                 )
-            if given and name not in needed:
+            if given and name not in needed + _OPTIONAL_SHAPE_FIELDS.get(self.shape, ()):
                 raise field_error(
                     "case_rule",
                     f'not used for shape = "{self.shape}"; remove it '
@@ -138,7 +140,9 @@ class Geometry(Section):
                     "length",
                 )
         outer = self.side_length if self.shape == "square" else self.diameter
-        if self.inner_diameter is not None and self.inner_diameter >= 0.9 * outer:
+        if self.shape != "file" and self.inner_diameter is not None and (
+            self.inner_diameter >= 0.9 * outer
+        ):
             raise field_error(
                 "case_rule",
                 f"{self.inner_diameter:.4g} m must be below 0.9 × the outer size {outer:.4g} m; "

@@ -109,12 +109,44 @@ def surface_for_case(case: Case) -> TriangleSurface:
                                   refine)  # fmt: skip
     else:
         surface = read_surface(case.geometry.file, case.geometry.file_scale())
+        if case.spin is not None:
+            check_flat_file(surface)
     if case.pressure is not None and case.pressure.value > 0.0:
         check_closed_surface(surface)
     if min_angle_deg(surface.points, surface.triangles) < 5.0:
         raise ValueError("mesh: triangles with angles below 5° found; remesh or change edge_length")
     check_surface_plausibility(case, surface)
     return surface
+
+
+def check_flat_file(surface: TriangleSurface) -> None:
+    """A mesh file with ``[spin]`` (a membrane without pressure) must be flat in a plane normal
+    to z, the spin axis of a flat membrane; ValueError naming ``geometry.file`` otherwise."""
+    z = surface.points[:, 2]
+    extent = float(np.ptp(surface.points, axis=0).max())
+    if np.ptp(z) > 1e-9 * extent:
+        raise ValueError(
+            f"geometry.file: a membrane without pressure ([spin]) must be flat in a plane normal "
+            f"to z, its spin axis; this surface spans {np.ptp(z):.3g} m in z; rotate the mesh "
+            "into an x-y plane"
+        )
+
+
+def file_hub_nodes(surface: TriangleSurface, inner_radius: float) -> np.ndarray:
+    """The boundary nodes of a flat mesh file within ``inner_radius`` (m) of the z axis: those
+    clamped to its hub (``geometry.inner_diameter``); ValueError if fewer than 3."""
+    from quadmodes.mesh.surface import boundary_edges
+
+    rim = np.unique(boundary_edges(surface.triangles))
+    r = np.hypot(surface.points[rim, 0], surface.points[rim, 1])
+    nodes = rim[r <= inner_radius * (1.0 + 1e-6)]
+    if len(nodes) < 3:
+        raise ValueError(
+            f"geometry.inner_diameter: only {len(nodes)} boundary nodes of the mesh file lie "
+            f"within {inner_radius:.4g} m of the z axis; the hub needs the edge of a hole around "
+            "the axis: check the diameter or the mesh"
+        )
+    return nodes
 
 
 def check_surface_plausibility(case: Case, surface: TriangleSurface) -> None:
@@ -219,10 +251,14 @@ def hub_membrane_structure(case: Case, surface: TriangleSurface, spec: MembraneS
                                        half * float(t.corner[2] + "1"), 0.0), t.patch)
         for t in case.tip_mass
     ]  # fmt: skip
+    b = 0.5 * g.inner_diameter
+    if g.shape == "file":  # the hub at the axis, in the membrane's plane
+        ring, centre = file_hub_nodes(surface, b), (0.0, 0.0, float(surface.points[0, 2]))
+    else:
+        ring, centre = hub_ring_nodes(surface.points, b), (0.0, 0.0, 0.0)
     return build_hub_membrane_structure(
-        surface.points, surface.triangles, spec, HubSpec(h.mass, (h.inertia_x, h.inertia_y,
-                                                                  h.inertia_z)),
-        hub_ring_nodes(surface.points, 0.5 * g.inner_diameter), h.rigidity, tips,
+        surface.points, surface.triangles, spec,
+        HubSpec(h.mass, (h.inertia_x, h.inertia_y, h.inertia_z), centre), ring, h.rigidity, tips,
     )  # fmt: skip
 
 
