@@ -28,7 +28,8 @@ from quadmodes.mesh.surface import TriangleSurface
 from quadmodes.structure.prestress import ConvergenceError
 
 BUILTINS = [
-    "capsule", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "capsule", "heliogyro-blade", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane",
+    "paper-membrane-coarse",
     "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc", "two-blade-rotor",
 ]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi

@@ -18,7 +18,8 @@ from quadmodes.case import (
 )
 
 BUILTINS = [
-    "capsule", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane", "paper-membrane-coarse",
+    "capsule", "heliogyro-blade", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane",
+    "paper-membrane-coarse",
     "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc", "two-blade-rotor",
 ]
 

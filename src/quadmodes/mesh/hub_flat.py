@@ -1,5 +1,6 @@
-"""Flat open membranes around a central hole (the hub): an annulus and a square sail with a
-circular cut-out, in the x-y plane (normal +z), centred on the origin.
+"""Flat open membranes around a central hole (the hub): an annulus, a square sail with a
+circular cut-out and radial strips (heliogyro blades), in the x-y plane (normal +z), centred on
+the origin.
 
 Both are ``K + 1`` closed node rings between the hole's circle (ring 0, radius ``b``, the nodes
 clamped to the hub) and the outer boundary (ring K): ring k is the curve ``(1 − s_k) b û(θ) +
@@ -26,6 +27,8 @@ __all__ = [
     "hub_ring_nodes",
     "hub_surface_node_count",
     "square_surface",
+    "strip_root_nodes",
+    "strip_surface",
 ]
 
 _SAMPLES = 4096  # points per ring polyline for the arc-length placement of the nodes
@@ -144,3 +147,42 @@ def corner_nodes(points: np.ndarray, side: float) -> dict[str, int]:
             raise ValueError(f"mesh: the corner {name} of the square is not a node")
         out[name] = i
     return out
+
+
+def strip_surface(
+    inner_radius: float, length: float, width: float, blades: int, edge_length: float
+) -> TriangleSurface:
+    """``blades`` flat rectangular strips (heliogyro blades) of ``length`` × ``width`` (m) at
+    equal azimuths from the first along +x, each from ``inner_radius`` (m) outwards: a
+    structured grid of ``ceil(length / h) × max(2, ceil(width / h))`` cells split into
+    triangles by alternating diagonals (h = ``edge_length``, m). The root edge of each (its
+    nodes at ``inner_radius`` along its axis) is clamped to the hub."""
+    nx = max(2, int(np.ceil(length / edge_length - 1e-9)))
+    ny = max(2, int(np.ceil(width / edge_length - 1e-9)))
+    x = inner_radius + length * np.arange(nx + 1) / nx
+    y = width * (np.arange(ny + 1) / ny - 0.5)
+    gx, gy = np.meshgrid(x, y, indexing="ij")
+    local = np.column_stack([gx.ravel(), gy.ravel()])
+    node = np.arange((nx + 1) * (ny + 1)).reshape(nx + 1, ny + 1)
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    a, b, c, d = node[i, j], node[i + 1, j], node[i + 1, j + 1], node[i, j + 1]
+    flip = ((i + j) % 2).astype(bool)
+    t1 = np.where(flip[..., None], np.stack([a, b, d], -1), np.stack([a, b, c], -1))
+    t2 = np.where(flip[..., None], np.stack([b, c, d], -1), np.stack([a, c, d], -1))
+    cells = np.concatenate([t1.reshape(-1, 3), t2.reshape(-1, 3)])
+    points, triangles = [], []
+    for k in range(blades):
+        phi = 2.0 * np.pi * k / blades
+        rot = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]])
+        triangles.append(cells + k * len(local))
+        points.append(local @ rot.T)
+    xy = np.concatenate(points)
+    return TriangleSurface(np.column_stack([xy, np.zeros(len(xy))]), np.concatenate(triangles))
+
+
+def strip_root_nodes(points: np.ndarray, inner_radius: float, blades: int) -> np.ndarray:
+    """Indices of the nodes of :func:`strip_surface` on a blade's root edge."""
+    phi = 2.0 * np.pi * np.arange(blades) / blades
+    axes = np.column_stack([np.cos(phi), np.sin(phi)])
+    along = (points[:, :2] @ axes.T).max(axis=1)  # along the blade the node belongs to
+    return np.flatnonzero(np.abs(along - inner_radius) <= 1e-9 * max(inner_radius, 1.0))

@@ -56,6 +56,10 @@ def estimate_size(case: Case) -> SizeEstimate | None:
     elif case.geometry.shape == "disc":
         nodes = disc_node_count(0.5 * case.geometry.diameter, case.mesh.edge_length)
         field = "mesh.edge_length"
+    elif case.geometry.shape == "strip":
+        g, h = case.geometry, case.mesh.edge_length
+        nx, ny = max(2, math.ceil(g.length / h - 1e-9)), max(2, math.ceil(g.width / h - 1e-9))
+        nodes, field = 4 + (g.blades or 4) * (nx + 1) * (ny + 1), "mesh.edge_length"
     elif case.geometry.shape in ("annulus", "square"):
         g = case.geometry
         outer = 0.5 * g.diameter if g.shape == "annulus" else g.side_length

@@ -35,7 +35,13 @@ from quadmodes.fe.model import (
 )
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.mesh.flat import disc_surface
-from quadmodes.mesh.hub_flat import annulus_surface, hub_ring_nodes, square_surface
+from quadmodes.mesh.hub_flat import (
+    annulus_surface,
+    hub_ring_nodes,
+    square_surface,
+    strip_root_nodes,
+    strip_surface,
+)
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
     capsule_profile,
@@ -103,6 +109,8 @@ def surface_for_case(case: Case) -> TriangleSurface:
         surface = annulus_surface(0.5 * g.diameter, 0.5 * g.inner_diameter, h)
     elif g.shape == "square":
         surface = square_surface(g.side_length, 0.5 * g.inner_diameter, h)
+    elif g.shape == "strip":
+        surface = strip_surface(0.5 * g.inner_diameter, g.length, g.width, g.blades or 4, h)
     elif revolution is not None:
         profile, refine = revolution
         surface = mesh_revolution(profile, case.mesh.edge_length, case.mesh.elements_per_radius,
@@ -254,6 +262,8 @@ def hub_membrane_structure(case: Case, surface: TriangleSurface, spec: MembraneS
     b = 0.5 * g.inner_diameter
     if g.shape == "file":  # the hub at the axis, in the membrane's plane
         ring, centre = file_hub_nodes(surface, b), (0.0, 0.0, float(surface.points[0, 2]))
+    elif g.shape == "strip":
+        ring, centre = strip_root_nodes(surface.points, b, g.blades or 4), (0.0, 0.0, 0.0)
     else:
         ring, centre = hub_ring_nodes(surface.points, b), (0.0, 0.0, 0.0)
     return build_hub_membrane_structure(
