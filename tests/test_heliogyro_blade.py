@@ -47,9 +47,13 @@ def test_flap_against_the_string():
     g = load_case("heliogyro-blade").geometry
     ref = flap_ratios(0.5 * g.inner_diameter, g.length, 2)
     for spin in (1.0, 3.0):
-        modes = blade_modes(_model(0.25, spin, 16))
+        model = _model(0.25, spin, 16)
+        modes = blade_modes(model)
         alt = sorted(r for r, kind, share in modes if kind == "flap" and share > 0.99)
         assert len(alt) == 2
+        names = [lab for lab, (_, kind, share) in zip(model.labels, modes, strict=True)
+                 if kind == "flap" and share > 0.99]  # fmt: skip
+        assert names == ["blade flap (n=2, s=0)", "blade flap (n=2, s=1)"]
         np.testing.assert_allclose(alt, ref, rtol=5e-4)  # 1e-6 and 3e-4
 
 

@@ -266,10 +266,20 @@ def hub_membrane_structure(case: Case, surface: TriangleSurface, spec: MembraneS
         ring, centre = strip_root_nodes(surface.points, b, g.blades or 4), (0.0, 0.0, 0.0)
     else:
         ring, centre = hub_ring_nodes(surface.points, b), (0.0, 0.0, 0.0)
-    return build_hub_membrane_structure(
+    structure = build_hub_membrane_structure(
         surface.points, surface.triangles, spec,
         HubSpec(h.mass, (h.inertia_x, h.inertia_y, h.inertia_z), centre), ring, h.rigidity, tips,
     )  # fmt: skip
+    if g.shape != "strip":
+        return structure
+    # the blades' nodes (strip_surface meshes them blade by blade), for the mode names
+    count = g.blades or 4
+    member = np.repeat(np.arange(count), len(surface.points) // count)
+    free = np.ones(len(surface.points), bool)
+    free[ring] = False
+    nodes = structure.groups["membrane"]
+    blades = {f"blade:{k}": nodes[member[free] == k] for k in range(count)}
+    return replace(structure, groups={**structure.groups, **blades})
 
 
 #: Spin axis of a flat membrane: its normal, the body axis z of every built-in shape.
