@@ -28,8 +28,9 @@ from quadmodes.mesh.surface import TriangleSurface
 from quadmodes.structure.prestress import ConvergenceError
 
 BUILTINS = [
-    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
-    "paper-membrane-rim", "sphere", "spinning-disc", "string-blade-rotor", "two-blade-rotor",
+    "capsule", "heliogyro-blade", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane",
+    "paper-membrane-coarse", "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc",
+    "string-blade-rotor", "two-blade-rotor",
 ]
 PAPER_PRESSURE_PA = 2068.427187950509  # 0.3 psi
 

@@ -18,8 +18,9 @@ from quadmodes.case import (
 )
 
 BUILTINS = [
-    "capsule", "hub-booms", "kane-beam", "paper-membrane", "paper-membrane-coarse",
-    "paper-membrane-rim", "sphere", "spinning-disc", "string-blade-rotor", "two-blade-rotor",
+    "capsule", "heliogyro-blade", "hub-booms", "ikaros-sail", "kane-beam", "paper-membrane",
+    "paper-membrane-coarse", "paper-membrane-rim", "sphere", "spinning-annulus", "spinning-disc",
+    "string-blade-rotor", "two-blade-rotor",
 ]
 
 

@@ -424,7 +424,9 @@ def _branch_labels(
     rotational perturbation ("nutation") or the model mode with the largest
     |δs_k|² + |δṡ_k|²/ω_k²; ``dedupe``: repeated names get " #2", " #3" …"""
     n = model.n_modes
-    om2 = np.maximum(np.diag(model.Lam), 1e-300) if n else np.zeros(0)
+    # ω_k² of the model's modes: about a spinning state those of its rotating-frame stiffness
+    # (Λ of a flat membrane is ≈ 0, of either sign, on the manifold: docs/sails.md)
+    om2 = np.maximum((2 * np.pi * np.asarray(model.frequencies_hz, float)) ** 2, 1e-300)
     labels = []
     for v in vectors:
         off = 3 if free else 0

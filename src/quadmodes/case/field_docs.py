@@ -25,8 +25,11 @@ TABLE_DOCS: dict[str, str] = {
     "[[end_body]] table for each pole that has one.",
     "Spin": "The spin of the reference state of a membrane without pressure (a disc).",
     "Beam": "A straight beam along x (kind = \"beam\").",
-    "Hub": "The rigid hub of a spacecraft (kind = \"spacecraft\").",
+    "Hub": "The rigid hub of a spacecraft (kind = \"spacecraft\") or of a flat membrane "
+    "clamped to it (annulus, square sail, heliogyro strips).",
     "Boom": "A straight 3-D beam clamped to the hub; repeat [[boom]] for each boom.",
+    "TipMass": "A point mass at a corner of a square sail, spread over a small patch of the "
+    "membrane there; repeat [[tip_mass]] for each corner that has one.",
     "Modes": "How many elastic modes the model case computes.",
     "RunCase": "A run case: a model with the reduced model, initial state and time integration "
     "of one run.",
@@ -45,25 +48,38 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "geometry": "the membrane's shape (membrane cases)",
         "mesh": "the triangulation (membrane cases)",
         "material": "the membrane's material (membrane cases)",
-        "pressure": "the inflation (membrane cases, except a disc)",
+        "pressure": "the inflation (membrane cases, except the open flat ones)",
         "end_body": "rigid bodies at the poles (membrane cases; at most one per pole)",
-        "spin": "the reference spin of a disc (membrane cases without pressure only)",
+        "spin": "the reference spin of an open flat membrane (disc, annulus, square, strip, flat "
+        "mesh file; membrane cases without pressure only)",
         "beam": "the beam (kind = \"beam\")",
-        "hub": "the rigid hub (kind = \"spacecraft\")",
+        "hub": "the rigid hub (kind = \"spacecraft\"; or the hub an annulus, square sail or "
+        "strips are clamped to)",
         "boom": "the booms on the hub (kind = \"spacecraft\")",
+        "tip_mass": "point masses at the corners of a square sail",
         "modes": "the modes computed",
     },
     "Geometry": {
         "shape": "sphere-cone: two spherical caps joined by a tangent cone; sphere; capsule: a "
         "cylinder with hemispherical ends; flat-cylinder: a cylinder closed by flat discs; "
-        "disc: an open flat membrane (no pressure); file: a surface mesh file",
+        "disc: an open flat membrane (no pressure); annulus, square, strip: open flat membranes "
+        "clamped to a rigid [hub] (a spinning annulus, an IKAROS-like square sail, heliogyro "
+        "blades); file: a surface mesh file",
         "length": "overall pole-to-pole length L of the body along its axis (sphere-cone, "
         "capsule, flat-cylinder)",
         "front_cap_diameter": "diameter of the front (z = 0) spherical cap of a sphere-cone",
         "rear_cap_diameter": "diameter of the rear (z = L) spherical cap of a sphere-cone",
-        "diameter": "diameter of a sphere, of a capsule's or flat-cylinder's cylinder, or of a disc",
-        "file": "a closed surface mesh (any format meshio reads: .vtu, .stl, .obj, .msh …); a "
-        "relative path is taken from the case file's folder",
+        "diameter": "diameter of a sphere, of a capsule's or flat-cylinder's cylinder, or the "
+        "outer diameter of a disc or annulus",
+        "inner_diameter": "diameter of the central hole whose edge is clamped to the rigid hub "
+        "(annulus, square sail; for strips the blade roots sit at half of it from the axis; for a "
+        "flat mesh file the boundary nodes within it are clamped)",
+        "side_length": "side of the square sail (centred on the spin axis z)",
+        "width": "width of each heliogyro strip (its length is `length`, radially from the hub)",
+        "blades": "number of heliogyro strips, evenly spaced about the hub",
+        "file": "a surface mesh in any format meshio reads (.vtu, .stl, .obj, .msh …): closed "
+        "for a pressurised membrane, flat and open with [spin]; a relative path is taken from "
+        "the case file's folder",
         "file_unit": "the length unit of the mesh file's coordinates (default metres)",
     },
     "Mesh": {
@@ -136,7 +152,15 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "inertia_y": "principal moment of inertia about y through the hub's centre",
         "inertia_z": "principal moment of inertia about z through the hub's centre",
         "damping_ratio": "modal damping ratio ζ of every elastic mode of the whole structure",
-        "rigidity": "stiffness of the hub's rigid triad relative to the stiffest boom root",
+        "rigidity": "stiffness of the hub's rigid triad relative to the stiffness of what is "
+        "attached to it (boom roots; a clamped membrane's rim): the hub deforms 1/rigidity as "
+        "much",
+    },
+    "TipMass": {
+        "name": "a label for the tip mass (e.g. its corner)",
+        "corner": "the corner of the square sail it sits at (+x+y, -x+y, -x-y or +x-y)",
+        "mass": "the tip mass",
+        "patch": "radius of the corner patch of membrane it is bonded to and spread over (by area)",
     },
     "Boom": {
         "name": "the boom's name (unique)",

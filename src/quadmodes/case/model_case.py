@@ -1,8 +1,9 @@
 """A model case: the top level of a membrane or beam case file, and its TOML text.
 
 A membrane case (``kind = "membrane"``) has ``[geometry]``, ``[mesh]``, ``[material]``,
-``[pressure]`` and any ``[[end_body]]`` tables (a flat ``disc`` has ``[spin]`` instead of
-``[pressure]``); a beam case (``kind = "beam"``) has ``[beam]``;
+``[pressure]`` and any ``[[end_body]]`` tables (a flat ``disc``, ``annulus`` or ``square`` has
+``[spin]`` instead of ``[pressure]``, the last two a ``[hub]`` and a square ``[[tip_mass]]``
+tables); a beam case (``kind = "beam"``) has ``[beam]``;
 a spacecraft case (``kind = "spacecraft"``) has ``[hub]`` and ``[[boom]]`` tables; all may have
 ``[modes]``. :func:`case_to_toml` writes a case in SI units; the text loads back
 to an equal case.
@@ -16,6 +17,8 @@ from pydantic import Field, field_validator, model_validator
 
 from quadmodes.case.fields import Section, choice, field_error, inch, text, toml_value, valid_name
 from quadmodes.case.model_sections import (
+    FLAT_SHAPES,
+    HUB_SHAPES,
     Beam,
     Boom,
     EndBody,
@@ -26,6 +29,7 @@ from quadmodes.case.model_sections import (
     Modes,
     Pressure,
     Spin,
+    TipMass,
 )
 from quadmodes.case.toml_writing import section_lines, toml_document
 
@@ -48,6 +52,7 @@ class Case(Section):
     beam: Beam | None = None
     hub: Hub | None = None
     boom: tuple[Boom, ...] = ()
+    tip_mass: tuple[TipMass, ...] = ()
     modes: Modes = Field(default_factory=Modes)
 
     @field_validator("name")
@@ -66,8 +71,11 @@ class Case(Section):
         else:
             self._check_spacecraft_tables()
         self._check_spin_table()
+        self._check_hub_membrane()
         if self.kind != "spacecraft":
             for section in ("hub", "boom"):
+                if section == "hub" and self._hub_shape:
+                    continue  # checked by _check_hub_membrane
                 if getattr(self, section):
                     raise field_error(
                         "case_rule",
@@ -101,46 +109,123 @@ class Case(Section):
                     f"boom[{i}].name",
                 )
 
+    @property
+    def _flat(self) -> bool:
+        """A flat membrane without pressure: a disc, an annulus, a square, or a mesh file with
+        a ``[spin]`` table."""
+        if self.kind != "membrane" or self.geometry is None:
+            return False
+        shape = self.geometry.shape
+        return shape in FLAT_SHAPES or (shape == "file" and self.spin is not None)
+
+    @property
+    def _hub_shape(self) -> bool:
+        """A flat membrane clamped to a rigid hub (an annulus, a square sail, or a flat mesh
+        file with a ``[hub]``)."""
+        if self.kind != "membrane" or self.geometry is None:
+            return False
+        return self.geometry.shape in HUB_SHAPES or (
+            self.geometry.shape == "file" and self.hub is not None
+        )
+
     def _check_spin_table(self) -> None:
-        """A flat disc has no stiffness at rest: no ``[pressure]`` (it is open), a ``[spin]``
-        table and no end bodies (yet); every other body has no ``[spin]`` table."""
-        disc = self.kind == "membrane" and self.geometry.shape == "disc"
-        if not disc:
+        """A flat membrane (disc, annulus, square) has no stiffness at rest: no ``[pressure]``
+        (it is open), a ``[spin]`` table and no end bodies (yet); every other body has no
+        ``[spin]`` table."""
+        if not self._flat:
             if self.spin is not None:
                 raise field_error(
                     "case_rule",
-                    'only used for a membrane without pressure (geometry.shape = "disc"); '
-                    "remove it",
+                    "only used for a membrane without pressure (geometry.shape = \"disc\", "
+                    '"annulus" or "square"); remove it',
                     "spin",
                 )
             return
+        shape = self.geometry.shape
         see = 'see "quadmodes show-case spinning-disc"'
         if self.pressure is not None:
             raise field_error(
                 "case_rule",
-                'not used for shape = "disc": an open membrane holds no pressure; remove the '
-                f"[pressure] table ({see})",
+                f'not used for shape = "{shape}": an open membrane holds no pressure; remove '
+                f"the [pressure] table ({see})",
                 "pressure",
             )
         if self.spin is None:
             raise field_error(
                 "case_rule",
-                'missing; shape = "disc" has no stiffness at rest and needs a [spin] table, '
-                f'e.g. rate = "1 rad/s" ({see})',
+                f'missing; shape = "{shape}" has no stiffness at rest and needs a [spin] '
+                f'table, e.g. rate = "1 rad/s" ({see})',
                 "spin",
             )
         if self.end_body:
             raise field_error(
                 "case_rule",
-                'not supported for shape = "disc" yet; remove the [[end_body]] tables',
+                f'not supported for shape = "{shape}" yet; remove the [[end_body]] tables',
                 "end_body",
             )
 
+    def _check_hub_membrane(self) -> None:
+        """An annulus or a square sail needs a ``[hub]`` (its inner edge is clamped to it),
+        whose damping is the membrane's (``material.damping_ratio``); ``[[tip_mass]]`` tables
+        only on a square sail, one per corner."""
+        see = 'see "quadmodes show-case spinning-annulus"'
+        file = self.kind == "membrane" and self.geometry.shape == "file"
+        if file and (self.hub is not None) != (self.geometry.inner_diameter is not None):
+            missing = "geometry.inner_diameter" if self.hub is not None else "hub"
+            raise field_error(
+                "case_rule",
+                "a mesh file on a hub needs both [hub] and geometry.inner_diameter (its boundary "
+                "nodes within that diameter of the z axis are clamped to the hub); give both",
+                missing,
+            )
+        if file and self.hub is not None and self.spin is None:
+            raise field_error(
+                "case_rule",
+                "a mesh file on a hub is a flat membrane without pressure: give a [spin] table "
+                'instead of [pressure], e.g. rate = "1 rad/s"',
+                "spin",
+            )
+        if self._hub_shape:
+            if self.hub is None:
+                raise field_error(
+                    "case_rule",
+                    f'missing; shape = "{self.geometry.shape}" is clamped to a rigid hub at '
+                    f"its inner edge and needs a [hub] table with mass and inertias ({see})",
+                    "hub",
+                )
+            if self.hub.damping_ratio:
+                raise field_error(
+                    "case_rule",
+                    "not used for a membrane on a hub (the structure's damping is "
+                    "material.damping_ratio); remove it",
+                    "hub.damping_ratio",
+                )
+        square = self.kind == "membrane" and self.geometry.shape == "square"
+        if self.tip_mass and not square:
+            raise field_error(
+                "case_rule", 'only used with geometry.shape = "square"; remove it', "tip_mass"
+            )
+        corners = [t.corner for t in self.tip_mass]
+        names = [t.name for t in self.tip_mass]
+        for i, tip in enumerate(self.tip_mass):
+            for field, values in (("corner", corners), ("name", names)):
+                if values[i] in values[:i]:
+                    raise field_error(
+                        "case_rule",
+                        f"{toml_value(values[i])} is used twice; one tip mass per {field}",
+                        f"tip_mass[{i}].{field}",
+                    )
+            if tip.patch >= 0.25 * self.geometry.side_length:
+                raise field_error(
+                    "case_rule",
+                    f"{tip.patch:.4g} m must be below a quarter of the side; use a smaller patch",
+                    f"tip_mass[{i}].patch",
+                )
+
     def _check_membrane_tables(self) -> None:
         see = 'see "quadmodes show-case paper-membrane"'
-        disc = self.geometry is not None and self.geometry.shape == "disc"
         for section in _MEMBRANE_SECTIONS:
-            if section == "pressure" and disc:
+            if section == "pressure" and self._flat:
                 continue  # checked by _check_spin_table
             if getattr(self, section) is None:
                 raise field_error(
@@ -250,6 +335,7 @@ def case_tables(case: Case, prefix: str = "") -> list[tuple[str, list[str]]]:
     ]
     tables += [(f"[[{head}end_body]]", section_lines(body)) for body in case.end_body]
     tables += [(f"[[{head}boom]]", section_lines(boom)) for boom in case.boom]
+    tables += [(f"[[{head}tip_mass]]", section_lines(tip)) for tip in case.tip_mass]
     return tables
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Self
 
+import numpy as np
 from pydantic import ValidationInfo, field_validator, model_validator
 
 from quadmodes.case.fields import (
@@ -30,15 +31,29 @@ from quadmodes.case.fields import (
 from quadmodes.case.units import QuantityError, parse_quantity
 from quadmodes.limits import INFLATION_STEPS, MODE_COUNT
 
-_CAP_FIELDS = ("length", "front_cap_diameter", "rear_cap_diameter", "diameter", "file")
+_CAP_FIELDS = (
+    "length", "front_cap_diameter", "rear_cap_diameter", "diameter", "inner_diameter",
+    "side_length", "width", "blades", "file",
+)  # fmt: skip
 _SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
     "sphere-cone": ("length", "front_cap_diameter", "rear_cap_diameter"),
     "sphere": ("diameter",),
     "capsule": ("length", "diameter"),
     "flat-cylinder": ("length", "diameter"),
     "disc": ("diameter",),
+    "annulus": ("diameter", "inner_diameter"),
+    "square": ("side_length", "inner_diameter"),
+    "strip": ("length", "width", "inner_diameter"),
     "file": ("file",),
 }
+#: Flat open membranes: no pressure, held taut by their spin (``[spin]``); those with a central
+#: hole are clamped on its edge to a rigid hub (``[hub]``).
+FLAT_SHAPES = ("disc", "annulus", "square", "strip")
+HUB_SHAPES = ("annulus", "square", "strip")
+#: Fields a shape may take besides its own: a mesh file on a hub names the hub's diameter.
+_OPTIONAL_SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
+    "file": ("inner_diameter",), "strip": ("blades",),
+}  # fmt: skip
 
 
 class Geometry(Section):
@@ -48,14 +63,25 @@ class Geometry(Section):
     by a tangent cone; a capsule is a cylinder with hemispherical ends; a flat-cylinder has
     flat end discs; ``file`` is a mesh file (relative paths are taken from the case file).
     A ``disc`` is an open flat membrane in the plane normal to the axis (no pressure: it is
-    held taut by its spin, ``[spin]``).
+    held taut by its spin, ``[spin]``); an ``annulus`` (outer ``diameter``) and a ``square``
+    sail (``side_length``) are flat too, with a central hole of ``inner_diameter`` whose edge
+    is clamped to a rigid hub (``[hub]``); a ``strip`` is ``blades`` (default 4) radial
+    membrane strips of ``length`` × ``width`` (heliogyro blades) whose root edges, at
+    ``inner_diameter`` / 2 from the axis, are clamped to the hub.
     """
 
-    shape: choice("sphere-cone", "sphere", "capsule", "flat-cylinder", "disc", "file")
+    shape: choice(
+        "sphere-cone", "sphere", "capsule", "flat-cylinder", "disc", "annulus", "square", "strip",
+        "file",
+    )
     length: quantity("length", "60 in", positive, "in", optional=True) = None
     front_cap_diameter: quantity("length", "5 in", positive, "in", optional=True) = None
     rear_cap_diameter: quantity("length", "20 in", positive, "in", optional=True) = None
     diameter: quantity("length", "20 in", positive, "in", optional=True) = None
+    inner_diameter: quantity("length", "1.6 m", positive, "m", optional=True) = None
+    side_length: quantity("length", "14 m", positive, "m", optional=True) = None
+    width: quantity("length", "0.5 m", positive, "m", optional=True) = None
+    blades: integer(4, 1, optional=True) = None
     file: Annotated[str | None, FieldMeta('"body.vtu"')] = None
     #: the length unit of the mesh file's coordinates (default metres), e.g. "mm", "in"
     file_unit: Annotated[str | None, FieldMeta('"mm"')] = None
@@ -96,7 +122,7 @@ class Geometry(Section):
                     f'missing; shape = "{self.shape}" needs it, e.g. {name} = {example}',
                     name,
                 )
-            if given and name not in needed:
+            if given and name not in needed + _OPTIONAL_SHAPE_FIELDS.get(self.shape, ()):
                 raise field_error(
                     "case_rule",
                     f'not used for shape = "{self.shape}"; remove it '
@@ -122,16 +148,45 @@ class Geometry(Section):
                     'for a ball use shape = "sphere"',
                     "length",
                 )
+        outer = self.side_length if self.shape == "square" else self.diameter
+        if self.shape == "strip":
+            self._check_strip()
+        elif self.shape != "file" and self.inner_diameter is not None and (
+            self.inner_diameter >= 0.9 * outer
+        ):
+            raise field_error(
+                "case_rule",
+                f"{self.inner_diameter:.4g} m must be below 0.9 × the outer size {outer:.4g} m; "
+                "use a smaller hub",
+                "inner_diameter",
+            )
         if self.file_unit is not None and self.shape != "file":
             raise field_error(
                 "case_rule", 'only used with shape = "file" (a mesh file); remove it', "file_unit"
             )
         return self
 
+    def _check_strip(self) -> None:
+        """The blades' roots must not overlap at the hub."""
+        count = self.blades or 4
+        half = 0.5 * self.inner_diameter * np.sin(np.pi / count) if count > 1 else np.inf
+        if 0.5 * self.width >= half:
+            raise field_error(
+                "case_rule",
+                f"{self.width:.4g} m is too wide for {count} blades on a hub of "
+                f"{self.inner_diameter:.4g} m (their roots would overlap); use a width below "
+                f"{2 * half:.4g} m",
+                "width",
+            )
+
     def cap_radius(self, pole: str) -> float | None:
         """Radius (m) of the sphere or end disc at ``pole`` ("front"/"rear"); None for a file."""
         if self.shape == "file":
             return None
+        if self.shape == "square":
+            return (self.side_length or 0.0) / 2
+        if self.shape == "strip":
+            return 0.5 * (self.width or 0.0) * 4.0  # edges across a blade: at least 2
         if self.shape == "sphere-cone":
             cap = self.front_cap_diameter if pole == "front" else self.rear_cap_diameter
             return (cap or 0.0) / 2
@@ -206,6 +261,17 @@ class Spin(Section):
     (:mod:`quadmodes.structure.flat_spin`)."""
 
     rate: quantity("angular_rate", "1 rad/s", positive)
+
+
+class TipMass(Section):
+    """A point mass (kg) at a corner of a square sail, bonded to the membrane within ``patch``
+    (m) of the corner and spread over that patch (by area): its load converges as the mesh is
+    refined (fe/hub_membrane.py)."""
+
+    name: text("+x+y")
+    corner: choice("+x+y", "-x+y", "-x-y", "+x-y")
+    mass: quantity("mass", "0.5 kg", positive, "kg")
+    patch: quantity("length", "0.3 m", positive, "m")
 
 
 class EndBody(Section):

@@ -145,6 +145,11 @@ def _print_modes_summary(name: str, summary: dict) -> None:
             f"{spinning['elements_in_compression']} elements in compression, largest "
             f"displacement {spinning['max_displacement_m']:.3g} m"
         )
+        if spinning.get("compressed_area_fraction"):
+            where = ", ".join(f"{v:.3g}" for v in spinning["least_tension_position_m"])
+            out.print(f"  not taut on {100 * spinning['compressed_area_fraction']:.2g} % of the "
+                      f"area; least tension {spinning['least_tension_n_per_m']:.3g} N/m at "
+                      f"({where}) m")  # fmt: skip
     for warning in summary.get("warnings", ()):
         err.print(f"[bold yellow]warning:[/] {escape(warning)}", highlight=False, soft_wrap=True)
     if summary.get("slack_onset_m"):

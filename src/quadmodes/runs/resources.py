@@ -20,6 +20,7 @@ from quadmodes.case.plausibility import MIN_STRAIN, check_mass, check_strain_sca
 from quadmodes.limits import OUTPUT_BYTES, REDUCED_MODES, LimitError
 from quadmodes.mesh.estimate import revolution_node_count
 from quadmodes.mesh.flat import disc_node_count
+from quadmodes.mesh.hub_flat import hub_surface_node_count
 from quadmodes.structure.pipeline import revolution_profile
 
 __all__ = ["MIN_STRAIN", "MAX_NODES", "check_model_size", "check_reduced_size", "estimate_size"]
@@ -54,6 +55,16 @@ def estimate_size(case: Case) -> SizeEstimate | None:
         return None
     elif case.geometry.shape == "disc":
         nodes = disc_node_count(0.5 * case.geometry.diameter, case.mesh.edge_length)
+        field = "mesh.edge_length"
+    elif case.geometry.shape == "strip":
+        g, h = case.geometry, case.mesh.edge_length
+        nx, ny = max(2, math.ceil(g.length / h - 1e-9)), max(2, math.ceil(g.width / h - 1e-9))
+        nodes, field = 4 + (g.blades or 4) * (nx + 1) * (ny + 1), "mesh.edge_length"
+    elif case.geometry.shape in ("annulus", "square"):
+        g = case.geometry
+        outer = 0.5 * g.diameter if g.shape == "annulus" else g.side_length
+        nodes = 4 + hub_surface_node_count(g.shape, outer, 0.5 * g.inner_diameter,
+                                           case.mesh.edge_length)  # fmt: skip
         field = "mesh.edge_length"
     else:
         try:

@@ -27,6 +27,18 @@ def _radial_bins(rho: np.ndarray) -> np.ndarray:
     return np.clip((rho / (rho.max() + 1e-300) * count).astype(int), 0, count - 1)
 
 
+def _closed_ring(theta: np.ndarray) -> bool:
+    """True if the angles ``theta`` (rad) go round: no gap ten times the median gap between
+    neighbours (a ring's nodes are about evenly spread). The rings of a square sail beyond its
+    inscribed circle are only its corners, where every mode looks like n = 4; they are left out
+    of the harmonic split."""
+    if theta.size < 4:
+        return False
+    t = np.sort(theta)
+    gaps = np.diff(np.concatenate([t, [t[0] + 2.0 * np.pi]]))
+    return bool(gaps.max() < 10.0 * np.median(gaps))
+
+
 def disc_harmonics(points, w, weights, axis, centre) -> tuple[np.ndarray, np.ndarray]:
     """``(energy (K+1,), coefficients (bins, K+1) complex)`` of the out-of-plane displacement
     ``w`` (n,) (m) of the flat membrane ``points`` (n, 3) (m) with node masses ``weights`` (n,)
@@ -42,7 +54,8 @@ def disc_harmonics(points, w, weights, axis, centre) -> tuple[np.ndarray, np.nda
     ks = np.arange(MAX_HARMONIC + 1)
     energy = np.zeros(ks.size)
     coef = np.zeros((bins.max() + 1, ks.size), complex)
-    for b in np.unique(bins):
+    whole = [b for b in np.unique(bins) if _closed_ring(theta[bins == b])]
+    for b in whole or np.unique(bins):
         sel = bins == b
         m = weights[sel]
         c = (np.exp(-1j * np.outer(ks, theta[sel])) * m) @ w[sel] / m.sum()

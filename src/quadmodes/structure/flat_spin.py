@@ -71,7 +71,7 @@ def in_plane_equilibrium(
     its centre of mass: ``(x (n, 3) m, relative residual, iterations)``."""
     if not structure.is_free:
         raise ValueError("flat spinning equilibrium: only free membranes are supported")
-    if not is_flat(x_flat, axis):
+    if not is_flat(x_flat[structure.translational], axis):
         raise ValueError("flat spinning equilibrium: the membrane is not flat normal to the axis")
     e = unit_axis(axis)
     centre = default_centre(structure, x_flat)
@@ -89,8 +89,9 @@ def in_plane_equilibrium(
     for it in range(max_iterations + 1):
         rel = history[-1]
         # the residual's round-off floor is ~ eps / strain (the centrifugal strain of a slow
-        # spin is ~1e-7): stop when it no longer falls
-        stalled = len(history) > 3 and rel < 1e-6 and rel > 0.5 * min(history[-4:-1])
+        # spin is ~1e-7, of a 14 m sail at 1 rpm 3e-10, with a hub's stiff triad above it):
+        # stop when it no longer falls
+        stalled = len(history) > 3 and rel < 1e-4 and rel > 0.5 * min(history[-4:-1])
         if rel <= rtol or stalled:
             return x, float(rel), it
         k = (t.T @ rotating_stiffness(structure, x, spin, e) @ t).tocsr()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadmodes.fe.model import Structure, centre_of_mass, inertia_tensor
+from quadmodes.structure.blade_labels import blade_label
 from quadmodes.structure.disc_labels import disc_label
 
 #: Two modes with the same label within this relative frequency gap form a (degenerate) pair.
@@ -221,6 +222,9 @@ def label_modes(
         for name, idx in bodies.items():
             if ke[idx].sum() >= END_BODY_SHARE * total:
                 label = _end_body_label(name, x[idx], shape[idx], weights[idx], axis)
+        blades = [v for k, v in sorted(structure.groups.items()) if k.startswith("blade:")]
+        if label is None and blades:  # heliogyro blades on a hub (structure/blade_labels.py)
+            label = blade_label(x, shape, weights, blades, None)
         if label is None:
             if "membrane" in structure.groups:
                 idx = structure.groups["membrane"]

@@ -25,7 +25,7 @@ from quadmodes.fe.build import (
     build_membrane_structure,
 )
 from quadmodes.fe.hub import BoomSpec, HubSpec, build_hub_structure
-from quadmodes.fe.membrane import MembraneSet
+from quadmodes.fe.hub_membrane import PointMassSpec, build_hub_membrane_structure
 from quadmodes.fe.model import (
     Structure,
     centre_of_mass,
@@ -34,6 +34,13 @@ from quadmodes.fe.model import (
 )
 from quadmodes.fe.pressure import PressureSet
 from quadmodes.mesh.flat import disc_surface
+from quadmodes.mesh.hub_flat import (
+    annulus_surface,
+    hub_ring_nodes,
+    square_surface,
+    strip_root_nodes,
+    strip_surface,
+)
 from quadmodes.mesh.io import read_surface
 from quadmodes.mesh.revolution import (
     capsule_profile,
@@ -98,20 +105,59 @@ def revolution_profile(case: Case):
 def surface_for_case(case: Case) -> TriangleSurface:
     """The stress-free membrane surface of a membrane case (m)."""
     revolution = revolution_profile(case)
-    if case.geometry.shape == "disc":
-        surface = disc_surface(0.5 * case.geometry.diameter, case.mesh.edge_length)
+    g, h = case.geometry, case.mesh.edge_length
+    if g.shape == "disc":
+        surface = disc_surface(0.5 * g.diameter, h)
+    elif g.shape == "annulus":
+        surface = annulus_surface(0.5 * g.diameter, 0.5 * g.inner_diameter, h)
+    elif g.shape == "square":
+        surface = square_surface(g.side_length, 0.5 * g.inner_diameter, h)
+    elif g.shape == "strip":
+        surface = strip_surface(0.5 * g.inner_diameter, g.length, g.width, g.blades or 4, h)
     elif revolution is not None:
         profile, refine = revolution
         surface = mesh_revolution(profile, case.mesh.edge_length, case.mesh.elements_per_radius,
                                   refine)  # fmt: skip
     else:
         surface = read_surface(case.geometry.file, case.geometry.file_scale())
+        if case.spin is not None:
+            check_flat_file(surface)
     if case.pressure is not None and case.pressure.value > 0.0:
         check_closed_surface(surface)
     if min_angle_deg(surface.points, surface.triangles) < 5.0:
         raise ValueError("mesh: triangles with angles below 5° found; remesh or change edge_length")
     check_surface_plausibility(case, surface)
     return surface
+
+
+def check_flat_file(surface: TriangleSurface) -> None:
+    """A mesh file with ``[spin]`` (a membrane without pressure) must be flat in a plane normal
+    to z, the spin axis of a flat membrane; ValueError naming ``geometry.file`` otherwise."""
+    z = surface.points[:, 2]
+    extent = float(np.ptp(surface.points, axis=0).max())
+    if np.ptp(z) > 1e-9 * extent:
+        raise ValueError(
+            f"geometry.file: a membrane without pressure ([spin]) must be flat in a plane normal "
+            f"to z, its spin axis; this surface spans {np.ptp(z):.3g} m in z; rotate the mesh "
+            "into an x-y plane"
+        )
+
+
+def file_hub_nodes(surface: TriangleSurface, inner_radius: float) -> np.ndarray:
+    """The boundary nodes of a flat mesh file within ``inner_radius`` (m) of the z axis: those
+    clamped to its hub (``geometry.inner_diameter``); ValueError if fewer than 3."""
+    from quadmodes.mesh.surface import boundary_edges
+
+    rim = np.unique(boundary_edges(surface.triangles))
+    r = np.hypot(surface.points[rim, 0], surface.points[rim, 1])
+    nodes = rim[r <= inner_radius * (1.0 + 1e-6)]
+    if len(nodes) < 3:
+        raise ValueError(
+            f"geometry.inner_diameter: only {len(nodes)} boundary nodes of the mesh file lie "
+            f"within {inner_radius:.4g} m of the z axis; the hub needs the edge of a hole around "
+            "the axis: check the diameter or the mesh"
+        )
+    return nodes
 
 
 def check_surface_plausibility(case: Case, surface: TriangleSurface) -> None:
@@ -200,7 +246,43 @@ def structure_for_case(case: Case, surface: TriangleSurface | None = None) -> St
         lumped_mass=case.mesh.mass_matrix == "lumped",
         tension_field=m.wrinkling == "tension-field",
     )
+    if case.hub is not None:
+        return hub_membrane_structure(case, surface, spec)
     return build_membrane_structure(surface.points, surface.triangles, spec, end_body_specs(case))
+
+
+def hub_membrane_structure(case: Case, surface: TriangleSurface, spec: MembraneSpec) -> Structure:
+    """The structure of a flat membrane clamped on its hole's edge to the case's rigid
+    ``[hub]`` (centred on the membrane's plane), with its ``[[tip_mass]]`` on the corners
+    (:mod:`quadmodes.fe.hub_membrane`)."""
+    h, g = case.hub, case.geometry
+    half = 0.5 * (g.side_length or 0.0)
+    tips = [
+        PointMassSpec(t.name, t.mass, (half * float(t.corner[0] + "1"),
+                                       half * float(t.corner[2] + "1"), 0.0), t.patch)
+        for t in case.tip_mass
+    ]  # fmt: skip
+    b = 0.5 * g.inner_diameter
+    if g.shape == "file":  # the hub at the axis, in the membrane's plane
+        ring, centre = file_hub_nodes(surface, b), (0.0, 0.0, float(surface.points[0, 2]))
+    elif g.shape == "strip":
+        ring, centre = strip_root_nodes(surface.points, b, g.blades or 4), (0.0, 0.0, 0.0)
+    else:
+        ring, centre = hub_ring_nodes(surface.points, b), (0.0, 0.0, 0.0)
+    structure = build_hub_membrane_structure(
+        surface.points, surface.triangles, spec,
+        HubSpec(h.mass, (h.inertia_x, h.inertia_y, h.inertia_z), centre), ring, h.rigidity, tips,
+    )  # fmt: skip
+    if g.shape != "strip":
+        return structure
+    # the blades' nodes (strip_surface meshes them blade by blade), for the mode names
+    count = g.blades or 4
+    member = np.repeat(np.arange(count), len(surface.points) // count)
+    free = np.ones(len(surface.points), bool)
+    free[ring] = False
+    nodes = structure.groups["membrane"]
+    blades = {f"blade:{k}": nodes[member[free] == k] for k in range(count)}
+    return replace(structure, groups={**structure.groups, **blades})
 
 
 #: Spin axis of a flat membrane: its normal, the body axis z of every built-in shape.
@@ -345,10 +427,11 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
     """JSON-ready figures of a spinning reference state: spin (rad/s, Hz), the modes'
     frequency ratios ω/Ω (rotating frame), the principal stress resultants (N/m) and the
     largest displacement from the stress-free state (m)."""
-    resultants = np.concatenate([
-        e.principal_stress_resultants(eq.x) for e in structure.elements
-        if isinstance(e, MembraneSet)
-    ])  # fmt: skip
+    sets = [e for e in structure.elements if hasattr(e, "principal_stress_resultants")]
+    resultants = np.concatenate([e.principal_stress_resultants(eq.x) for e in sets])
+    area = np.concatenate([e.area0 if hasattr(e, "area0") else e.inner.area0 for e in sets])
+    centres = np.concatenate([_centroids(e, eq.x) for e in sets])
+    k = int(np.argmin(resultants[:, 0]))
     return {
         "spin_rad_s": float(eq.spin),
         "spin_hz": float(eq.spin) / (2.0 * np.pi),
@@ -360,9 +443,22 @@ def spinning_summary(structure: Structure, eq: SpinningEquilibrium, modes: Modal
         "stress_resultant_min_n_per_m": float(resultants.min()),
         "stress_resultant_max_n_per_m": float(resultants.max()),
         "elements_in_compression": int(np.sum(resultants[:, 0] <= 0.0)),
-        "max_displacement_m": float(np.linalg.norm(eq.x - structure.reference, axis=1).max()),
+        # where the membrane is least taut (the slack-onset check of a flat spinning membrane:
+        # its out-of-plane modes change no strain to first order, so it is the state's own)
+        "compressed_area_fraction": float(area[resultants[:, 0] <= 0.0].sum() / area.sum()),
+        "least_tension_n_per_m": float(resultants[k, 0]),
+        "least_tension_position_m": centres[k].tolist(),
+        "max_displacement_m": float(np.linalg.norm(
+            (eq.x - structure.reference)[structure.translational], axis=1).max()),
         "relative_residual": float(eq.residual),
     }
+
+
+def _centroids(element_set, x: np.ndarray) -> np.ndarray:
+    """Element centroids ``(ne, 3)`` (m) of a membrane set (or an image set's) at ``x``."""
+    if hasattr(element_set, "inner"):  # fe.hub_membrane.ImageSet: its virtual node positions
+        return element_set._virtual(x).reshape(len(element_set.conn), -1, 3).mean(axis=1)
+    return x[element_set.conn].mean(axis=1)
 
 
 def mode_slack_onsets(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> list:
