@@ -120,6 +120,15 @@ def test_a_comparison_a_campbell_diagram_and_a_sweep_read_back(workdir):
     _same_pictures(back, workdir / "sw", files, workdir)
 
 
+def test_a_spinup_read_back(tmp_path):
+    run = qm.run_case("kane-spinup", reduced={"modes": 2},
+                      spinup={"duration": "1 s", "ramp_time": "0.5 s", "samples": 51})  # fmt: skip
+    qm.write_results(qm.simulate(run), tmp_path / "spinup")
+    back = qm.open_results(tmp_path / "spinup" / "results.nc")
+    assert back.kind == "spin-up" and back.summary["case"] == "kane-spinup"
+    _same_pictures(back, tmp_path / "spinup", {"tip_deflection": "tip_deflection.png"}, tmp_path)
+
+
 def test_what_is_not_a_results_file_is_one_line(tmp_path):
     with pytest.raises(qm.InputError, match="does not exist"):
         qm.open_results(tmp_path / "nothing.nc")

@@ -312,4 +312,4 @@ def tip_deflection_figure(ds: xr.Dataset):
 
 def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """PNG of :func:`tip_deflection_figure` at ``path``."""
-    return save_png(tip_deflection_figure(ds), path, tight=False)
+    return save_png(tip_deflection_figure(ds), path)

@@ -94,7 +94,7 @@ def _path_row(s: dict) -> tuple[str, str, bool | None] | None:
 
 
 def _run_row(s: dict) -> tuple[str, str, bool | None]:
-    complete = s.get("status") == "complete"
+    complete = bool(s.get("complete", s.get("status") == "complete"))
     text = (f"{s.get('status', '?')}: {s.get('steps', '?')} steps of {_num(1e3 * s['dt_s'], '.3g')} ms "
             f"to t = {_num(s.get('t_end_s'))} s; |H| drift {_num(s.get('H_relative_drift'), '.2e')}, "
             f"energy balance error {_num(s.get('energy_balance_relative_error'), '.2e')}"
