@@ -31,7 +31,7 @@ from quadmodes.io.report import (
 )
 from quadmodes.io.verdict import compare_verdict, run_verdict
 
-__all__ = ["COMPARE_FIGURES", "MODEL_PICTURE", "RUN_FIGURES", "write_compare_report", "write_run_report"]
+__all__ = ["CAMPBELL_PICTURE", "COMPARE_FIGURES", "MODEL_PICTURE", "RUN_FIGURES", "write_compare_report", "write_run_report"]
 
 #: (file, caption) of the run figures shown in its report, in report order: each once
 #: (``summary.png`` gathers the same panels on one page and stays beside the report), with
@@ -69,10 +69,16 @@ COMPARE_FIGURES = tuple(
 MODEL_PICTURE = "model.png"
 
 
-def model_section(model, picture: str | Path | None = None) -> Section:
+#: The Campbell diagram of the run's model in a report folder, when the run drew one.
+CAMPBELL_PICTURE = "campbell.png"
+
+
+def model_section(model, picture: str | Path | None = None,
+                  campbell: str | Path | None = None) -> Section:  # fmt: skip
     """Mass, inertia about the centre of mass (and its principal moments), the picture of the
-    mesh (``picture``, a PNG, if it exists) and the retained modes of a
-    :class:`~quadmodes.rom.reduced.ReducedModel`."""
+    mesh (``picture``, a PNG, if it exists), the retained modes of a
+    :class:`~quadmodes.rom.reduced.ReducedModel` and its Campbell diagram (``campbell``, a
+    PNG, if it exists)."""
     j0 = np.asarray(model.J0, float)
     principal = np.linalg.eigvalsh(0.5 * (j0 + j0.T))
     spin = float(getattr(model, "reference_spin", 0.0))
@@ -91,7 +97,12 @@ def model_section(model, picture: str | Path | None = None) -> Section:
                   "retained modes (numbered from 1)") if rows else paragraph("no elastic modes (rigid body)")  # fmt: skip
     mesh = figure(picture, "The model: the inflated finite-element mesh (side view and a rotated "
                   "view; red: the ties of the rigid end bodies)") if picture is not None else ""  # fmt: skip
-    return Section("model", facts + mesh + modes + inertia)
+    diagram = figure(campbell, "Campbell diagram of the run's model: the frequency of every "
+                     "branch in the rotating frame against the spin rate, from rest to 1.25 × "
+                     "the run's spin (undamped, about the spinning relative equilibrium); "
+                     "the lines f = kΩ and the critical speeds where a branch meets them") \
+        if campbell is not None else ""  # fmt: skip
+    return Section("model", facts + mesh + modes + diagram + inertia)
 
 
 def _case_section(run, model_case, extra: list[tuple[str, object]]) -> Section:
@@ -200,7 +211,8 @@ def write_run_report(folder: str | Path, summary: dict, result) -> Path:
              if f[0] != "bending_mode_early.png" or early_window(span) < span]  # fmt: skip
     sections = [run_verdict(summary), _figures_section(folder, shown)]
     if getattr(result, "model", None) is not None and hasattr(result.model, "J0"):
-        sections.append(model_section(result.model, folder / MODEL_PICTURE))
+        sections.append(model_section(result.model, folder / MODEL_PICTURE,
+                                      folder / CAMPBELL_PICTURE))  # fmt: skip
     sections += [
         _checks_section(summary),
         _case_section(run, result.model_case, extra),

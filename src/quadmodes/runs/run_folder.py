@@ -295,6 +295,8 @@ def _run_data(result, extra: dict | None):
 
             figures.write_plots(ds, target)
             model_picture(result, target / MODEL_PICTURE)
+            for name, draw in getattr(result, "figures", ()):  # added by the analyses
+                draw(target / name)
 
         return (lambda scratch: results.write_run_data(result, scratch, extra)), draw_run
 
