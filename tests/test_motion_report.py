@@ -246,5 +246,7 @@ def test_compare_animate_writes_the_full_order_motion_and_a_report(workdir):
     assert np.abs(frames[-1][1]["displacement"]).max() > 1e-3
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "errors relative to the full order" in page and "<td>Q</td>" in page
-    assert page.count("data:image/png;base64,") == len(list(out.glob("compare_*.png"))) == 5
+    assert len(list(out.glob("compare_*.png"))) == 5 and (out / "model.png").is_file()
+    assert page.count("data:image/png;base64,") == len(list(out.glob("*.png"))) == 6
+    assert re.findall(r"<h2>([^<]*)</h2>", page)[:2] == ["the answer", "figures"]
     assert "https://" not in page and "http://" not in page

@@ -260,7 +260,7 @@ def write_compare_report(folder: str | Path, payload: dict, run, model_case, mod
         compare_verdict(payload),
         _figures_section(folder, COMPARE_FIGURES),
         Section("headline numbers", head + facts + notes),
-        *([model_section(model)] if model is not None else []),
+        *([model_section(model, folder / MODEL_PICTURE)] if model is not None else []),
         _case_section(run, model_case, [("window (s)", payload["window_s"])]),
     ]
     return write_report(folder, f"quadmodes compare: {payload['case']}", sections)
