@@ -169,14 +169,27 @@ def test_run_report_is_self_contained(workdir):
     folder = out / "small-run"
     page = (folder / "report.html").read_text(encoding="utf-8")
     summary = json.loads((folder / "summary.json").read_text())
-    for heading in ("headline numbers", "case", "model", "validity and convergence checks",
-                    "figures"):  # fmt: skip
-        assert f"<h2>{heading}</h2>" in page
+    headings = re.findall(r"<h2>([^<]*)</h2>", page)
+    assert headings[:2] == ["the answer", "figures"]  # the verdict first, then the figures
+    for heading in ("model", "validity and convergence checks", "case", "all headline numbers"):
+        assert heading in headings
+    box = page[page.index('<div class="verdict'):page.index("</div>")]
+    assert f'class="verdict {summary["spin_stability"]}"' in page
+    for row in ("coning rate", "coning time constant", "valid at the start",
+                "valid along the path", "the run"):  # fmt: skip
+        assert f"<th>{row}" in box
+    assert f"Spin {summary['spin_verdict']}"[:40] in box.replace("&#x27;", "'")
     assert "max |H(t) − H0| / |H0|" in page and f"<td>{summary['steps']}</td>" in page
     assert "retained modes (numbered from 1)" in page and "bending" in page
+    text = re.sub(r"data:image/png;base64,[^\"]*", "", page)
+    assert not re.search(r"Figs?\. ?\d", text)  # captions that stand alone: no figure numbers
     images = re.findall(r'<img [^>]*src="([^"]*)"', page)
-    pngs = sorted(p.name for p in folder.glob("*.png"))
-    assert len(images) == len(pngs) >= 7 and all(i.startswith("data:image/png;base64,") for i in images)
+    # each figure once: summary.png gathers the others' panels and stays out; the early times
+    # of this 0.04 s run are the whole run; the model's picture is in
+    pngs = {p.name for p in folder.glob("*.png")} - {"summary.png", "bending_mode_early.png"}
+    assert "model.png" in pngs and len(images) == len(pngs) >= 6
+    assert len(set(images)) == len(images)
+    assert all(i.startswith("data:image/png;base64,") for i in images)
     assert not re.search(r"(src|href)=\"(https?:)?//", page) and "http://" not in page
     assert "https://" not in page and "<script" not in page
 
@@ -233,5 +246,7 @@ def test_compare_animate_writes_the_full_order_motion_and_a_report(workdir):
     assert np.abs(frames[-1][1]["displacement"]).max() > 1e-3
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "errors relative to the full order" in page and "<td>Q</td>" in page
-    assert page.count("data:image/png;base64,") == len(list(out.glob("compare_*.png"))) == 5
+    assert len(list(out.glob("compare_*.png"))) == 5 and (out / "model.png").is_file()
+    assert page.count("data:image/png;base64,") == len(list(out.glob("*.png"))) == 6
+    assert re.findall(r"<h2>([^<]*)</h2>", page)[:2] == ["the answer", "figures"]
     assert "https://" not in page and "http://" not in page

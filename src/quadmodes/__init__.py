@@ -9,6 +9,7 @@ The public Python API (``quadmodes.__all__``, reference in docs/api.md)::
     result = qm.simulate(run)            # free-body run (or a [spinup])
     qm.write_results(result, "out/my-run")  # results.nc (CF), summary.json, PNGs, report.html
     qm.summary(result)["cone_angle_end_deg"]
+    back = qm.open_results("out/my-run")  # results.nc: .data, .summary, .plot("cone_angle")
 
 Quantities are accepted as strings ("0.3 psi"), pint quantities or SI floats; cases are
 validated like case files. The names are loaded on first use (``import quadmodes`` stays
@@ -53,6 +54,7 @@ __all__ = [
     "mode_convergence",
     "model_case",
     "modes_summary",
+    "open_results",
     "parse_quantity",
     "reduced_model",
     "results_dataset",

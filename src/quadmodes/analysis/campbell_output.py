@@ -18,6 +18,7 @@ from quadmodes.analysis.full_order_markers import (
     full_order_markers,
     marker_attrs,
     marker_variables,
+    markers_from_dataset,
     relabel,
 )
 from quadmodes.io import cf
@@ -26,8 +27,8 @@ from quadmodes.io.outputs import write_netcdf
 from quadmodes.limits import CAMPBELL_POINTS, check_count
 from quadmodes.rom.reduced import ReducedModel
 
-__all__ = ["campbell_main", "campbell_with_full_order", "model_for_case", "plot_campbell",
-           "to_dataset", "write_campbell", "write_csv"]  # fmt: skip
+__all__ = ["campbell_main", "campbell_with_full_order", "from_dataset", "model_for_case",
+           "plot_campbell", "to_dataset", "write_campbell", "write_csv"]  # fmt: skip
 
 
 def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
@@ -87,6 +88,33 @@ def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
         ds = ds.assign(marker_variables(markers))
         ds.attrs.update(marker_attrs(markers))
     return ds
+
+
+def from_dataset(ds) -> tuple[CampbellResult, FullOrderMarkers | None]:
+    """The :class:`CampbellResult` (without its eigenvectors) and the full-order markers (None
+    if absent) of a dataset written by :func:`to_dataset` (``campbell.nc``): the same numbers,
+    so :func:`plot_campbell` draws the figure ``quadmodes campbell`` wrote."""
+    spin = np.asarray(ds["spin"].values, float)
+    starts = np.asarray(ds["branch_start_spin"].values, float)
+    axis = np.array([float(ds.attrs[f"spin_axis_{c}"]) for c in "xyz"])
+    mode_labels = str(ds.attrs.get("mode_labels", ""))
+    result = CampbellResult(
+        spin=spin, axis=axis, formulation=str(ds.attrs.get("formulation", "")),
+        free=ds.attrs.get("body") == "free",
+        labels=tuple(str(v) for v in ds["branch_label"].values),
+        frequency=np.asarray(ds["frequency"].values, float),
+        growth=np.asarray(ds["growth_rate"].values, float),
+        mac=np.asarray(ds["mac_previous"].values, float),
+        min_stiffness=np.asarray(ds["min_rotating_stiffness"].values, float),
+        s_eq=np.asarray(ds["equilibrium_modal_coordinates"].values, float),
+        spin_axis=np.asarray(ds["equilibrium_spin_axis"].values, float),
+        vectors=np.zeros((spin.size, starts.size, 0), complex),
+        mode_labels=tuple(mode_labels.split("; ")) if mode_labels else (),
+        start=np.searchsorted(spin, starts) if spin.size else np.zeros(starts.size, int),
+        divergence=np.asarray(ds["divergence_spin"].values, float),
+    )  # fmt: skip
+    markers = markers_from_dataset(ds) if "full_order_frequency" in ds else None
+    return result, markers
 
 
 #: Columns of ``campbell.csv``.

@@ -398,6 +398,7 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "case": cmp.run.name,
             "run_case_toml": cmp.run.to_toml(),
             "window_s": float(cmp.run.integration.duration),
+            "lowest_frequency_hz": float(cmp.lowest_frequency_hz),
             "full_order_dt_s": cmp.full_order_dt,
             "reduced_dt_s": float(cmp.run.integration.dt),
             "full_order_complete": int(cmp.full.complete),
@@ -412,46 +413,13 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
 
 
 def plot_comparison(cmp: Comparison, directory: str | os.PathLike) -> list[Path]:
-    """Overlay plots (modal amplitude with envelopes, cone angle, spin rate, |H|, energy)."""
-    from quadmodes.io.figures import new_figure as _figure
-    from quadmodes.io.figures import save_png as _save
+    """The overlay figures of :mod:`~quadmodes.analysis.comparison_figures` (modal amplitude
+    with envelopes, cone angle, spin rate, |H|, energy), drawn from :func:`to_dataset` (what
+    ``comparison.nc`` holds, so a figure redrawn from the file is the same), as PNGs in
+    ``directory``."""
+    from quadmodes.analysis.comparison_figures import write_comparison_figures
 
-    directory = Path(directory)
-    series = [cmp.full, *cmp.reduced.values()]
-    style = {"full": dict(color="k", lw=1.6, label="full order")}
-    colours = {
-        "rigid": "tab:gray",
-        "L": "tab:orange",
-        "P": "tab:green",
-        "Q": "tab:blue",
-        "Q4": "tab:purple",
-    }
-    paths = []
-    panels = (
-        ("amplitude", "modal amplitude ‖s‖ (√kg·m)", 1.0, "modal_amplitude"),
-        ("cone_angle", "cone angle (deg)", 180.0 / math.pi, "cone_angle"),
-        ("spin_rate", "spin rate (Hz)", 1.0 / (2 * math.pi), "spin_rate"),
-        ("H_norm", "|H| / |H(0)| − 1", None, "angular_momentum"),
-        ("E", "total energy (J)", 1.0, "energy"),
-    )
-    for attr, ylabel, scale, stem in panels:
-        fig = _figure((8.0, 4.2))
-        ax = fig.add_subplot(111)
-        for s in series:
-            y = getattr(s, attr)
-            y = y / y[0] - 1.0 if scale is None and y[0] else y * (scale or 1.0)
-            kw = style.get(s.name, dict(color=colours.get(s.name), lw=1.0, label=s.name))
-            ax.plot(s.t, y, **kw)
-            if attr == "amplitude" and s.amplitude.any():
-                te, ee = envelope(s, 1.0 / cmp.lowest_frequency_hz)
-                ax.plot(te, ee, ls="--", color=kw["color"], lw=0.8)
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel(ylabel)
-        ax.set_title(f"{cmp.run.name}: {ylabel.split(' (')[0]} — reduced vs full order")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        paths.append(_save(fig, directory / f"compare_{stem}.png"))
-    return paths
+    return write_comparison_figures(to_dataset(cmp), directory)
 
 
 def table_rows(cmp: Comparison) -> list[dict]:

@@ -203,6 +203,25 @@ def run_comparison(run, window: float, *, formulations: Sequence[str] | None = N
                        full_order_dt=full_order_dt, full_order=full, progress=progress)  # fmt: skip
 
 
+def _model_picture(setup, folder: Path) -> None:
+    """The inflated mesh of the full-order ``setup`` (its structure's cells on the reduced
+    model's reference positions) as ``model.png`` in ``folder``, for the report; nothing
+    without a setup or a membrane."""
+    from quadmodes.io.motion import body_cells
+    from quadmodes.io.pictures import plot_mesh_png
+    from quadmodes.io.run_report import MODEL_PICTURE
+
+    model = getattr(setup, "model", None)
+    structure = getattr(setup, "structure", None)
+    if model is None or structure is None:
+        return
+    tri, lines = body_cells(structure)
+    n = model.X.shape[0]
+    if len(tri) and max(tri.max(), lines.max(initial=-1)) < n:
+        plot_mesh_png(folder / MODEL_PICTURE, model.X, tri, lines=lines if len(lines) else None,
+                      title="the model")  # fmt: skip
+
+
 def write_comparison_outputs(result, target: Path, *, plots: bool = True,
                              setup=None, recorder=None, animation: Animation | None = None,
                              checkpoint: Path | None = None, note: Note | None = None,
@@ -230,7 +249,11 @@ def write_comparison_outputs(result, target: Path, *, plots: bool = True,
     kept = (f"the full-order checkpoint is kept at {checkpoint}: continue with --resume"
             if checkpoint is not None and checkpoint.is_file() else f"{target} is as it was")  # fmt: skip
     with disk_full_as_error(f"the comparison into {target}", kept):
-        _, payload = commit(target, data, lambda _, folder: cmp.plot_comparison(result, folder),
+        def draw(_, folder: Path):
+            cmp.plot_comparison(result, folder)
+            _model_picture(setup, folder)
+
+        _, payload = commit(target, data, draw,
                             plots=plots, note=note, what="comparison",
                             saved="comparison.nc, .json, .csv", after_data=removed_checkpoint)  # fmt: skip
     if recorder is not None and recorder.times:

@@ -146,7 +146,8 @@ def fit_state(result) -> tuple[float, float]:
 
 
 def with_linear_answer(result):
-    """``result`` (a :class:`quadmodes.runs.simulate.RunResult`) with its ``linear`` answer; a
+    """``result`` (a :class:`quadmodes.runs.simulate.RunResult`) with its ``linear`` answer (and
+    the drawing of its model's Campbell diagram, :mod:`quadmodes.analysis.run_campbell`); a
     rigid run (no elastic mode) or one whose spin has no relative equilibrium keeps None and a
     note saying why."""
     if result.system.n_modes == 0:
@@ -156,4 +157,6 @@ def with_linear_answer(result):
     except (ValueError, ArithmeticError, KeyError) as exc:  # no relative equilibrium at the spin
         note = f"no energy-sink estimate or stability verdict: {exc}"
         return dataclasses.replace(result, notes=(*result.notes, note))
-    return dataclasses.replace(result, linear=answer)
+    from quadmodes.analysis.run_campbell import with_campbell  # its report's Campbell diagram
+
+    return with_campbell(dataclasses.replace(result, linear=answer))

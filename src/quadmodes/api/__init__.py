@@ -4,6 +4,7 @@ with quantities in any unit (:mod:`.cases`) and run every stage the command line
 
 from quadmodes.api import cases as _cases
 from quadmodes.api import compute as _compute
+from quadmodes.api import results as _results
 from quadmodes.api.boundary import api_function
 from quadmodes.api.quantities import si as _si
 
@@ -29,6 +30,7 @@ simulate = api_function(_compute.simulate)
 summary = api_function(_compute.summary)
 sweep = api_function(_compute.sweep)
 write_results = api_function(_compute.write_results)
+open_results = api_function(_results.open_results)
 si = api_function(_si)
 
 __all__ = [
@@ -43,6 +45,7 @@ __all__ = [
     "mode_convergence",
     "model_case",
     "modes_summary",
+    "open_results",
     "reduced_model",
     "results_dataset",
     "rotating",

@@ -1,17 +1,20 @@
-"""PNG figures of a run, after the seed's Figures 6–16, from a results dataset.
+"""The figures of a run, from its results dataset (``results.nc``): one function per figure
+returning a matplotlib Figure (:data:`RUN_FIGURES`, :func:`run_figure`), so the CLI's PNGs and
+``qm.open_results(...).plot(name)`` draw the same thing.
 
-* ``angular_momentum.png`` — |H| and its relative change (seed Figs. 6, 11)
-* ``bending_mode.png`` — first bending coefficient s_b1(t) (Figs. 7, 12)
-* ``bending_mode_early.png`` — the same at early times (Fig. 13)
-* ``energy.png`` — total energy, and total + dissipated (Figs. 8, 14)
-* ``spin_rate.png`` — spin rate (Figs. 9, 15)
-* ``cone_angle.png`` — cone angle (Figs. 10, 16)
+* ``angular_momentum.png`` — |H| and its relative change
+* ``bending_mode.png`` — first bending coefficient s_b1(t); a run of many bending periods is
+  drawn as its envelope (max and min per time bin) instead of a line that fills a band
+* ``bending_mode_early.png`` — the same at early times
+* ``energy.png`` — total energy, and total + dissipated
+* ``spin_rate.png`` — spin rate
+* ``cone_angle.png`` — cone angle
 * ``summary.png`` — all of the above plus the bending-pair envelope and its log-decrement fit
 
 and, for a hub-driven spin-up, ``tip_deflection.png`` (:func:`plot_tip_deflection`).
 
 Figures are drawn on matplotlib's Agg canvas (:mod:`quadmodes.io.figures`), so plotting works
-headless.
+headless; no axis uses offset notation (:func:`~quadmodes.io.figures.plain_numbers`).
 """
 
 from __future__ import annotations
@@ -24,8 +27,7 @@ import numpy as np
 import xarray as xr
 
 from quadmodes.io import cf
-from quadmodes.io.atomic import atomic_path
-from quadmodes.io.figures import new_figure, save_png
+from quadmodes.io.figures import new_figure, plain_numbers, save_png
 from quadmodes.signals import log_decrement, peak_envelope
 
 
@@ -71,6 +73,27 @@ def _plot_h(ax, ds, relative: bool) -> None:
         ax.set_ylim(lo - pad, hi + pad)
 
 
+#: A coefficient oscillating more than this many periods across a figure is drawn as its
+#: envelope: a line would fill the axes as a solid band (a 120 s run at 9 Hz: 1100 periods).
+ENVELOPE_PERIODS = 150
+#: Time bins of an envelope (each bin's max and min): about one per pixel column or two.
+ENVELOPE_BINS = 400
+
+
+def min_max_envelope(t: np.ndarray, s: np.ndarray, bins: int = ENVELOPE_BINS):
+    """(bin centres (b,) s, max (b,), min (b,)) of ``s`` over ``bins`` equal time bins of ``t``
+    (empty bins dropped)."""
+    edges = np.linspace(t[0], t[-1], bins + 1)
+    k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, bins - 1)
+    hi = np.full(bins, -np.inf)
+    lo = np.full(bins, np.inf)
+    np.maximum.at(hi, k, s)
+    np.minimum.at(lo, k, s)
+    keep = np.isfinite(hi)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    return centres[keep], hi[keep], lo[keep]
+
+
 def _plot_bending(ax, ds, t_max: float | None = None) -> bool:
     s, label = _first_bending(ds)
     if s is None:
@@ -80,7 +103,17 @@ def _plot_bending(ax, ds, t_max: float | None = None) -> bool:
     if t_max is not None:
         keep = t <= t_max
         t, s = t[keep], s[keep]
-    ax.plot(t, s, lw=0.5)
+    pair = [int(k) for k in np.atleast_1d(ds.attrs.get("bending_modes", []))] or [1]
+    f = float(ds["mode_frequency_hz"].sel(mode=pair[0]).values)
+    periods = f * float(t[-1] - t[0]) if len(t) > 1 else 0.0
+    if periods > ENVELOPE_PERIODS and len(t) > 2 * ENVELOPE_BINS:
+        tc, hi, lo = min_max_envelope(t, s)
+        ax.fill_between(tc, lo, hi, color="C0", alpha=0.25, lw=0)
+        ax.plot(tc, hi, lw=0.8, color="C0", label=f"max and min over {(t[-1] - t[0]) / ENVELOPE_BINS:.3g} s")
+        ax.plot(tc, lo, lw=0.8, color="C0")
+        ax.legend(fontsize=7, loc="best")
+    else:
+        ax.plot(t, s, lw=0.5)
     ax.set_ylabel("s (kg^0.5 m)")
     ax.set_title(label, fontsize=8)
     return True
@@ -133,13 +166,19 @@ def _plot_envelope(ax, ds) -> None:
     ax.legend(fontsize=7, loc="best")
 
 
+def early_window(span: float) -> float:
+    """The length (s) of the early-times figure of a run lasting ``span`` s: 0.5 s or 1 % of
+    the run, whichever is longer, and at most the run (then it is the whole run)."""
+    return min(span, max(0.5, 0.01 * span))
+
+
 def _early_time(ds: xr.Dataset) -> float:
     t = ds["time"].values
     span = float(t[-1] - t[0]) if len(t) else 0.0
-    return min(span, max(0.5, 0.01 * span)) + (float(t[0]) if len(t) else 0.0)
+    return early_window(span) + (float(t[0]) if len(t) else 0.0)
 
 
-def _write_single(ds: xr.Dataset, path: Path, what: str, draw) -> Path:
+def _single(ds: xr.Dataset, what: str, draw):
     """One-panel figure of ``ds`` against time: ``draw(ax)`` plots, ``what`` titles."""
     fig = new_figure((7.0, 4.0))
     ax = fig.add_subplot(1, 1, 1)
@@ -148,11 +187,11 @@ def _write_single(ds: xr.Dataset, path: Path, what: str, draw) -> Path:
     ax.grid(True, lw=0.3)
     fig.suptitle(_title(ds, what), fontsize=10)
     fig.subplots_adjust(left=0.14, right=0.86, bottom=0.13, top=0.84)
-    return save_png(fig, path, tight=True)
+    return fig
 
 
-def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
-    """|H| (top) and its relative change (bottom), seed Figs. 6, 11."""
+def angular_momentum_figure(ds: xr.Dataset):
+    """|H| (top) and its relative change (bottom)."""
     fig = new_figure((7.0, 5.0))
     ax1 = fig.add_subplot(2, 1, 1)
     _plot_h(ax1, ds, relative=False)
@@ -161,39 +200,17 @@ def _write_angular_momentum(ds: xr.Dataset, path: Path) -> Path:
     _plot_h(ax2, ds, relative=True)
     ax2.set_xlabel("time (s)")
     ax2.grid(True, lw=0.3)
-    fig.suptitle(
-        _title(ds, "magnitude of the angular momentum (cf. seed Figs. 6, 11)"), fontsize=10
-    )
+    fig.suptitle(_title(ds, "magnitude of the angular momentum"), fontsize=10)
     fig.subplots_adjust(left=0.14, right=0.95, bottom=0.1, top=0.9, hspace=0.3)
-    return save_png(fig, path, tight=True)
+    return fig
 
 
-def _single_figures(ds: xr.Dataset) -> list[tuple[str, str, object]]:
-    """(file name, title, draw(ax)) of the one-panel figures (seed Figs. 7–10, 12–16)."""
-
-    def bending(ax, t_max=None):
+def _bending(ds: xr.Dataset, t_max=None):
+    def draw(ax):
         if _plot_bending(ax, ds, t_max):
             _displacement_axis(ax, ds)
 
-    return [
-        ("bending_mode.png", "first bending coefficient (cf. seed Figs. 7, 12)", bending),
-        (
-            "bending_mode_early.png",
-            "first bending coefficient, early times (cf. seed Fig. 13)",
-            lambda ax: bending(ax, _early_time(ds)),
-        ),
-        ("energy.png", "total energy (cf. seed Figs. 8, 14)", lambda ax: _plot_energy(ax, ds)),
-        (
-            "spin_rate.png",
-            "spin rate (cf. seed Figs. 9, 15)",
-            lambda ax: _plot_series(ax, ds, "spin_rate_hz"),
-        ),
-        (
-            "cone_angle.png",
-            "cone angle (cf. seed Figs. 10, 16)",
-            lambda ax: _plot_series(ax, ds, "cone_angle_deg"),
-        ),
-    ]
+    return draw
 
 
 def _summary_panels(ds: xr.Dataset) -> list[tuple[str, object]]:
@@ -214,7 +231,7 @@ def _summary_panels(ds: xr.Dataset) -> list[tuple[str, object]]:
     ]
 
 
-def _write_summary(ds: xr.Dataset, path: Path) -> Path:
+def summary_figure(ds: xr.Dataset):
     """All panels on one page (2 × 3), titled with formulation, method and step."""
     fig = new_figure((13.0, 7.5))
     for k, (what, draw) in enumerate(_summary_panels(ds)):
@@ -236,30 +253,45 @@ def _write_summary(ds: xr.Dataset, path: Path) -> Path:
         fontsize=11,
     )
     fig.subplots_adjust(left=0.075, right=0.985, bottom=0.07, top=0.9, wspace=0.4, hspace=0.32)
-    return save_png(fig, path, tight=True)
+    return fig
+
+
+#: The figures of a free-body run: file stem -> function(ds) -> Figure; the answer first.
+RUN_FIGURES = {
+    "cone_angle": lambda ds: _single(ds, "cone angle",
+                                     lambda ax: _plot_series(ax, ds, "cone_angle_deg")),
+    "spin_rate": lambda ds: _single(ds, "spin rate",
+                                    lambda ax: _plot_series(ax, ds, "spin_rate_hz")),
+    "energy": lambda ds: _single(ds, "total energy", lambda ax: _plot_energy(ax, ds)),
+    "angular_momentum": angular_momentum_figure,
+    "bending_mode": lambda ds: _single(ds, "first bending coefficient", _bending(ds)),
+    "bending_mode_early": lambda ds: _single(
+        ds, "first bending coefficient, early times", _bending(ds, _early_time(ds))),
+    "summary": summary_figure,
+}  # fmt: skip
+
+
+def run_figure(ds: xr.Dataset, name: str):
+    """The figure ``name`` (a key of :data:`RUN_FIGURES`, the PNG's stem) of the run dataset
+    ``ds``, as a matplotlib Figure without offset notation; ValueError for another name."""
+    if name not in RUN_FIGURES:
+        raise ValueError(f"figure {name!r}: not a run figure; use one of {', '.join(RUN_FIGURES)}")
+    return plain_numbers(RUN_FIGURES[name](ds))
 
 
 def write_plots(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
-    """Write the PNG figures of ``ds`` into ``directory``; returns their paths."""
+    """Write the PNG figures of ``ds`` (:data:`RUN_FIGURES`) into ``directory``; returns their
+    paths."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    paths = [_write_angular_momentum(ds, directory / "angular_momentum.png")]
-    for name, what, draw in _single_figures(ds):
-        paths.append(_write_single(ds, directory / name, what, draw))
-    paths.append(_write_summary(ds, directory / "summary.png"))
-    return paths
+    return [save_png(run_figure(ds, name), directory / f"{name}.png") for name in RUN_FIGURES]
 
 
-def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """PNG of the in-plane (and axial) tip deflection and the hub rate of a spin-up."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
+def tip_deflection_figure(ds: xr.Dataset):
+    """The in-plane (and axial) tip deflection and the hub rate of a spin-up (its dataset)."""
     t = ds["time"].values
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    fig = new_figure((7.0, 5.5))
+    ax, ax2 = fig.subplots(2, 1, sharex=True)
     ax.plot(t, ds["tip_inplane"].values, label="in-plane v (hub y)")
     ax.plot(t, ds["tip_axial"].values, "--", label="axial (hub x)")
     ax.plot([ds.attrs["peak_time"]], [ds.attrs["peak_tip_deflection"]], "o", color="C3")
@@ -275,9 +307,9 @@ def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     ax2.set_xlabel("time (s)")
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=110)
-    finally:
-        plt.close(fig)
-    return path
+    return plain_numbers(fig)
+
+
+def plot_tip_deflection(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """PNG of :func:`tip_deflection_figure` at ``path``."""
+    return save_png(tip_deflection_figure(ds), path)

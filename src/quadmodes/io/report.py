@@ -50,10 +50,18 @@ th { background: #f0f3f7; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 caption { caption-side: top; text-align: left; font-weight: 600; padding-bottom: 0.2em; }
 figure { margin: 0.6em 0 1.2em 0; page-break-inside: avoid; }
-figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
+figure img { max-width: 100%; max-height: 560px; height: auto; border: 1px solid #eee; }
 figcaption { color: #555; font-size: 0.85em; }
 pre { background: #f7f7f7; padding: 0.6em; overflow-x: auto; font-size: 0.8em; }
 .ok { color: #176b2c; font-weight: 600; } .bad { color: #a11; font-weight: 600; }
+div.verdict { border: 3px solid #888; border-radius: 6px; padding: 0.5em 1em 0.7em 1em;
+              background: #f6f6f6; margin: 0.6em 0 1.2em 0; }
+div.verdict.stable { border-color: #2e8b57; background: #eef8f1; }
+div.verdict.unstable { border-color: #c0392b; background: #fcf0ee; }
+div.verdict p.headline { font-size: 1.15em; font-weight: 700; margin: 0.2em 0 0.5em 0; }
+div.verdict table { background: white; width: 100%; }
+div.verdict th { width: 15em; }
+div.grid { display: grid; grid-template-columns: repeat(auto-fill, minmax(460px, 1fr)); gap: 0 1.2em; }
 @media print { body { max-width: none; } h2 { page-break-after: avoid; } }
 """
 

@@ -1,6 +1,7 @@
-"""The ``report.html`` of ``run`` and ``compare`` (:mod:`quadmodes.io.report`): the case, the
-model (modes table, mass, inertia), the headline numbers, the validity and convergence checks
-and the figures the command wrote, embedded. Modes are numbered from 1, as in results.nc, the
+"""The ``report.html`` of ``run`` and ``compare`` (:mod:`quadmodes.io.report`): first the answer
+and the checks in a box (:mod:`quadmodes.io.verdict`), then the figures the command wrote
+(embedded, each once, captions that stand alone), the model (mesh picture, modes table, mass,
+inertia), the validity and convergence checks in detail, the case and the headline numbers. Modes are numbered from 1, as in results.nc, the
 CLI tables, the mode pictures and the mode files.
 
 Inputs are the objects the commands already hold: the run's summary dict and
@@ -16,8 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from quadmodes.io.path_report import path_parts
+from quadmodes.io.plots import early_window
 from quadmodes.io.report import (
     Section,
+    figure,
     figures,
     format_value,
     key_values,
@@ -26,32 +29,56 @@ from quadmodes.io.report import (
     table,
     write_report,
 )
+from quadmodes.io.verdict import compare_verdict, run_verdict
 
-__all__ = ["RUN_FIGURES", "COMPARE_FIGURES", "write_compare_report", "write_run_report"]
+__all__ = ["CAMPBELL_PICTURE", "COMPARE_FIGURES", "MODEL_PICTURE", "RUN_FIGURES", "write_compare_report", "write_run_report"]
 
-#: (file, caption) of the run figures, in report order.
+#: (file, caption) of the run figures shown in its report, in report order: each once
+#: (``summary.png`` gathers the same panels on one page and stays beside the report), with
+#: captions that read without the rest of the page.
 RUN_FIGURES = (
-    ("summary.png", "overview: |H|, bending coefficient and envelope, energy, spin rate, cone angle"),
-    ("angular_momentum.png", "magnitude of the angular momentum (seed Figs. 6, 11)"),
-    ("bending_mode.png", "first bending coefficient (seed Figs. 7, 12)"),
-    ("bending_mode_early.png", "first bending coefficient, early times (seed Fig. 13)"),
-    ("energy.png", "total energy and energy balance (seed Figs. 8, 14)"),
-    ("spin_rate.png", "spin rate (seed Figs. 9, 15)"),
-    ("cone_angle.png", "cone angle (seed Figs. 10, 16)"),
-    ("tip_deflection.png", "tip deflection and hub rate of the spin-up"),
-)
+    ("cone_angle.png", "Cone angle (deg): the angle between the angular momentum H and the body's "
+     "spin axis, against time. Its secular growth is the coning rate of the answer above."),
+    ("spin_rate.png", "Spin rate (Hz) of the body about its spin axis, against time: energy "
+     "dissipated at constant angular momentum moves the spin from the axis of least inertia."),
+    ("energy.png", "Total energy E = T + V (J) and E plus the energy dissipated by structural "
+     "damping (dashed): the dashed line stays flat when the energy balance closes; the fall of "
+     "E is what drives the coning."),
+    ("angular_momentum.png", "Magnitude of the angular momentum |H| about the centre of mass "
+     "(top, kg m²/s) and its relative change (bottom): no external torque acts, so the bottom "
+     "panel shows the integrator's round-off."),
+    ("bending_mode.png", "First bending coefficient s_b1 (the modal coordinate of the lowest "
+     "bending mode, kg^0.5 m; right axis: the largest nodal displacement it causes, mm) against "
+     "time; a run of many periods is drawn as its envelope (max and min per time bin)."),
+    ("bending_mode_early.png", "The first bending coefficient over the start of the run (the "
+     "first 0.5 s, or 1 % of a long run): the response to the initial cone and deformation."),
+    ("tip_deflection.png", "Spin-up of a hub-clamped body: in-plane and axial tip displacement "
+     "(m) and the hub's spin rate (rad/s), against time."),
+)  # fmt: skip
 #: (file, caption) of the comparison figures.
 COMPARE_FIGURES = tuple(
-    (f"compare_{stem}.png", f"{what}: reduced formulations against the full order")
+    (f"compare_{stem}.png", f"{what} against time: each reduced formulation (coloured) over the "
+     "full-order finite-element solution (black) of the same run case")
     for stem, what in (("modal_amplitude", "modal amplitude"), ("cone_angle", "cone angle"),
                        ("spin_rate", "spin rate"), ("angular_momentum", "|H| drift"),
                        ("energy", "total energy"))
 )  # fmt: skip
 
 
-def model_section(model) -> Section:
-    """Mass, inertia about the centre of mass (and its principal moments) and the retained
-    modes of a :class:`~quadmodes.rom.reduced.ReducedModel`."""
+#: The picture of the model in a report folder (the inflated mesh, two views).
+MODEL_PICTURE = "model.png"
+
+
+#: The Campbell diagram of the run's model in a report folder, when the run drew one.
+CAMPBELL_PICTURE = "campbell.png"
+
+
+def model_section(model, picture: str | Path | None = None,
+                  campbell: str | Path | None = None) -> Section:  # fmt: skip
+    """Mass, inertia about the centre of mass (and its principal moments), the picture of the
+    mesh (``picture``, a PNG, if it exists), the retained modes of a
+    :class:`~quadmodes.rom.reduced.ReducedModel` and its Campbell diagram (``campbell``, a
+    PNG, if it exists)."""
     j0 = np.asarray(model.J0, float)
     principal = np.linalg.eigvalsh(0.5 * (j0 + j0.T))
     spin = float(getattr(model, "reference_spin", 0.0))
@@ -68,7 +95,14 @@ def model_section(model) -> Section:
         zip(model.frequencies_hz, model.labels, model.damping_ratio, strict=True))]  # fmt: skip
     modes = table(("mode", "frequency (Hz)", "label", "damping ratio ζ"), rows,
                   "retained modes (numbered from 1)") if rows else paragraph("no elastic modes (rigid body)")  # fmt: skip
-    return Section("model", facts + inertia + modes)
+    mesh = figure(picture, "The model: the inflated finite-element mesh (side view and a rotated "
+                  "view; red: the ties of the rigid end bodies)") if picture is not None else ""  # fmt: skip
+    diagram = figure(campbell, "Campbell diagram of the run's model: the frequency of every "
+                     "branch in the rotating frame against the spin rate, from rest to 1.25 × "
+                     "the run's spin (undamped, about the spinning relative equilibrium); "
+                     "the lines f = kΩ and the critical speeds where a branch meets them") \
+        if campbell is not None else ""  # fmt: skip
+    return Section("model", facts + mesh + modes + diagram + inertia)
 
 
 def _case_section(run, model_case, extra: list[tuple[str, object]]) -> Section:
@@ -159,8 +193,10 @@ def _checks_section(summary: dict) -> Section:
 
 
 def write_run_report(folder: str | Path, summary: dict, result) -> Path:
-    """``folder/report.html`` of a run: case, model, headline numbers, checks, the figures in
-    ``folder`` (:data:`RUN_FIGURES`) and the ParaView files present."""
+    """``folder/report.html`` of a run: the answer and the checks in a box at the top
+    (:func:`~quadmodes.io.verdict.run_verdict`), the figures in ``folder``
+    (:data:`RUN_FIGURES`, each once), the model (:data:`MODEL_PICTURE` if in ``folder``, modes,
+    inertia), the checks in detail, the case and every headline number."""
     folder = Path(folder)
     run = result.run
     extra = []
@@ -170,19 +206,24 @@ def write_run_report(folder: str | Path, summary: dict, result) -> Path:
     if run.integration is not None:
         extra += [("method", run.integration.method), ("dt (ms)", 1e3 * run.integration.dt),
                   ("duration (s)", run.integration.duration)]  # fmt: skip
-    sections = [
-        Section("headline numbers", key_values(_headline_rows(summary))),
-        _case_section(run, result.model_case, extra),
-        _checks_section(summary),
-    ]
+    span = float(summary.get("t_end_s") or 0.0)
+    shown = [f for f in RUN_FIGURES  # the early times of a short run are the whole run
+             if f[0] != "bending_mode_early.png" or early_window(span) < span]  # fmt: skip
+    sections = [run_verdict(summary), _figures_section(folder, shown)]
     if getattr(result, "model", None) is not None and hasattr(result.model, "J0"):
-        sections.insert(2, model_section(result.model))
-    sections.append(_figures_section(folder, RUN_FIGURES))
+        sections.append(model_section(result.model, folder / MODEL_PICTURE,
+                                      folder / CAMPBELL_PICTURE))  # fmt: skip
+    sections += [
+        _checks_section(summary),
+        _case_section(run, result.model_case, extra),
+        Section("all headline numbers", key_values(_headline_rows(summary))),
+    ]
     return write_report(folder, f"quadmodes run: {run.name}", sections, summary.get("status", ""))
 
 
 def _figures_section(folder: Path, items) -> Section:
     body = figures(folder, items)
+    body = f'<div class="grid">{body}</div>' if body else body
     files = [n for n in ("motion.xdmf",) if (folder / n).is_file()]
     if files:
         body += paragraph("animation: motion.xdmf (+ motion.h5) beside this page; open it in "
@@ -216,9 +257,10 @@ def write_compare_report(folder: str | Path, payload: dict, run, model_case, mod
                         ("full order complete", bool(fo.get("complete")))])  # fmt: skip
     notes = "".join(paragraph(f"note: {n}") for n in payload.get("notes", []))
     sections = [
-        Section("headline numbers", head + facts + notes),
-        _case_section(run, model_case, [("window (s)", payload["window_s"])]),
-        *([model_section(model)] if model is not None else []),
+        compare_verdict(payload),
         _figures_section(folder, COMPARE_FIGURES),
+        Section("headline numbers", head + facts + notes),
+        *([model_section(model, folder / MODEL_PICTURE)] if model is not None else []),
+        _case_section(run, model_case, [("window (s)", payload["window_s"])]),
     ]
     return write_report(folder, f"quadmodes compare: {payload['case']}", sections)

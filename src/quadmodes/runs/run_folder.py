@@ -289,7 +289,16 @@ def _run_data(result, extra: dict | None):
     from quadmodes.runs import results
 
     if hasattr(result, "diagnostics"):
-        return (lambda scratch: results.write_run_data(result, scratch, extra)), figures.write_plots
+        def draw_run(ds, target: Path):
+            from quadmodes.io.run_report import MODEL_PICTURE
+            from quadmodes.runs.run_motion import model_picture
+
+            figures.write_plots(ds, target)
+            model_picture(result, target / MODEL_PICTURE)
+            for name, draw in getattr(result, "figures", ()):  # added by the analyses
+                draw(target / name)
+
+        return (lambda scratch: results.write_run_data(result, scratch, extra)), draw_run
 
     def data(scratch: Path):
         return results.spinup_dataset(result), results.write_spinup_outputs(result, scratch, plots=False)

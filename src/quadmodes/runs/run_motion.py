@@ -11,7 +11,7 @@ from quadmodes.io.motion import FRAMES, Motion, body_cells, frame_indices, reduc
 from quadmodes.rom import system as rsys
 from quadmodes.structure.pipeline import structure_for_case
 
-__all__ = ["run_motion"]
+__all__ = ["model_picture", "run_motion"]
 
 
 def _structure_cells(model_case) -> tuple[np.ndarray, np.ndarray]:
@@ -38,3 +38,21 @@ def _check_cells(n: int, tri: np.ndarray, lines: np.ndarray):
     if top >= n:
         raise ValueError(f"the mesh has node {top} but the reduced model {n} vector DOFs")
     return tri, lines
+
+
+def model_picture(result, path) -> bool:
+    """Draw the model of a free-body run (its reduced model's reference positions ``X`` on the
+    mesh of its model case, the end-body ties as lines) into the PNG ``path``; False (nothing
+    written) when the model has no triangle to draw (a beam) or its mesh does not match."""
+    from quadmodes.io.pictures import plot_mesh_png
+
+    model = result.model
+    try:
+        tri, lines = _check_cells(model.X.shape[0], *_structure_cells(result.model_case))
+        if not len(tri):
+            return False
+        plot_mesh_png(path, model.X, tri, lines=lines if len(lines) else None,
+                      title=f"{result.model_case.name}: the model")  # fmt: skip
+    except ValueError:
+        return False
+    return True

@@ -86,6 +86,9 @@ class RunResult:
     linear: object | None = None
     event: EventHit | None = None
     path: PathValidity | None = None
+    # figures analyses above runs/ add: (file name, draw(path)) pairs, drawn with the run's
+    # (quadmodes.analysis.run_campbell: the Campbell diagram of the run's model)
+    figures: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -2,8 +2,10 @@
 marked, the stability map (coning growth rate against spin, or a colour map against spin and a
 second parameter), and the energy-sink estimate against the simulated coning rate.
 
-Each function reads only the dataset (``sweep.nc``, SI) and returns the paths written; spin
-rates and frequencies are drawn in the unit chosen (``--units``: Hz by default, rpm, rad/s).
+Each function reads only the dataset (``sweep.nc``, SI) and returns the path written, or the
+matplotlib Figure when given no path (``qm.open_results("sweep.nc").plot(name)``: the same
+figure); spin rates and frequencies are drawn in the unit chosen (``--units``: Hz by default,
+rpm, rad/s).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import xarray as xr
 
 from quadmodes.analysis.full_order_markers import draw_markers, markers_from_dataset
 from quadmodes.io.display_units import HZ, FrequencyUnit, family, family_colours, frequency_unit
-from quadmodes.io.figures import new_figure, save_png
+from quadmodes.io.figures import new_figure, plain_numbers, save_png
 
 SPIN = "spin_rate"
 
@@ -27,7 +29,13 @@ def _first_line(ds: xr.Dataset) -> xr.Dataset:
     return ds.isel(other) if other else ds
 
 
-def campbell_figure(ds: xr.Dataset, path: Path, unit: str | FrequencyUnit = HZ) -> Path:
+def _done(fig, path: Path | None):
+    """``fig`` saved to ``path`` (returns the path), or ``fig`` itself if no path (plain
+    numbers on its axes)."""
+    return plain_numbers(fig) if path is None else save_png(fig, path)
+
+
+def campbell_figure(ds: xr.Dataset, path: Path | None = None, unit: str | FrequencyUnit = HZ):
     """Rotating-frame frequencies of every branch against spin, in ``unit``, one colour per
     family (never repeated), the legend outside; critical speeds as vertical lines named with
     their spin; the full-order roots (``full_order_*``) as diamonds."""
@@ -58,10 +66,10 @@ def campbell_figure(ds: xr.Dataset, path: Path, unit: str | FrequencyUnit = HZ) 
     ax.set_title("Campbell diagram of the sweep (undamped, about the relative equilibrium)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
-    return save_png(fig, path)
+    return _done(fig, path)
 
 
-def stability_figure(ds: xr.Dataset, path: Path, unit: str | FrequencyUnit = HZ) -> Path:
+def stability_figure(ds: xr.Dataset, path: Path | None = None, unit: str | FrequencyUnit = HZ):
     """Coning growth rate (1/s) against spin (in ``unit``): energy-sink estimate, damped nutation
     root and the simulation; with a second swept dimension a colour map of the energy-sink
     rate."""
@@ -93,10 +101,10 @@ def stability_figure(ds: xr.Dataset, path: Path, unit: str | FrequencyUnit = HZ)
         ax.legend(fontsize=8)
     ax.set_xlabel(f"spin rate ({unit.name})")
     ax.set_title("Stability map")
-    return save_png(fig, path)
+    return _done(fig, path)
 
 
-def energy_sink_figure(ds: xr.Dataset, path: Path) -> Path:
+def energy_sink_figure(ds: xr.Dataset, path: Path | None = None, unit=None):
     """Energy-sink estimate against the simulated coning rate (1/s), quasi-rigid points filled."""
     est = ds["energy_sink_growth_rate"].values.ravel()
     simu = ds["simulated_growth_rate"].values.ravel()
@@ -112,17 +120,27 @@ def energy_sink_figure(ds: xr.Dataset, path: Path) -> Path:
     ax.set_xlabel("simulated coning rate (1/s)")
     ax.set_ylabel("energy-sink estimate (1/s)")
     ax.legend(fontsize=8)
-    return save_png(fig, path)
+    return _done(fig, path)
+
+
+#: The figures of a sweep: PNG stem -> function(ds, path=None, unit).
+SWEEP_FIGURES = {"campbell": campbell_figure, "stability": stability_figure,
+                 "energy_sink": energy_sink_figure}  # fmt: skip
+
+
+def figure_names(ds: xr.Dataset) -> list[str]:
+    """The figures (keys of :data:`SWEEP_FIGURES`) the dataset supports: none without a swept
+    spin rate, the energy-sink comparison only with time runs."""
+    if SPIN not in ds.dims:
+        return []
+    names = ["campbell", "stability"]
+    if np.isfinite(ds["simulated_growth_rate"].values).any():
+        names.append("energy_sink")
+    return names
 
 
 def sweep_figures(ds: xr.Dataset, directory: Path, unit: str | FrequencyUnit = HZ) -> list[Path]:
-    """Every figure that the dataset supports (a swept spin rate is needed), spin rates and
+    """Every figure that the dataset supports (:func:`figure_names`), spin rates and
     frequencies in ``unit``."""
-    if SPIN not in ds.dims:
-        return []
     directory = Path(directory)
-    paths = [campbell_figure(ds, directory / "campbell.png", unit),
-             stability_figure(ds, directory / "stability.png", unit)]  # fmt: skip
-    if np.isfinite(ds["simulated_growth_rate"].values).any():
-        paths.append(energy_sink_figure(ds, directory / "energy_sink.png"))
-    return paths
+    return [SWEEP_FIGURES[name](ds, directory / f"{name}.png", unit) for name in figure_names(ds)]

@@ -1,5 +1,6 @@
-"""``report.html`` of a sweep: the counts, the swept parameters, the critical speeds, a table
-of the headline variables at every point (one-parameter sweeps) and the figures, embedded
+"""``report.html`` of a sweep: the answer in a box at the top (critical speeds, the coning
+verdict over the points), the critical speeds, the counts, the swept parameters, a table of
+the headline variables at every point (one-parameter sweeps) and the figures, embedded
 (:mod:`quadmodes.io.report`)."""
 
 from __future__ import annotations
@@ -14,9 +15,14 @@ from quadmodes.io.display_units import frequency_unit
 
 #: Headline variables shown per point when present (name fragments of sweep.nc variables).
 _HEADLINE = ("cone", "power", "spin_rate_change", "energy_sink", "time_constant")
-_FIGURES = (("campbell.png", "Campbell diagram with the critical speeds"),
-            ("stability.png", "stability map"),
-            ("energy_sink.png", "energy-sink estimate against the simulated coning rate"))
+_FIGURES = (("campbell.png", "Campbell diagram of the sweep: the rotating-frame frequency of "
+                             "every branch against the spin rate, about the spinning relative "
+                             "equilibrium; dashed lines: the critical speeds"),
+            ("stability.png", "Stability map: the coning growth rate (1/s, > 0: the cone grows) "
+                              "against the spin rate, by the energy-sink law, the damped "
+                              "nutation root and the time runs"),
+            ("energy_sink.png", "The energy-sink estimate of the coning rate against the rate "
+                                "fitted to each point's time run (1/s); on the line they agree"))
 
 
 def _label(da: xr.DataArray) -> str:
@@ -38,6 +44,37 @@ def _point_table(ds: xr.Dataset) -> str:
     return rep.table(header, rows)
 
 
+def _coning_row(ds: xr.Dataset) -> tuple[str, str, bool | None] | None:
+    """The coning verdict over the points: how many grow (energy-sink rate > 0) and the range
+    of the coning time constant."""
+    if "energy_sink_growth_rate" not in ds:
+        return None
+    rate = np.asarray(ds["energy_sink_growth_rate"].values, float).ravel()
+    rate = rate[np.isfinite(rate)]
+    if not rate.size:
+        return ("coning (energy sink)", "no estimate at any point", None)
+    grows = int(np.sum(rate > 0))
+    text = f"the cone grows at {grows} of {rate.size} points, decays at {int(np.sum(rate < 0))}"
+    if grows:
+        tau = 1.0 / rate[rate > 0]
+        text += f"; e-folding time {tau.min():.4g} – {tau.max():.4g} s where it grows"
+    return ("coning (energy sink)", text, grows == 0)
+
+
+def _answer(ds: xr.Dataset, info: dict, u) -> rep.Section:
+    """The box at the top: critical speeds, the coning verdict over the points, failures."""
+    from quadmodes.io.verdict import verdict_box
+
+    crit = info["critical_speeds"]
+    headline = (f"{len(crit)} critical speed(s) in the swept range: " + ", ".join(
+        f"{u.from_hz(c['spin_hz']):.4g} {u.name} ({c['kind']}, {c['branch']})" for c in crit)
+        if crit else "no critical speed in the swept range")  # fmt: skip
+    rows = [r for r in (_coning_row(ds),) if r is not None]
+    rows.append(("points", f"{info['points']} ({info['failed']} failed)", info["failed"] == 0))
+    kind = "stable" if rows[0][2] else "unstable" if rows[0][2] is False else ""
+    return rep.Section("The answer", verdict_box(headline, rows, kind))
+
+
 def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str,
                        unit="Hz") -> Path:  # fmt: skip
     """Write ``directory/report.html`` for the sweep dataset ``ds`` and its summary ``info``
@@ -55,8 +92,9 @@ def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str
                  if crit else rep.paragraph("none in the swept range"))
     failures = info.get("failures") or {}
     sections = [
-        rep.Section("Sweep", rep.key_values(counts) + rep.key_values(swept, "swept parameters")),
+        _answer(ds, info, u),
         rep.Section("Critical speeds", crit_body),
+        rep.Section("Sweep", rep.key_values(counts) + rep.key_values(swept, "swept parameters")),
     ]
     table = _point_table(ds)
     if table:
