@@ -89,3 +89,22 @@ def test_unreached_point_and_adaptive_method_are_refused(start):
     with pytest.raises(CaseError, match="--at: a path point needs a fixed-step method"):
         pp.path_point(run.model_copy(update={"integration": adaptive}), "time 0.01 s",
                       model=setup0.model)  # fmt: skip
+
+
+def test_point_read_from_results_is_the_integrated_one(start, tmp_path):
+    """A results.nc of the run (samples every 7 steps) gives the same state at the same step
+    as the run integrated to the point (the sample before, stepped forward)."""
+    from quadmodes.runs import results, simulate
+
+    run, setup0, point = start
+    every = run.integration.model_copy(update={"save_every": 7, "duration": 0.2})
+    res = simulate.simulate(run.model_copy(update={"integration": every}), model=setup0.model)
+    path = results.write_dataset(results.to_dataset(res), tmp_path / "results.nc")
+    read = pp.path_point(run, "time 0.1 s", model=setup0.model, results=path)
+    assert read.step == point.step and read.source == str(path)
+    assert np.max(np.abs(read.y - point.y)) <= 1e-9 * np.max(np.abs(point.y))
+    assert read.dissipated == pytest.approx(point.dissipated, rel=1e-6)
+    other = run.integration.model_copy(update={"dt": 2.5e-4})
+    with pytest.raises(CaseError, match="--results: .* another time step"):
+        pp.path_point(run.model_copy(update={"integration": other}), "time 0.1 s",
+                      model=setup0.model, results=path)  # fmt: skip

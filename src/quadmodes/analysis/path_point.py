@@ -63,11 +63,15 @@ class PathPoint:
     path_message: str = ""  # the checks made up to it, or why the path left the range
 
     def describe(self) -> str:
-        """One line: where the full order starts."""
-        return (f"started from the reduced path at {self.at}: t = {self.time:.6g} s (step "
+        """One line: where the full order starts (and that the path had left its model's range
+        before, if it had)."""
+        text = (f"started from the reduced path at {self.at}: t = {self.time:.6g} s (step "
                 f"{self.step}), cone {math.degrees(self.cone_angle):.4g} deg, spin "
                 f"{self.spin_rate / (2 * math.pi):.5g} Hz, dissipated {self.dissipated:.5g} J "
                 f"({self.source})")  # fmt: skip
+        if self.path_valid is False:
+            text += f"; beyond the reduced model's range: {self.path_message}"
+        return text
 
     def as_json(self) -> dict:
         return {"at": self.at, "kind": self.kind, "time_s": self.time, "step": self.step,
@@ -179,8 +183,13 @@ def results_point(results: Path, run: RunCase, system, model, at: str) -> PathPo
                        ds["modal_coordinates"].values, ds["modal_velocities"].values])  # fmt: skip
         e_d = ds["dissipated_energy"].values
         axis = np.asarray(ds.attrs["spin_axis_body"], float)
+        left = float(ds.attrs.get("path_left_at", math.nan))
+        message = str(ds.attrs.get("path_message", ""))
     integ = run.integration.model_copy(update={"method": str(ds.attrs.get("method", "midpoint"))})
-    return point_on_samples(system, integ, at, t, y, e_d, axis, str(results))
+    point = point_on_samples(system, integ, at, t, y, e_d, axis, str(results))
+    if math.isfinite(left) and left <= point.time:  # the run's own verdict on its path
+        return replace(point, path_valid=False, path_message=message)
+    return point
 
 
 def path_point(run: RunCase, at: str, *, model=None, results: Path | None = None,
