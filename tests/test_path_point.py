@@ -108,3 +108,24 @@ def test_point_read_from_results_is_the_integrated_one(start, tmp_path):
     with pytest.raises(CaseError, match="--results: .* another time step"):
         pp.path_point(run.model_copy(update={"integration": other}), "time 0.1 s",
                       model=setup0.model, results=path)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "args, field",
+    [
+        (["--at", "cone"], "--at"),
+        (["--at", "bend 3 deg"], "--at"),
+        (["--results", "results.nc"], "--results"),
+        (["--at", "cone 10 deg", "--results", "nowhere.nc"], "--results"),
+    ],
+)
+def test_compare_at_bad_input_is_one_line(tmp_path, args, field):
+    from typer.testing import CliRunner
+
+    from quadmodes.cli.app import app
+
+    out = tmp_path / "cmp"
+    result = CliRunner().invoke(app, ["compare", "paper-41hz-coarse", *args, "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert field in result.output and len(result.output.strip().splitlines()) == 1
+    assert not out.exists()
