@@ -6,6 +6,8 @@ map that starts every comparison. Coarse paper model at 41 Hz, a path point 0.1 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -129,3 +131,19 @@ def test_compare_at_bad_input_is_one_line(tmp_path, args, field):
     assert result.exit_code == 2, result.output
     assert field in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_api_compare_at_starts_both_sides_at_the_point():
+    """qm.compare(..., at=...): the reduced and full-order series start at the point (4 steps
+    of full order)."""
+    import quadmodes as qm
+
+    c = qm.compare("paper-41hz-coarse", "2 ms", formulations=["Q"], at="time 0.05 s")
+    assert c.start["step"] == 100 and c.start["at"] == "time 0.05 s"
+    assert c.notes[0].startswith("started from the reduced path at time 0.05 s")
+    q, full = c.reduced["Q"], c.full
+    assert q.t[0] == 0.0 and q.E_d[0] == 0.0 and full.E_d[0] == 0.0
+    # the same modal amplitude at the start (the full order's projection of its mapped state)
+    assert full.amplitude[0] == pytest.approx(q.amplitude[0], rel=1e-6)
+    assert math.degrees(q.cone_angle[0]) == pytest.approx(c.start["cone_angle_deg"], rel=1e-9)
+    assert full.cone_angle[0] == pytest.approx(q.cone_angle[0], rel=2e-3)
