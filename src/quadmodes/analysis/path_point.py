@@ -236,8 +236,14 @@ def full_order_setup_at(setup, point: PathPoint):
 
     rest = setup.x_rest if setup.x_rest is not None else setup.x_ref
     centre = centre_of_mass(setup.structure, rest)
-    x0, v0, notes = full_state_from_reduced(setup.structure, setup.x_ref, setup.model, point.y,
-                                            centre, stretch=True)  # fmt: skip
+    try:
+        x0, v0, notes = full_state_from_reduced(setup.structure, setup.x_ref, setup.model,
+                                                point.y, centre, stretch=True)  # fmt: skip
+    except ValueError:  # the static condensation of a large deformation did not converge
+        amp = float(np.linalg.norm(point.y[7 : 7 + setup.model.n_modes]))
+        raise CaseError(f"--at: the full order's relaxed deformation at {point.at} (|s| = "
+                        f"{amp:.3g} kg^0.5 m) did not converge; choose an earlier point",
+                        field="--at") from None  # fmt: skip
     kept = tuple(n for n in setup.notes if not n.startswith("full order: "))
     start = f"{point.at} (step {point.step})"
     return replace(setup, x0=x0, v0=v0, notes=(*kept, *notes, point.describe()), start=start)
