@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from quadmodes.analysis.path_point import reduced_run_from, start_attributes
 from quadmodes.io import cf
 from quadmodes.io.atomic import atomic_path, write_text
 from quadmodes.rom import system as rsys
@@ -188,6 +189,7 @@ class Comparison:
     full_order_dt: float
     notes: tuple[str, ...] = ()
     secular: secular.SecularScores | None = None
+    start: dict | None = None  # the reduced path point both sides start from (path_point)
 
     def as_json(self) -> dict:
         """The table as the JSON payload of ``quadmodes compare --json`` (undefined numbers,
@@ -218,6 +220,7 @@ class Comparison:
                 "spin_rate_hz": float(self.run.initial.spin_rate) / (2 * math.pi),
             },
             "quasi_steady": self.secular.as_json() if self.secular else None,
+            "start": self.start,  # null: the run's initial state
             "formulations": {k: dict(v) for k, v in self.table.items()},
             "notes": list(self.notes),
         })
@@ -249,9 +252,12 @@ def window_run(run, window: float, formulation: str | None = None):
     return run.model_copy(update=update)
 
 
-def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None):
+def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None,
+                y_start: np.ndarray | None = None):  # fmt: skip
     """Reduced runs of ``run`` (its modes resolved: a whole ``reduced.modes``, as
-    :func:`compare` gives it) per formulation: ``({name: RunResult}, reduce_wall_s)``.
+    :func:`compare` gives it) per formulation: ``({name: RunResult}, reduce_wall_s)``, from the
+    run's initial state or from the reduced state ``y_start`` (7+2N,) (a point of a reduced
+    path; the rigid formulation takes its attitude and angular velocity).
 
     The reduced model is built (or loaded from the cache) once; its time is returned apart."""
     from quadmodes.models.build import reduced_model_for
@@ -270,7 +276,8 @@ def run_reduced(run, formulations=FORMULATIONS, progress: Progress | None = None
     results = {}
     for name in formulations:
         sub = window_run(run, run.integration.duration, name)
-        results[name] = simulate.simulate(sub, model=model)
+        results[name] = (simulate.simulate(sub, model=model) if y_start is None
+                         else reduced_run_from(sub, model, y_start))  # fmt: skip
         if progress:
             progress(f"reduced {name}", 1.0)
     return results, reduce_wall
@@ -284,12 +291,14 @@ def compare(
     full_order_dt: float | None = None,
     full_order: Callable | None = None,
     progress: Progress | None = None,
+    start=None,
 ) -> Comparison:
     """Compare ``formulations`` of run case ``run`` with the full order over ``[0, window]`` s.
 
     ``full_order(run, dt) -> FullOrderSolution`` runs the reference (default:
     :func:`quadmodes.analysis.full_order_runs.full_order_for_run` with the run's initial state);
-    ``full_order_dt`` its step (default: the run's step)."""
+    ``full_order_dt`` its step (default: the run's step). ``start``: a reduced path's
+    :class:`~quadmodes.analysis.path_point.PathPoint` (``full_order`` starts there too)."""
     unknown = [f for f in formulations if f not in AVAILABLE]
     if unknown:
         raise ValueError(
@@ -303,7 +312,8 @@ def compare(
     # quadmodes.analysis.comparison_run.prepare_comparison, is kept as it is)
     run, _ = resolve_modes(window_run(run, window), progress=progress)
     dt_full = float(full_order_dt or run.integration.dt)
-    roms, reduce_wall = run_reduced(run, formulations, progress)
+    roms, reduce_wall = run_reduced(run, formulations, progress,
+                                    None if start is None else start.y)  # fmt: skip
     if full_order is None:
         from quadmodes.analysis.full_order_runs import full_order_for_run
 
@@ -332,8 +342,10 @@ def compare(
     if not full.complete:
         notes.append(f"full order stopped early: {full.reason}")
     notes.extend(scores.notes)
+    if start is not None:
+        notes.insert(0, start.describe())
     return Comparison(run, full, reduced, table, f_low, reduce_wall, dt_full, tuple(notes),
-                      scores)  # fmt: skip
+                      scores, None if start is None else start.as_json())  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------
@@ -407,6 +419,7 @@ def to_dataset(cmp: Comparison) -> xr.Dataset:
             "full_order_damping_cutoff_hz": float(cmp.full.stats.get("damping_cutoff_hz", math.nan)),
             "notes": "\n".join(cmp.notes),
             "modal_normalisation": cf.MODAL_NORMALISATION,
+            **start_attributes(cmp.start),
         },
     )
     return cf.complete(ds)

@@ -156,6 +156,19 @@ def prepare_comparison(run, window: float, damping_cutoff: float | None = None,
     return run, setup_for_run(run, damping_cutoff=damping_cutoff)
 
 
+def prepare_path_comparison(run, window: float, at: str, *, results=None,
+                            damping_cutoff=None, progress=None):  # fmt: skip
+    """``(run, setup, point)``: the run cut to ``window`` (s) with its modes resolved, the full
+    order's setup started at the point ``at`` of its reduced path (read from ``results``, a
+    results.nc of the run, if given) and that
+    :class:`~quadmodes.analysis.path_point.PathPoint`."""
+    from quadmodes.analysis.path_point import full_order_setup_at, path_point
+
+    run_w, setup0 = prepare_comparison(run, window, damping_cutoff, progress)
+    point = path_point(run_w, at, model=setup0.model, results=results, progress=progress)
+    return run_w, full_order_setup_at(setup0, point), point
+
+
 def full_order_recorder(animation: Animation | None, setup, window_s: float, dt_s: float):
     """The :class:`~quadmodes.io.animation.FullOrderRecorder` of a comparison's motion (None
     without ``animation``): the expected number of samples from the window, the full-order
@@ -173,7 +186,7 @@ def run_comparison(run, window: float, *, formulations: Sequence[str] | None = N
                    full_order_dt: float | None = None, setup=None,
                    damping_cutoff: float | None = None, checkpoint: Path | None = None,
                    resume: bool = False, checkpoint_every: int = FULL_ORDER_CHECKPOINT_EVERY,
-                   on_sample=None, progress: Progress | None = None):  # fmt: skip
+                   on_sample=None, progress: Progress | None = None, start=None):  # fmt: skip
     """The reduced runs of ``formulations`` and the full-order run (checkpointed every
     ``checkpoint_every`` steps into ``checkpoint``, continued from it if ``resume``) over
     ``[0, window]`` s (default: all of :data:`quadmodes.analysis.compare.FORMULATIONS`),
@@ -181,7 +194,9 @@ def run_comparison(run, window: float, *, formulations: Sequence[str] | None = N
     :func:`prepare_comparison` (with ``run`` already cut and resolved), else built here.
     ``on_sample(t, x)``: every full-order sample (e.g. :func:`full_order_recorder`). Raises
     :class:`FullOrderIncomplete` if the full order stopped early (Ctrl-C in a reduced run
-    raises KeyboardInterrupt)."""
+    raises KeyboardInterrupt). ``start``: the
+    :class:`~quadmodes.analysis.path_point.PathPoint` of a comparison along a reduced path
+    (``setup`` from :func:`prepare_path_comparison`)."""
     from quadmodes.analysis import compare as cmp
     from quadmodes.analysis.full_order_runs import full_order_for_run
 
@@ -199,8 +214,8 @@ def run_comparison(run, window: float, *, formulations: Sequence[str] | None = N
             ), checkpoint)  # fmt: skip
 
     names = cmp.FORMULATIONS if formulations is None else tuple(formulations)
-    return cmp.compare(run, window, formulations=names,
-                       full_order_dt=full_order_dt, full_order=full, progress=progress)  # fmt: skip
+    return cmp.compare(run, window, formulations=names, full_order_dt=full_order_dt,
+                       full_order=full, progress=progress, start=start)  # fmt: skip
 
 
 def _model_picture(setup, folder: Path) -> None:

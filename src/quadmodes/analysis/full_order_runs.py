@@ -62,6 +62,7 @@ class FullOrderSetup:
     damping_choice: str = "retained"
     damping: fdamp.DampingModes | None = None
     x_rest: np.ndarray | None = None
+    start: str = ""  # where on a reduced path (x0, v0) was taken (path_point); "": t = 0
 
     def integrator_damping(self) -> bool | fdamp.DampingModes:
         """The ``damping`` argument of :func:`integrate_full_order` for this setup."""
@@ -147,34 +148,63 @@ def _setup_for_run(run, model, stretch) -> FullOrderSetup:
     x_rest, centre = x_ref, centre_of_mass(structure, x_ref)
     if setup.model.reference_spin:  # the model's reference is the spinning relative equilibrium
         x_ref = np.asarray(setup.model.X) + np.outer(structure.translational, centre)
-    x0, v0 = initial_state_from_reduced(setup.model, y0, p=centre)
-    notes = setup.initial.notes
-    s0 = y0[7 : 7 + setup.model.n_modes]
-    if np.any(s0):
-        y = relaxed_deformation(structure, x_ref, setup.model, s0)
-        rot = rotation_matrix(y0[:4])
-        x0 = x0 + y @ rot.T
-        v0 = v0 + np.cross(y0[4:7], y) @ rot.T
-        notes = (*notes, "full order: initial deformation relaxed outside the retained modes "
-                         "(statically condensed)")  # fmt: skip
     # a flat membrane without pressure (a sail) is expanded about its spinning state, which has
     # the centrifugal stretch of the spin already; its out-of-plane stiffness scales with the
     # spin, so the quasi-static stretch of a coning ω (off a principal axis) is not small there
     # and is not added
     flat = case.kind == "membrane" and case.pressure is None
+    x0, v0, mapped = full_state_from_reduced(structure, x_ref, setup.model, y0, centre,
+                                             stretch and not flat)  # fmt: skip
+    notes = (*setup.initial.notes, *mapped)
     if flat and stretch and np.any(y0[4:7]):
         notes = (*notes, "full order: a flat membrane about its spinning state, no centrifugal "
                          "stretch added")  # fmt: skip
-    if stretch and not flat and np.any(y0[4:7]):
-        u_c = centrifugal_stretch(structure, x_ref, y0[4:7], setup.model)
-        rot = rotation_matrix(y0[:4])
-        x0 = x0 + u_c @ rot.T
-        v0 = v0 + np.cross(y0[4:7], u_c) @ rot.T
-        notes = (*notes, "full order: centrifugal stretch outside the retained modes added")
     integ = run.integration
     return FullOrderSetup(run, structure, x_ref, setup.model, x0, v0, None,
                           setup.initial.spin_axis, float(integ.duration),
                           float(integ.dt) * int(integ.save_every), notes, x_rest=x_rest)  # fmt: skip
+
+
+def full_state_from_reduced(
+    structure: Structure, x_ref: np.ndarray, model: ReducedModel, y: np.ndarray,
+    centre: np.ndarray, stretch: bool = True,
+) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:  # fmt: skip
+    """The full order's state ``(x, v, notes)`` (n,3) m, m/s of the reduced state ``y = [q, ω,
+    s, ṡ]`` (7+2N,) of ``model`` (reference ``x_ref`` (n,3) of ``structure``), centre of mass
+    ``centre`` (3,) m at rest: the seed paper's kinematics (x = p + R[X + Σ s_m u^m + Σ s_m s_n
+    g^{mn}], v likewise: :func:`initial_state_from_reduced`) with the part outside the
+    retained modes relaxed:
+
+    * the deformation ``s``: the static condensation ``y_c(s)`` of every other DOF
+      (:func:`relaxed_deformation`), rotated with the body, its velocity ω × y_c and, where
+      ṡ ≠ 0, its rate (∂y_c/∂s) ṡ (a central difference of two more condensations along ṡ);
+    * with ``stretch``: the quasi-static centrifugal displacement of ω outside the retained
+      modes (:func:`~quadmodes.fullorder.kinematics.centrifugal_stretch`) and ω × u_c.
+
+    The same map starts a run at t = 0 (ṡ = 0 there) and at any point of a reduced path
+    (:mod:`quadmodes.analysis.path_point`); ``notes`` says which parts were added."""
+    n_modes = model.n_modes
+    x, v = initial_state_from_reduced(model, y, p=centre)
+    rot, w = rotation_matrix(y[:4]), y[4:7]
+    s, sd = y[7 : 7 + n_modes], y[7 + n_modes :]
+    notes: tuple[str, ...] = ()
+    if np.any(s):
+        yc = relaxed_deformation(structure, x_ref, model, s)
+        rate = np.zeros_like(yc)
+        if np.any(sd):  # the relaxed part follows s quasi-statically: its rate (∂y_c/∂s) ṡ
+            eps = 1e-3 * float(np.linalg.norm(s)) / float(np.linalg.norm(sd))
+            rate = (relaxed_deformation(structure, x_ref, model, s + eps * sd)
+                    - relaxed_deformation(structure, x_ref, model, s - eps * sd)) / (2 * eps)  # fmt: skip
+        x = x + yc @ rot.T
+        v = v + (np.cross(w, yc) + rate) @ rot.T
+        notes = ("full order: deformation relaxed outside the retained modes (statically "
+                 "condensed)",)  # fmt: skip
+    if stretch and np.any(w):
+        u_c = centrifugal_stretch(structure, x_ref, w, model)
+        x = x + u_c @ rot.T
+        v = v + np.cross(w, u_c) @ rot.T
+        notes = (*notes, "full order: centrifugal stretch outside the retained modes added")
+    return x, v, notes
 
 
 def relaxed_deformation(
@@ -217,6 +247,7 @@ def checkpoint_key(st: FullOrderSetup) -> str:
     text = "\n".join([
         json.dumps(run, sort_keys=True, default=str), st.run.model_case().to_toml(),
         str(getattr(model, "provenance", {}).get("content_key", "")),
+        *([st.start] if getattr(st, "start", "") else []),  # a start on a reduced path
     ])  # fmt: skip
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
@@ -404,6 +435,7 @@ __all__ = [
     "estimate_for_run",
     "estimate_wall_time",
     "full_order_for_run",
+    "full_state_from_reduced",
     "kane_full_order",
     "refined_extreme",
     "damping_choice",

@@ -300,7 +300,8 @@ def compare(
     full_order_dt: QuantityLike | None = None, damping_cutoff: QuantityLike | None = None,
     checkpoint: str | os.PathLike[str] | None = None, resume: bool = False,
     checkpoint_every: int | None = None, output_dir: str | os.PathLike[str] | None = None, plots: bool = True,
-    progress: Progress | None = None,
+    progress: Progress | None = None, at: str | None = None,
+    results: str | os.PathLike[str] | None = None,
 ):  # fmt: skip
     """Reduced formulations against the full-order finite-element transient over
     ``[0, window]`` (a time; bare floats are s), as ``quadmodes compare``. Expensive: the full
@@ -308,6 +309,12 @@ def compare(
 
     Parameters
     ----------
+    at, results
+        Start both sides at this point of the run's reduced path instead of t = 0 (an event:
+        "cone 10 deg", "time 100 s", as ``compare --at``): the reduced run integrated to it, or
+        its samples read from ``results`` (a results.nc of the same run); the full order from
+        the reduced state there with the part outside the retained modes relaxed
+        (:mod:`quadmodes.analysis.path_point`, docs/path-validity.md).
     damping_cutoff
         The full order's damping: every FE mode below this frequency (e.g. "150 Hz"; bare
         floats are Hz; default 3 × max(spin, highest retained mode)).
@@ -351,10 +358,15 @@ def compare(
     if path is not None and not resume:
         path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
     every = runner.FULL_ORDER_CHECKPOINT_EVERY if checkpoint_every is None else int(checkpoint_every)
-    resolved, setup = runner.prepare_comparison(_run(run), span, cutoff, progress)
+    if at is None:
+        resolved, setup = runner.prepare_comparison(_run(run), span, cutoff, progress)
+        point = None
+    else:
+        resolved, setup, point = runner.prepare_path_comparison(
+            _run(run), span, at, results=results, damping_cutoff=cutoff, progress=progress)
     result = runner.run_comparison(resolved, span, formulations=tuple(formulations),
                                    full_order_dt=dt, setup=setup, checkpoint=path, resume=resume,
-                                   checkpoint_every=every, progress=progress)  # fmt: skip
+                                   checkpoint_every=every, progress=progress, start=point)  # fmt: skip
     if output_dir is not None:  # the checkpoint is removed once the data are written
         runner.write_comparison_outputs(result, Path(output_dir), plots=plots, setup=setup,
                                         checkpoint=path)  # fmt: skip

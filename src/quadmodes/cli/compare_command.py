@@ -50,6 +50,8 @@ class ComparisonPlan:
     full_dt_s: float
     formulations: tuple[str, ...]
     damping_cutoff_hz: float | None = None
+    at: str | None = None  # a point of the reduced path both sides start from (--at)
+    results: Path | None = None  # the results.nc the point is read from (--results)
 
 
 def _num(value, fmt: str) -> str:
@@ -64,6 +66,8 @@ def _plan(
     spin_rate: str | None,
     formulations: str,
     damping_cutoff: str | None = None,
+    at: str | None = None,
+    results: Path | None = None,
 ) -> ComparisonPlan:
     """Load the run case and check the options; raises UserError (or a case/quantity error)."""
     from quadmodes.analysis import compare as cmp
@@ -93,7 +97,39 @@ def _plan(
         cutoff = parse_quantity(damping_cutoff, "frequency", "--damping-cutoff", "150 Hz")
         if not cutoff > 0:
             raise UserError('--damping-cutoff: must be a positive frequency, e.g. "150 Hz"')
-    return ComparisonPlan(cmp.window_run(run, t_window), t_window, dt_full, names, cutoff)
+    return ComparisonPlan(cmp.window_run(run, t_window), t_window, dt_full, names, cutoff,
+                          _path_event(at, results), results)  # fmt: skip
+
+
+def _path_event(at: str | None, results: Path | None) -> str | None:
+    """``--at`` checked (an event text, :func:`quadmodes.case.run_events.parse_until`);
+    ``--results`` needs it and must be a file. UserError otherwise."""
+    from quadmodes.case.run_events import parse_until
+
+    if results is not None and at is None:
+        raise UserError('--results: names the run the --at point is read from; add --at, e.g. '
+                        '--at "cone 10 deg"')  # fmt: skip
+    if results is not None and not Path(results).is_file():
+        raise UserError(f"--results: no file {results}; give a results.nc of this run")
+    if at is None:
+        return None
+    try:
+        parse_until(at)
+    except ValueError as exc:
+        raise UserError(f"--at: {exc}") from None
+    return " ".join(at.split())
+
+
+def _prepared(plan: ComparisonPlan):
+    """``(run, setup, point)``: the run with its modes resolved, the full order's setup
+    (inflation, initial state, damping modes; once for the estimate and the run), started at
+    the reduced path point of ``--at`` (``point``; None: t = 0)."""
+    from quadmodes.analysis import comparison_run as runner
+
+    if plan.at is None:
+        return (*runner.prepare_comparison(plan.run, plan.window_s, plan.damping_cutoff_hz), None)
+    return runner.prepare_path_comparison(plan.run, plan.window_s, plan.at, results=plan.results,
+                                   damping_cutoff=plan.damping_cutoff_hz)  # fmt: skip
 
 
 def _checkpoint_for(target: Path, resume: bool, restart: bool) -> Path:
@@ -142,7 +178,7 @@ def _stopped_message(checkpoint: Path, rerun_hint: str) -> str:
 
 def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bool,
                     bars_shown: bool, rerun_hint: str, signals: dict | None = None,
-                    on_sample=None):  # fmt: skip
+                    on_sample=None, start=None):  # fmt: skip
     """The reduced runs and the checkpointed full-order run
     (:func:`quadmodes.analysis.comparison_run.run_comparison`); Ctrl-C (in either) keeps the
     checkpoint, says how to continue (``rerun_hint``: the command line without --resume) and
@@ -157,6 +193,7 @@ def _run_comparison(plan: ComparisonPlan, setup, checkpoint: Path, *, resume: bo
                 plan.run, plan.window_s, formulations=plan.formulations,
                 full_order_dt=plan.full_dt_s, setup=setup, checkpoint=checkpoint, resume=resume,
                 checkpoint_every=FULL_ORDER_CHECKPOINT_EVERY, on_sample=on_sample, progress=bars,
+                start=start,
             )  # fmt: skip
         except (KeyboardInterrupt, FullOrderIncomplete) as exc:
             if isinstance(exc, FullOrderIncomplete) and not exc.interrupted:
@@ -261,6 +298,16 @@ def compare_command(
         typer.Option("--damping-cutoff", help='full-order damping: every FE mode below this, '
                      'e.g. "150 Hz" (default: 3 × max(spin, highest retained mode))'),
     ] = None,
+    at: Annotated[
+        str | None,
+        typer.Option("--at", help='start both sides at this point of the reduced run\'s path, '
+                     'e.g. "cone 10 deg", "time 100 s" (the reduced run integrated to it)'),
+    ] = None,
+    results: Annotated[
+        Path | None,
+        typer.Option("--results", help="with --at: read the path from this results.nc of the "
+                     "same run (its samples; the point located to the step)"),
+    ] = None,
     output_dir: CompareOutput = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the table as JSON")] = False,
     resume: ResumeFlag = False,
@@ -280,12 +327,16 @@ def compare_command(
     The full-order run is estimated first and checkpointed as it goes: Ctrl-C (or SIGTERM) stops
     it with exit status 130 (143) and keeps the checkpoint, and the same command with --resume
     continues from it; without --resume an existing checkpoint is discarded only with --restart.
-    A full-order run that did not reach the end of the window is never scored."""
+    A full-order run that did not reach the end of the window is never scored.
+
+    --at "cone 10 deg" (or a time, a spin, "flat spin") starts both sides at that point of the
+    reduced run's path instead of t = 0: the reduced state there, and the full order from it
+    with the part outside the retained modes relaxed (docs/path-validity.md)."""
     with sigterm_as_interrupt() as signals:
         try:
             payload, plan, target = _compare(
                 case, window, full_dt, modes, spin_rate, formulations, damping_cutoff,
-                output_dir, as_json=as_json, resume=resume, restart=restart, yes=yes,
+                output_dir, as_json=as_json, at=at, results=results, resume=resume, restart=restart, yes=yes,
                 plots=plots, signals=signals, no_cache=no_cache,
                 animation=(animate, animate_frame, animate_frames),
             )  # fmt: skip
@@ -300,7 +351,8 @@ def compare_command(
 
 
 def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff, output_dir,
-             *, as_json, resume, restart, yes, plots, signals, no_cache, animation=(False, "inertial", 100)):  # fmt: skip
+             *, as_json, resume, restart, yes, plots, signals, no_cache,
+             animation=(False, "inertial", 100), at=None, results=None):  # fmt: skip
     """The body of :func:`compare_command`: returns (payload, plan, output folder);
     ``animation``: the ``--animate``, ``--animate-frame``, ``--animate-frames`` values."""
     from quadmodes.analysis import comparison_run as runner
@@ -310,7 +362,8 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
 
     # RuntimeError: a full-order Newton failure (one line, checkpoint kept)
     with one_line_errors(RuntimeError), caching_disabled(no_cache):
-        plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff)
+        plan = _plan(case, window, full_dt, modes, spin_rate, formulations, damping_cutoff,
+                     at, results)  # fmt: skip
         animation = extras.animation_choice(*animation)
         target = output_dir or Path("out") / f"compare-{plan.run.name}"
         check_output_folder(target)
@@ -322,12 +375,13 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         checkpoint = _checkpoint_for(target, resume, restart)
         options = {"--window": window, "--full-dt": full_dt, "--modes": modes,
                    "--spin-rate": spin_rate, "--formulation": formulations,
-                   "--damping-cutoff": damping_cutoff}  # fmt: skip
+                   "--damping-cutoff": damping_cutoff, "--at": at,
+                   "--results": None if results is None else str(results)}  # fmt: skip
         hint = _rerun_hint(case, options, target, plots, as_json)
         signals["stopped"] = lambda: _stopped_message(checkpoint, hint)
         # modes resolved once; inflation, initial state and damping modes, once for the
         # estimate and the run
-        run, setup = runner.prepare_comparison(plan.run, plan.window_s, plan.damping_cutoff_hz)
+        run, setup, point = _prepared(plan)
         if resume:
             runner.check_checkpoint_key(checkpoint, setup)
         check_free_space(target, runner.comparison_output_bytes(setup, plan.window_s,
@@ -336,7 +390,7 @@ def _compare(case, window, full_dt, modes, spin_rate, formulations, damping_cuto
         recorder = runner.full_order_recorder(animation, setup, plan.window_s, plan.full_dt_s)
         result = _run_comparison(
             replace(plan, run=run), setup, checkpoint, resume=resume, bars_shown=True,
-            rerun_hint=hint, signals=signals, on_sample=recorder,
+            rerun_hint=hint, signals=signals, on_sample=recorder, start=point,
         )  # fmt: skip
         try:
             payload = runner.write_comparison_outputs(

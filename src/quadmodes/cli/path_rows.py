@@ -60,6 +60,14 @@ def _cone_times(summary: dict) -> str | None:
     return ", ".join(f"{m}°: {'—' if v is None else f'{v:.4g}'}" for m, v in times.items())
 
 
+def _sink(summary: dict) -> str | None:
+    sink = summary.get("energy_sink_consistency")
+    if not sink or sink.get("ratio_min") is None:
+        return None
+    return (f"{sink['ratio_min']:.5f} – {sink['ratio_max']:.5f} over {sink['windows']} windows "
+            f"from t = {sink['window_start_s'][0]:.4g} s")  # fmt: skip
+
+
 #: (label, function of the summary, "") rows of the free-body run summary.
 PATH_ROWS = [
     ("reduced model valid along the path", _path_valid, ""),
@@ -67,6 +75,7 @@ PATH_ROWS = [
     ("model's spin range (centrifugal load, Hz)", _spin_range, ""),
     ("until", _until, ""),
     ("time to cone angle (s)", _cone_times, ""),
+    ("cone growth: run / energy-sink law", _sink, ""),
 ]
 
 

@@ -48,4 +48,20 @@ def path_parts(summary: dict) -> list[str]:
         rows = [(f"{mark} deg", format_value(t)) for mark, t in times.items()]
         parts.append(table(("cone angle", "first reached at t (s)"), rows,
                            "times to cone angles (interpolated between saved samples)"))  # fmt: skip
-    return parts
+    return parts + sink_parts(summary.get("energy_sink_consistency"))
+
+
+def sink_parts(sink: dict | None) -> list[str]:
+    """The energy-sink law against the run along its path (``energy_sink_consistency`` of the
+    summary, :mod:`quadmodes.runs.sink_consistency`): one row a window."""
+    if not sink or not sink.get("windows"):
+        return []
+    rows = [(format_value(a, ".5g"), format_value(b, ".5g"), format_value(r, ".5g"),
+             format_value(se, ".2g"))
+            for a, b, r, se in zip(sink["window_start_s"], sink["window_end_s"], sink["ratio"],
+                                   sink["ratio_se"], strict=True)]  # fmt: skip
+    return [table(("window from (s)", "to (s)", "cone growth: run / energy-sink law",
+                   "standard error"), rows,
+                  "energy-sink consistency along the path: the law applied to the run's own "
+                  "dissipated power against its cone growth"),
+            paragraph(f"rule: {sink.get('rule', '')}")]  # fmt: skip

@@ -30,6 +30,7 @@ from quadmodes.io.atomic import write_text
 from quadmodes.io.outputs import write_netcdf
 from quadmodes.runs.answer import answer_summary, answer_variables
 from quadmodes.runs.path_results import path_attrs, path_summary, path_variables
+from quadmodes.runs.sink_consistency import sink_summary, sink_variables
 from quadmodes.runs.validity_results import validity_attrs, validity_summary
 from quadmodes.signals import log_decrement
 
@@ -185,10 +186,11 @@ def to_dataset(result) -> xr.Dataset:
     data = _run_variables(result.diagnostics, q, w, s, sd, result.initial.bending_modes)
     answer, answer_attrs = answer_variables(result)
     path_data, path_coords = path_variables(result)
-    ds = xr.Dataset({**data, **answer, **path_data},
-                    coords={**_mode_coords(sol.t, labels, freqs), **path_coords})  # fmt: skip
+    sink_data, sink_coords, sink_attrs = sink_variables(result)  # energy-sink consistency
+    ds = xr.Dataset({**data, **answer, **path_data, **sink_data},
+                    coords={**_mode_coords(sol.t, labels, freqs), **path_coords, **sink_coords})  # fmt: skip
     ds.attrs.update(_run_attrs(result, n), **answer_attrs)
-    ds.attrs.update(path_attrs(result))
+    ds.attrs.update(path_attrs(result), **sink_attrs)
     return ds
 
 
@@ -289,6 +291,7 @@ def summary(ds: xr.Dataset) -> dict:
     out.update(answer_summary(ds))
     out.update(validity_summary(ds))
     out.update(path_summary(ds))  # valid: at the start and along the path
+    out.update(sink_summary(ds))  # the energy-sink law against the run, along the path
     out["n_modes"] = int(ds.attrs.get("n_modes", ds.sizes.get("mode", 0)))
     if "reference" in ds.attrs:  # the state the reduced model is expanded about
         out["reference"] = str(ds.attrs["reference"])
