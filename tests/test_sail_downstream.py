@@ -91,3 +91,30 @@ def test_balanced_mac_is_spin_free():
     static = np.r_[phi, np.zeros(n)][:, None]
     out = tr.balanced(static, w, disp)
     np.testing.assert_allclose(np.real(out.conj().T @ w @ out), [[1.0]], rtol=1e-12)
+
+
+def test_damping_modes_of_a_spin_stiffened_rotor_are_those_of_its_spinning_state():
+    """The string-blade rotor (20 elements per blade): its lowest elastic frequency at rest is
+    ~1e-3 of a 1 rad/s spin (EI ≈ 0), so a modal damping ζ·2ω on its modes at rest would vanish;
+    the damping modes are those of its spinning state, whose lowest frequency (of K_T there:
+    lag and flap stiffened by the tension) is of the order of the spin (above 0.3 Ω). A
+    structure stiff at rest (the same rotor with EI × 1e8: first bending ≈ 16 rad/s) keeps its
+    state at rest."""
+    from quadmodes.rom.spinning_reduction import spinning_modes
+    from quadmodes.structure.damping import damping_state, modes_below
+    from quadmodes.structure.pipeline import structure_for_case
+
+    def rotor(second_moment: str):
+        changes = [(("boom", i, key), v) for i in (0, 1)
+                   for key, v in (("elements", 20), ("second_moment", second_moment))]  # fmt: skip
+        return structure_for_case(edit(load_case("string-blade-rotor"), changes, "test"))
+
+    s = rotor("1e-14 m^4")
+    eq, _, _ = spinning_modes(s, s.reference, 3, 1.0, np.array([0.0, 0.0, 1.0]))
+    x, state = damping_state(s, s.reference, eq.x, 1.0)
+    assert state == "spinning" and x is eq.x
+    f, _, _ = modes_below(s, x, 0.5)
+    assert f.size and 2 * np.pi * f[0] > 0.3
+    stiff = rotor("1e-6 m^4")
+    eq, _, _ = spinning_modes(stiff, stiff.reference, 3, 1.0, np.array([0.0, 0.0, 1.0]))
+    assert damping_state(stiff, stiff.reference, eq.x, 1.0)[1] == "rest"
