@@ -21,10 +21,11 @@ from quadmodes.structure.modes import compute_modes
 
 #: Default cutoff: this factor times the larger of the spin and the highest retained frequency.
 CUTOFF_FACTOR = 3.0
-#: A structure whose lowest elastic frequency at rest is below this fraction of the spin has no
-#: stiffness at rest on the scale of its motion (blades, strings, webs stiffened by the spin
-#: alone): its damping modes are those of its spinning state (:func:`damping_state`).
-STIFFLESS_RATIO = 1e-2
+#: A structure whose lowest elastic frequency at rest is below this fraction of the spin (its own
+#: stiffness then below 1 % of the spin's) has no stiffness at rest on the scale of its motion
+#: (blades, strings, webs stiffened by the spin alone): its damping modes are those of its
+#: spinning state (:func:`damping_state`).
+STIFFLESS_RATIO = 0.1
 
 
 def damping_state(structure: Structure, x_rest: np.ndarray, x_spin: np.ndarray, spin: float):
