@@ -141,3 +141,23 @@ def test_spin_range_check_rebuilds_about_the_runs_own_axis(tmp_path):
     # the same spin-stiffened body about 0.98 rad/s: the frequencies at that ω agree (the model
     # about 1 rad/s carries the 4 % prestress change through its quadratic modes)
     assert eps < 1e-2
+
+
+def test_initial_deformation_of_a_disc_is_its_lowest_mode():
+    """``initial.bending_amplitude`` on a model about a spinning state with no mode labelled
+    bending (the disc's are "disc (n, s)"): the lowest mode (the (2, 0) pair's first member) is
+    deformed to that largest nodal displacement, with a note (before: refused)."""
+    from quadmodes.case import load_run_case
+    from quadmodes.runs.initial import largest_nodal_displacement
+    from quadmodes.runs.simulate import prepare
+
+    changes = {"reduced.modes": 5, "initial.bending_amplitude": "2 mm",
+               "integration.duration": "1 s"}  # fmt: skip
+    run = edit(load_run_case("spinning-disc-nutation"), changes, "test")
+    setup = prepare(run, model_case=disc_case(RADIUS / 6))
+    model, init = setup.model, setup.initial
+    assert init.bending_modes == (0, 1) and model.labels[0] == "disc (n=2, s=0)"
+    s0 = init.y0[7 : 7 + model.n_modes]
+    assert s0[0] * largest_nodal_displacement(model, 0) == pytest.approx(2e-3, rel=1e-12)
+    assert not np.any(s0[1:])
+    assert any("no mode is labelled bending" in n for n in init.notes)
