@@ -56,6 +56,8 @@ class CampbellResult:
     regains) positive definiteness between two points of the sweep (empty for a clamped body):
     there the relative equilibrium s* = (Λ − ωᵀJ2ω)⁻¹ ½ωᵀJ1ω passes through infinity, so every
     branch ends at the last point before it and the roots after it start new branches.
+    notes: what the sweep changed from the request (e.g. the start of a body without stiffness
+    at rest, :func:`quadmodes.analysis.campbell_output.sweep_spins`).
     """
 
     spin: np.ndarray
@@ -73,10 +75,19 @@ class CampbellResult:
     mode_labels: tuple[str, ...] = ()
     start: np.ndarray | None = None
     divergence: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    notes: tuple[str, ...] = ()
 
     @property
     def frequency_hz(self) -> np.ndarray:
         return self.frequency / (2.0 * np.pi)
+
+    @property
+    def ratio(self) -> np.ndarray:
+        """(ns, nb) ω/Ω along each branch (NaN at Ω = 0 and where a branch does not exist):
+        independent of the spin for a body whose stiffness is all from its spin."""
+        spin = np.asarray(self.spin, float)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(spin > 0.0, self.frequency / np.where(spin > 0.0, spin, 1.0), np.nan)
 
     @property
     def unstable(self) -> np.ndarray:
@@ -160,7 +171,7 @@ class _Sweep:
     """What stays fixed over one sweep: the reduced system, its model, the requested unit axis
     (3,), ``damped``, the number of roots per point, the frequency scale (1/s) and the nudge
     (rad/s) of the one-sided limit at degenerate roots; disp (m,) bool: the displacement (δs)
-    entries of the state."""
+    entries of the state; balance: match by the spin-free MAC (:func:`stiffless_at_rest`)."""
 
     sys: rsys.ReducedSystem
     model: ReducedModel
@@ -170,6 +181,7 @@ class _Sweep:
     scale: float
     nudge: float
     disp: np.ndarray
+    balance: bool = False
 
 
 def _sweep_setup(
@@ -186,7 +198,19 @@ def _sweep_setup(
     n, off = sys.n_modes, 3 if sys.free else 0
     disp = np.zeros(off + 2 * n, bool)
     disp[off : off + n] = True
-    return _Sweep(sys, model, axis, damped, count, scale, nudge, disp)
+    return _Sweep(sys, model, axis, damped, count, scale, nudge, disp, stiffless_at_rest(model))
+
+
+def stiffless_at_rest(model: ReducedModel) -> bool:
+    """True for a model expanded about a spinning state whose modal stiffness Λ at rest is not
+    positive (smallest eigenvalue ≤ 1e-6 Ω_ref²): a membrane held taut by its spin alone, whose
+    every stiffness comes from the spin (its rotating stiffness is singular at Ω = 0, so a
+    sweep from 0 meets a spurious divergence at its first step, and its frequencies, all ∝ Ω,
+    make the eigenvectors' velocity blocks scale with the spin)."""
+    if not model.reference_spin or model.n_modes == 0:
+        return False
+    lam = np.linalg.eigvalsh(0.5 * (model.Lam + model.Lam.T))
+    return bool(lam.min() <= 1e-6 * float(model.reference_spin) ** 2)
 
 
 def _selected_roots(sw: _Sweep, om: float):
@@ -202,16 +226,24 @@ def _selected_roots(sw: _Sweep, om: float):
 def _point(sw: _Sweep, om: float, direction: float) -> _Point:
     """Selected roots at spin ``om`` (rad/s); at a degenerate root the eigenvectors of the
     one-sided limit towards ``direction`` (±1) replace the arbitrary basis (the spin nudged by
-    ``sw.nudge``, ten times more while the roots there are still degenerate, up to 1000 ×)."""
+    ``sw.nudge``, ten times more while the roots there are still degenerate, up to 1000 ×, at
+    most 1 % of a spin ≠ 0); a degeneracy the nudge does not lift at a spin ≠ 0 (a symmetry:
+    the pairs of an axisymmetric body) keeps its basis and is matched as a cluster by span."""
     lin, idx, lam, vec = _selected_roots(sw, om)
     if _degenerate(lin.lam, idx, sw.scale):
-        for k in range(4):  # nudge up to 1e-1 of the step until the roots have split
-            lin2, idx2, lam2, vec2 = _selected_roots(sw, om + direction * sw.nudge * 10.0**k)
-            if not _degenerate(lin2.lam, idx2, sw.scale):
+        # nudge up to 1e-1 of the step (and 1e-2 of a spin ≠ 0: the roots of a body stiffened
+        # by its spin alone move in proportion to it) until the roots have split
+        cap = 1e-2 * abs(om) if om else np.inf
+        for k in range(4):
+            shift = min(sw.nudge * 10.0**k, cap)
+            lin2, idx2, lam2, vec2 = _selected_roots(sw, om + direction * shift)
+            split = not _degenerate(lin2.lam, idx2, sw.scale)
+            if split:
                 break
-        rows, cols = linear_sum_assignment(np.abs(lam[:, None] - lam2[None, :]))
-        vec = vec.astype(complex)
-        vec[:, rows] = vec2[:, cols]
+        if split or not om:  # a degeneracy the spin does not lift (a symmetry) stays a cluster
+            rows, cols = linear_sum_assignment(np.abs(lam[:, None] - lam2[None, :]))
+            vec = vec.astype(complex)
+            vec[:, rows] = vec2[:, cols]
     return _Point(
         om, lam, tr.normalise(vec, lin.weight), lin.weight, lin.min_stiffness, lin.s, lin.axis
     )
@@ -224,7 +256,7 @@ def _match(sw: _Sweep, p0: _Point, p1: _Point) -> tuple[_Point, np.ndarray, bool
     wgt = 0.5 * (p0.wgt + p1.wgt)
     vec = tr.align_degenerate(p0.vec, p1.vec, p1.lam, p1.wgt, sw.scale)
     p1 = _Point(p1.spin, p1.lam, vec, p1.wgt, p1.kmin, p1.s, p1.axis)
-    order, mac, ok = tr.match(p0.vec, p0.lam, p1.vec, p1.lam, wgt, sw.scale, sw.disp)
+    order, mac, ok = tr.match(p0.vec, p0.lam, p1.vec, p1.lam, wgt, sw.scale, sw.disp, sw.balance)
     return p1.reordered(order), mac, ok
 
 

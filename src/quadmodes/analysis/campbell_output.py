@@ -7,11 +7,12 @@ write)."""
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from quadmodes.analysis.campbell import CampbellResult, campbell
+from quadmodes.analysis.campbell import CampbellResult, campbell, stiffless_at_rest
 from quadmodes.analysis.campbell_figure import branch_starts, plot_campbell
 from quadmodes.analysis.full_order_markers import (
     FullOrderMarkers,
@@ -28,7 +29,33 @@ from quadmodes.limits import CAMPBELL_POINTS, check_count
 from quadmodes.rom.reduced import ReducedModel
 
 __all__ = ["campbell_main", "campbell_with_full_order", "from_dataset", "model_for_case",
-           "plot_campbell", "to_dataset", "write_campbell", "write_csv"]  # fmt: skip
+           "plot_campbell", "sweep_spins", "to_dataset", "write_campbell", "write_csv"]  # fmt: skip
+
+#: A body without stiffness at rest swept from spin 0 starts at this fraction of its reference
+#: spin (its frequencies, all ∝ Ω, vanish at 0, where its modal stiffness is round-off).
+SPIN_START_FRACTION = 0.05
+
+
+def sweep_spins(model: ReducedModel, spin_min: float, spin_max: float, n: int):
+    """``(spin rates (n,) rad/s, notes)``: ``n`` evenly spaced from ``spin_min`` to ``spin_max``;
+    for a body without stiffness at rest (:func:`stiffless_at_rest`) a start at 0 is moved to
+    :data:`SPIN_START_FRACTION` × its reference spin (at most the first step); such a body
+    always gets a note (ω/Ω is its spin-free answer)."""
+    spins = np.linspace(spin_min, spin_max, n)
+    if not stiffless_at_rest(model):
+        return spins, ()
+    ref = abs(float(model.reference_spin))
+    what = (f"no stiffness at rest (modes from the spinning state at {ref:.4g} rad/s): every "
+            "frequency scales with the spin, ω/Ω does not depend on it")  # fmt: skip
+    if spin_min > 0.0:
+        return spins, (what,)
+    if spin_max <= 0.0:
+        raise ValueError(f"spin_max: this body has no stiffness at rest (its modes come from its "
+                         f"spinning state at {ref:.4g} rad/s): give a spin rate above 0")  # fmt: skip
+    start = min(SPIN_START_FRACTION * ref, spin_max / max(n - 1, 1))
+    spins = np.linspace(start, spin_max, n) if n > 1 else np.array([spin_max])
+    note = f"{what}; the sweep starts at {spins[0]:.4g} rad/s instead of 0 (no frequency there)"
+    return spins, (note,)
 
 
 def to_dataset(result: CampbellResult, markers: FullOrderMarkers | None = None):
@@ -240,8 +267,9 @@ def campbell_with_full_order(
     if spins and not model.free:
         raise ValueError("full_order_spins: the full-order rotating-frame analysis is for free "
                          "bodies; this case is clamped to a hub")  # fmt: skip
-    result = campbell(model, np.linspace(spin_min, spin_max, n), axis, formulation, damped,
-                      axis_option=axis_option)  # fmt: skip
+    sweep, notes = sweep_spins(model, spin_min, spin_max, n)
+    result = campbell(model, sweep, axis, formulation, damped, axis_option=axis_option)
+    result = replace(result, notes=(*result.notes, *notes))
     markers = (full_order_markers(case_or_model, model, spins, result.axis, formulation,
                                   progress, axis_option) if spins else None)  # fmt: skip
     if markers is not None:  # the figure's branch names

@@ -16,6 +16,13 @@ spin rate continues which branch of the previous one.
   the basis is also rotated onto the previous one (orthogonal Procrustes,
   :func:`align_degenerate`), so a persistent pair keeps one member per branch instead of an
   arbitrary basis per spin rate.
+* **Spin-free comparison.** An eigenvector has δṡ = λ δs, so its velocity block grows with
+  |λ| against its displacement block; where every frequency scales with the spin (a membrane
+  held taut by its spin alone) the same mode at two far-apart spins would compare with a MAC
+  near ½ (and so would a degenerate pair's span). For such a body, before matching, each
+  vector's displacement and velocity blocks are scaled to equal energy (:func:`balanced`): the
+  same shape at any |λ| then compares as 1. (Not for a body stiff at rest: its gyroscopic
+  roots do not split their energy equally, and the plain MAC tracks them.)
 * **Poor matches are refused.** A match is accepted when its (span) MAC is at least
   :data:`MAC_ACCEPT` and every competitor is :data:`MAC_MARGIN` below it; otherwise the spin
   step is halved (:mod:`quadmodes.analysis.campbell`). A branch whose smallest MAC along the
@@ -45,6 +52,25 @@ def normalise(vec: np.ndarray, wgt: np.ndarray) -> np.ndarray:
     """Columns of ``vec`` (m, k) scaled to unit energy ``vᴴ W v = 1``."""
     norms = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", vec.conj(), wgt, vec).real, 1e-300))
     return vec / norms
+
+
+def balanced(vec: np.ndarray, wgt: np.ndarray, disp: np.ndarray) -> np.ndarray:
+    """Columns of ``vec`` (m, k) with the displacement entries ``disp`` (m,) bool and the others
+    (velocities, and δω of a free body) each scaled to energy ½ in ``W`` (W has no
+    displacement–velocity coupling); a block below 1e-12 of its column's energy (a root at
+    λ = 0: no velocity) is left as it is and the other block scaled to energy 1. The span of
+    a cluster of equal roots is kept (both blocks scale alike across it)."""
+    d = np.asarray(disp, bool)
+    out = np.array(vec, dtype=complex)
+    e_d = np.einsum("ik,ij,jk->k", out[d].conj(), wgt[np.ix_(d, d)], out[d]).real
+    e_v = np.einsum("ik,ij,jk->k", out[~d].conj(), wgt[np.ix_(~d, ~d)], out[~d]).real
+    total = np.maximum(e_d + e_v, 1e-300)
+    for blk, e, other in ((d, e_d, e_v), (~d, e_v, e_d)):
+        live = e > 1e-12 * total
+        alone = live & (other <= 1e-12 * total)
+        scale = np.where(alone, 1.0, 0.5) / np.maximum(e, 1e-300)
+        out[np.ix_(blk, live)] *= np.sqrt(scale[live])
+    return out
 
 
 def mac(a: np.ndarray, b: np.ndarray, wgt: np.ndarray, disp: np.ndarray | None = None):
@@ -148,12 +174,15 @@ def _linked(lam0: np.ndarray, lam1: np.ndarray, order: np.ndarray, scale: float)
     return list(groups.values())
 
 
-def match(v0, lam0, v1, lam1, wgt, scale, disp=None):
+def match(v0, lam0, v1, lam1, wgt, scale, disp=None, balance=False):
     """Assignment of roots 1 to branches 0: ``(order (k,) index into roots 1 per branch, span
     MAC (k,) of each branch's cluster, ok)``; ``ok``: every match clear (module docstring).
     ``v*`` (m, k) unit-energy eigenvectors, ``lam*`` (k,) roots, ``wgt`` (m, m) the energy
     weight, ``scale`` (1/s) the frequency scale, ``disp`` (m,) bool the displacement entries
-    (:func:`mac`; single roots only, clusters by span)."""
+    (:func:`mac`; single roots only, clusters by span); ``balance``: both compared
+    :func:`balanced` (a body stiffened by its spin alone)."""
+    if disp is not None and balance:
+        v0, v1 = balanced(v0, wgt, disp), balanced(v1, wgt, disp)
     m = mac(v0, v1, wgt, disp)
     dist = np.abs(lam0[:, None] - lam1[None, :]) / scale
     rows, cols = linear_sum_assignment(-(m - 1e-3 * dist))

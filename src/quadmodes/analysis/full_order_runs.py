@@ -30,6 +30,7 @@ from quadmodes.fullorder.setup import step_count
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.rotations import rotation_matrix
 from quadmodes.structure import pipeline
+from quadmodes.structure.damping import damping_state
 
 Progress = Callable[[str, float], None]
 
@@ -103,7 +104,13 @@ def with_damping(st: FullOrderSetup, damping="independent", cutoff_hz: float | N
         spin = st.run.spinup.omega_s if st.run.spinup is not None else st.run.initial.spin_rate
         cutoff_hz = fdamp.default_cutoff(float(spin) / (2 * np.pi), st.model.frequencies_hz)
     x_rest = st.x_ref if st.x_rest is None else st.x_rest
-    modes = fdamp.independent_damping_for(case, st.structure, x_rest, float(cutoff_hz), zeta)
+    x_d, state = x_rest, "rest"
+    if st.model.reference_spin:  # the reduced model's own rule (rom.spinning_reduction)
+        ref = float(st.model.reference_spin)
+        x_d, state = damping_state(st.structure, x_rest, st.x_ref, ref)
+        state = state if state == "rest" else f"spinning {ref!r} rad/s"
+    modes = fdamp.independent_damping_for(case, st.structure, x_d, float(cutoff_hz), zeta,
+                                          state=state)  # fmt: skip
     return replace(st, damping_choice=choice, damping=modes, notes=(*notes, modes.describe()))
 
 

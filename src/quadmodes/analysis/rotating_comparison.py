@@ -387,7 +387,7 @@ def rotating_frequency_comparison(
     spins_hz: Sequence[float] = (0.0, 20.0, 41.0),
     n_modes: int = 5,
     formulations: Sequence[str] = ("Q", "L"),
-    axis=0,
+    axis=None,
     model=None,
     per_target: int = 6,
     progress: Progress | None = None,
@@ -400,13 +400,14 @@ def rotating_frequency_comparison(
     ``case``: name, TOML path or Case of a free membrane body. ``axis``: spin axis as in
     campbell (a name "x" … "major", a principal index of the reduced model's J0, 0 minor … 2
     major, or three numbers; :mod:`quadmodes.rom.spin_axis`, ``axis_option`` names it in
-    errors); the full order spins about the same body axis. ``model``:
+    errors; None: the axis of a model about a spinning state, e.g. a flat membrane's normal,
+    else the minor axis); the full order spins about the same body axis. ``model``:
     a ReducedModel of this case (default ``models.build.reduced_model_for(case, n_modes)``, cached).
     Full-order roots are searched near every reduced root (``per_target`` per shift) and assigned
     to branches by the MAC of energy-weighted (δω, s, ṡ) vectors (:func:`match_branches`)."""
     timings: dict[str, float] = {}
     case, structure, x0, rom = _case_and_model(case, n_modes, model, timings)
-    e = resolve_axis(rom, axis, axis_option)
+    e = resolve_axis(rom, axis, axis_option, default=0)
     spins_hz = [float(s) for s in spins_hz]
     formulations = tuple(formulations)
     with _timed(timings, "campbell"):

@@ -251,8 +251,11 @@ def campbell(
     from ``spin_min`` to ``spin_max`` (quantities, e.g. "20 Hz"; bare floats are rad/s),
     tracked by MAC (what ``quadmodes campbell`` prints).
 
-    ``axis``: the body-frame spin axis, as ``--axis``: None (a free body: its symmetry axis; a
-    clamped body: z), a name ("x", "minor" ...), a principal index 0-2 or a vector (3,).
+    ``case``: a case (name, path, object) or a reduced model (e.g. ``qm.reduced_model(case, 9,
+    spin="1 rad/s", spin_axis="major")``: a body stiffened by its spin alone, swept from 0 from
+    5 % of that spin). ``axis``: the body-frame spin axis, as ``--axis``: None (a model about a
+    spinning state: that state's axis; a free body: its symmetry axis; a clamped body: z), a
+    name ("x", "minor" ...), a principal index 0-2 or a vector (3,).
     ``full_order``: spin rates (quantities; bare floats rad/s) at which the full-order model is
     linearised about its spinning equilibrium, its roots drawn as markers (``--full-order``).
 
@@ -265,6 +268,7 @@ def campbell(
     """
     from quadmodes.analysis.campbell_output import campbell_with_full_order
     from quadmodes.io.staging import staged_output
+    from quadmodes.rom.reduced import ReducedModel
 
     lo = si(spin_min, "angular_rate", "spin_min")
     hi = si(spin_max, "angular_rate", "spin_max")
@@ -272,7 +276,8 @@ def campbell(
     folder = None if output_dir is None else Path(output_dir)
     with staged_output(folder) as scratch:
         result, _, _ = campbell_with_full_order(
-            _model(case), lo, hi, int(points), axis=axis, formulation=formulation,
+            case if isinstance(case, ReducedModel) else _model(case), lo, hi, int(points),
+            axis=axis, formulation=formulation,
             output_dir=scratch, progress=progress, full_order_spins=spins,
         )  # fmt: skip
     return result

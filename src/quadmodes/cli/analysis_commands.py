@@ -75,6 +75,9 @@ def _campbell_summary(result, case_name: str, formulation: str) -> dict:
         # poor match)
         "frequency_rad_s": _finite(np.asarray(result.frequency).tolist()),
         "frequency_hz": _finite(np.asarray(result.frequency_hz).tolist()),
+        # ω/Ω (null at Ω = 0): spin-independent for a body stiffened by its spin alone
+        "frequency_ratio": _finite(np.asarray(result.ratio).tolist()),
+        "notes": list(result.notes),
         "unstable_spin_rates_rad_s": [
             float(w)
             for w, u, k in zip(result.spin, result.unstable, result.min_stiffness, strict=True)
@@ -100,6 +103,14 @@ def _print_campbell(result, case_name: str, summary: dict, unit) -> None:
         cells = [f"{v:.4g}" if np.isfinite(v) else "-" for v in freqs[k, :6]]
         table.add_row(f"{spins[k]:.4g}", *cells)
     out.print(table)
+    for note in result.notes:
+        err.print(f"note: {escape(note)}")
+    if result.notes:  # a body stiffened by its spin alone: ω/Ω is its spin-free answer
+        ratio = np.asarray(result.ratio, float)
+        spans = [f"{escape(lab)} {np.nanmin(r):.4g}–{np.nanmax(r):.4g}"
+                 for lab, r in zip(result.labels[:6], ratio.T[:6], strict=False)
+                 if np.isfinite(r).any()]  # fmt: skip
+        out.print("ω/Ω over the sweep: " + "; ".join(spans))
     if summary["critical_speeds"]:
         crit = Table(f"spin ({u})", "branch", "meets", title="critical speeds (f = kΩ)",
                      caption="k = 1: a load fixed in space; 2: twice a turn")  # fmt: skip
@@ -302,7 +313,7 @@ def rotating_command(
     ] = "0 Hz, 20 Hz, 41 Hz",  # fmt: skip
     modes: Annotated[int, typer.Option(help="retained modes of the reduced model")] = 5,
     formulation: FormulationList = "Q,L",
-    axis: AxisOption = "minor",
+    axis: AxisOption = None,
     units: RotatingUnits = "Hz",
     output: RotatingOutput = None,
     as_json: JsonFlag = False,
@@ -312,7 +323,9 @@ def rotating_command(
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in the rotating frame, in --units
-    (Hz by default; the JSON stays in Hz)."""
+    (Hz by default; the JSON stays in Hz). Default --axis: the minor axis, or for a body whose
+    model is expanded about a spinning state (a membrane without stiffness at rest) that
+    state's axis (a flat membrane's normal)."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
     from quadmodes.models.cache import caching_disabled
 

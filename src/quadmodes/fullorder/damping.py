@@ -19,7 +19,7 @@ SI units; shapes ``(K, n, 3)`` mass-normalised (``φᵀ M φ = 1``, 1/√kg).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +47,8 @@ class DampingModes:
 
     frequencies_hz (K,) Hz; shapes (K,n,3) 1/√kg mass-normalised; C (K,K) 1/s the modal damping
     matrix (``diag 2ζω`` for the independent basis); source "independent" or "retained";
-    cutoff_hz Hz (NaN for "retained"); damping_ratio (K,) ζ."""
+    cutoff_hz Hz (NaN for "retained"); damping_ratio (K,) ζ; state: the modes' state, "rest"
+    or "spinning" (a structure without stiffness at rest)."""
 
     frequencies_hz: np.ndarray
     shapes: np.ndarray
@@ -55,6 +56,7 @@ class DampingModes:
     damping_ratio: np.ndarray
     source: str
     cutoff_hz: float = float("nan")
+    state: str = "rest"
 
     @property
     def n_modes(self) -> int:
@@ -66,8 +68,9 @@ class DampingModes:
         top = f", up to {self.frequencies_hz.max():.1f} Hz" if self.n_modes else ""
         if self.source == "retained":
             return f"full-order damping: the reduced model's {self.n_modes} retained modes ({zeta})"
+        where = "" if self.state == "rest" else f" of the {self.state} state"
         return (
-            f"full-order damping: independent, {self.n_modes} FE modes below the cutoff "
+            f"full-order damping: independent, {self.n_modes} FE modes{where} below the cutoff "
             f"{self.cutoff_hz:.4g} Hz{top} ({zeta})"
         )
 
@@ -96,19 +99,22 @@ def retained_damping(model: ReducedModel) -> DampingModes:
 
 
 
-def damping_key(case: Case, cutoff_hz: float) -> str:
-    """Content key of the damping modes of ``case`` below ``cutoff_hz`` (Hz)."""
+def damping_key(case: Case, cutoff_hz: float, state: str = "rest") -> str:
+    """Content key of the damping modes of ``case`` below ``cutoff_hz`` (Hz) about ``state``
+    ("rest", or "spinning <Ω rad/s>" for a structure without stiffness at rest)."""
+    where = "" if state == "rest" else f"# damping.state = {state}\n"
     return artifact.content_key(
         cache.model_inputs(case)
         + f"\n# damping.cutoff_hz = {float(cutoff_hz)!r}\n"
         + f"# damping.format_version = {DAMPING_FORMAT_VERSION}\n"
+        + where
     )
 
 
-def damping_cache_path(case: Case, cutoff_hz: float) -> Path:
+def damping_cache_path(case: Case, cutoff_hz: float, state: str = "rest") -> Path:
     """Cache file of the damping modes, beside the reduced models
     (:func:`~quadmodes.models.cache.cache_dir`)."""
-    name = entry_name("damping", case.name, cutoff_hz, damping_key(case, cutoff_hz))
+    name = entry_name("damping", case.name, cutoff_hz, damping_key(case, cutoff_hz, state))
     return cache.cache_dir() / name
 
 
@@ -147,16 +153,18 @@ def load_damping_modes(path: Path, key: str, n: int):
 
 def independent_damping_for(
     case: Case, structure: Structure, x: np.ndarray, cutoff_hz: float, zeta: float,
-    *, use_cache: bool = True, info: dict | None = None,
+    *, use_cache: bool = True, info: dict | None = None, state: str = "rest",
 ) -> DampingModes:  # fmt: skip
     """The independent damping basis of ``case`` (its ``structure`` about ``x``, gas law
     included when the case has one): every mode below ``cutoff_hz`` (Hz, pairs whole) with
-    ``C = diag(2ζω)``. From the cache when present (``info["cache"]``: hit, miss or off)."""
+    ``C = diag(2ζω)``. From the cache when present (``info["cache"]``: hit, miss or off).
+    ``state`` names ``x`` in the cache key ("rest", or "spinning …":
+    :func:`~quadmodes.structure.damping.damping_state`)."""
     if not (cutoff_hz > 0 and math.isfinite(cutoff_hz)):
         raise ValueError(f"damping cutoff: {cutoff_hz!r} Hz; give a positive frequency, e.g. 150 Hz")
     info = {} if info is None else info
     use_cache = use_cache and cache.caching_enabled()  # --no-cache
-    key, path = damping_key(case, cutoff_hz), damping_cache_path(case, cutoff_hz)
+    key, path = damping_key(case, cutoff_hz, state), damping_cache_path(case, cutoff_hz, state)
     info["path"], info["cache"] = str(path), "miss" if use_cache else "off"
     got = load_damping_modes(path, key, structure.n) if use_cache else None
     if got is not None:
@@ -169,7 +177,8 @@ def independent_damping_for(
                 save_damping_modes(path, freqs, shapes, labels, cutoff_hz, key)
             except OSError as exc:  # a read-only cache is not an error
                 info["cache"] = cache.not_saved(path, exc, "the full order's damping modes")
-    return modal_damping(freqs, shapes, zeta, "independent", cutoff_hz)
+    out = modal_damping(freqs, shapes, zeta, "independent", cutoff_hz)
+    return replace(out, state=state.split()[0])
 
 
 __all__ = [

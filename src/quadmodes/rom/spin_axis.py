@@ -213,9 +213,26 @@ def axis_for_inertia(inertia: np.ndarray, axis, option: str = "axis", check: boo
     return principal_direction(inertia, req, option) if check else req
 
 
-def resolve_axis(model: ReducedModel, axis, option: str = "axis") -> np.ndarray:
-    """Unit body-frame spin axis (3,) of a request: None gives :func:`default_axis`; otherwise
-    :func:`axis_for_inertia` with J0 of a free model (``option`` names the request in errors)."""
+def reference_axis(model: ReducedModel) -> np.ndarray | None:
+    """The body axis (3,) of a model expanded about a spinning state (``reference_spin`` ≠ 0:
+    e.g. a membrane without stiffness at rest, about its normal), None for a model about rest.
+    Its modes exist about that axis only: the default of every spin-axis request."""
+    if not model.reference_spin or model.reference_axis is None:
+        return None
+    e = np.asarray(model.reference_axis, float)
+    return e / np.linalg.norm(e)
+
+
+def resolve_axis(model: ReducedModel, axis, option: str = "axis", default=None) -> np.ndarray:
+    """Unit body-frame spin axis (3,) of a request: None gives the model's spinning reference
+    axis (:func:`reference_axis`), else ``default`` (a request) or :func:`default_axis`;
+    otherwise :func:`axis_for_inertia` with J0 of a free model (``option`` names the request in
+    errors)."""
     if axis is None:
+        ref = reference_axis(model)
+        if ref is not None:
+            return axis_for_inertia(model.J0, ref, option, check=bool(model.free))
+        if default is not None:
+            return axis_for_inertia(model.J0, default, option, check=bool(model.free))
         return default_axis(model)
     return axis_for_inertia(model.J0, axis, option, check=bool(model.free))

@@ -30,7 +30,12 @@ import numpy as np
 
 from quadmodes.fe.model import Structure, inertia_tensor
 from quadmodes.rom.reduced import ReducedModel, SpinningReference, reduce
-from quadmodes.structure.damping import default_cutoff, modes_below, projected_damping
+from quadmodes.structure.damping import (
+    damping_state,
+    default_cutoff,
+    modes_below,
+    projected_damping,
+)
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import ModalResult, compute_modes
 from quadmodes.structure.spinning import (
@@ -106,18 +111,22 @@ def reduce_spinning(
 ) -> ReducedModel:
     """:func:`~quadmodes.rom.reduced.reduce` about the relative equilibrium ``eq`` with the
     retained modes (frequencies Hz (N,), shapes (N,n,3) 1/√kg, labels) of :func:`spinning_modes`
-    and the projected modal damping of ratio ``zeta`` on every mode of ``x_rest`` below
+    and the projected modal damping of ratio ``zeta`` on every mode of ``x_rest`` (of ``eq.x``
+    for a structure without stiffness at rest,
+    :func:`~quadmodes.structure.damping.damping_state`) below
     ``damping_cutoff_hz`` (Hz; default
     :func:`~quadmodes.structure.damping.default_cutoff` of the spin and the retained modes)."""
     spin_hz = abs(float(eq.spin)) / (2.0 * np.pi)
     cutoff = damping_cutoff_hz or default_cutoff(spin_hz, frequencies_hz)
-    c = None
+    c, where = None, "at rest"
     if zeta > 0.0:
-        f_d, phi_d, _ = modes_below(structure, x_rest, cutoff)
+        x_d, state = damping_state(structure, x_rest, eq.x, float(eq.spin))
+        where = "at rest" if state == "rest" else "of the spinning state"
+        f_d, phi_d, _ = modes_below(structure, x_d, cutoff)
         c = projected_damping(structure, shapes, f_d, phi_d, zeta)
     info = dict(provenance or {})
     info.update(reference="spinning", reference_spin_hz=spin_hz,
-                damping=f"projected: zeta = {zeta:g} on every mode at rest below {cutoff:.4g} Hz",
+                damping=f"projected: zeta = {zeta:g} on every mode {where} below {cutoff:.4g} Hz",
                 reference_volume_change=eq.volume_change)  # fmt: skip
     return reduce(
         structure, eq.x, frequencies_hz, shapes, labels, zeta, progress, info,

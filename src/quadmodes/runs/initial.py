@@ -34,6 +34,18 @@ def bending_pair(labels, frequencies_hz) -> tuple[int, ...]:
     return tuple(pair)
 
 
+def _lowest_pair(model: red.ReducedModel, notes: list[str]) -> tuple[int, ...]:
+    """The lowest retained mode and its partner (:func:`bending_pair`'s rule) for the initial
+    deformation of a model about a spinning state without a mode labelled bending (a membrane
+    held taut by its spin: its modes are "disc (n, s)" …), with a note naming it."""
+    labels = [str(lab) for lab in model.labels]
+    pair = bending_pair([lab if lab != labels[0] else "bending" for lab in labels],
+                        model.frequencies_hz)  # fmt: skip
+    notes.append(f"initial.bending_amplitude: no mode is labelled bending; the lowest, "
+                 f"{labels[0]}, is deformed")  # fmt: skip
+    return pair
+
+
 def largest_nodal_displacement(model: red.ReducedModel, mode: int) -> float:
     """Largest nodal displacement (m) of mode ``mode`` per unit modal coordinate (√kg·m)."""
     u = np.asarray(model.Phi[mode])[np.asarray(model.translational, bool)]
@@ -116,6 +128,8 @@ def initial_state(system: rsys.ReducedSystem, model: red.ReducedModel, run: RunC
     n = system.n_modes
     notes: list[str] = []
     pair = bending_pair(model.labels, model.frequencies_hz) if n else ()
+    if n and not pair and model.reference_spin and run.initial.bending_amplitude > 0.0:
+        pair = _lowest_pair(model, notes)
     s0 = _initial_deformation(model, n, pair, run.initial.bending_amplitude, notes)
     jt = dyn.inertia_tensor(system, s0, "rot")
     jt = 0.5 * (jt + jt.T)

@@ -56,7 +56,8 @@ def measured_error(setup, omega: np.ndarray) -> tuple[float, float]:
 
     e = np.asarray(setup.model.reference_axis, float)
     spin = abs(float(np.asarray(omega, float) @ e))
-    rebuilt = reduced_model_for(setup.model_case, setup.model.n_modes, spin=spin)
+    rebuilt = reduced_model_for(setup.model_case, setup.model.n_modes, spin=spin,
+                                axis=setup.run.reference_axis)  # the run's own axis
     other = rsys.reduced_system(rebuilt, setup.run.reduced.formulation)
     fa = rotating_frequencies(setup.system, omega)
     fb = rotating_frequencies(other, omega)

@@ -1,7 +1,9 @@
 """The modal damping of a structure: ζ of critical on every prestressed FE mode below a cutoff,
 the definition shared by the full-order reference (:mod:`quadmodes.fullorder.damping`) and by a
 reduced model whose basis is not a set of those modes (expanded about a spinning state,
-:func:`projected_damping`).
+:func:`projected_damping`). The modes are those of the prestressed state at rest, or for a
+structure with no stiffness at rest (stiffened by its spin alone) those of its spinning state
+(:func:`damping_state`).
 
 With the damping modes ``φ_k`` (mass-normalised, ω_k below the cutoff) the damping operator is
 ``C_FE = Σ_k 2ζω_k (Mφ_k)(Mφ_k)ᵀ`` (N s/m); a reduced basis Φ (mass-normalised) sees
@@ -19,6 +21,27 @@ from quadmodes.structure.modes import compute_modes
 
 #: Default cutoff: this factor times the larger of the spin and the highest retained frequency.
 CUTOFF_FACTOR = 3.0
+#: A structure whose lowest elastic frequency at rest is below this fraction of the spin (its own
+#: stiffness then below 1 % of the spin's) has no stiffness at rest on the scale of its motion
+#: (blades, strings, webs stiffened by the spin alone): its damping modes are those of its
+#: spinning state (:func:`damping_state`).
+STIFFLESS_RATIO = 0.1
+
+
+def damping_state(structure: Structure, x_rest: np.ndarray, x_spin: np.ndarray, spin: float):
+    """``(x, "rest" | "spinning")``: the state whose tangent's modes carry the modal damping.
+    At rest (``x_rest`` (n,3) m, the prestressed state: the definition of every inflated body),
+    unless the structure has no stiffness there on the scale of the spin ``spin`` (rad/s): its
+    lowest elastic frequency at rest below :data:`STIFFLESS_RATIO` × the spin (a spin-stiffened
+    blade: its modes at rest are all ≈ 0 Hz and a damping ζ·2ω on them would vanish); then the
+    spinning state ``x_spin`` (its tangent includes the centrifugal prestress). A membrane
+    without pressure never has a state at rest (its x_rest is its spinning state already)."""
+    if not spin or x_rest is x_spin or np.array_equal(x_rest, x_spin):
+        return x_rest, "rest"
+    lowest = np.asarray(compute_modes(structure, x_rest, 1).frequencies_hz, float)
+    if lowest.size and 2.0 * np.pi * lowest[0] >= STIFFLESS_RATIO * abs(float(spin)):
+        return x_rest, "rest"
+    return x_spin, "spinning"
 
 def default_cutoff(spin_hz: float, retained_hz) -> float:
     """Default cutoff (Hz): :data:`CUTOFF_FACTOR` × max(spin, highest retained frequency)."""
