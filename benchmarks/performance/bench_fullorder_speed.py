@@ -19,6 +19,13 @@ window) relative to the largest. Nothing here asserts on timings. Usage::
         --window 0.05 --repeat 1
     python -m benchmarks.performance.bench_fullorder_speed --old /tmp/qm-old/src --offline "1 in,0.39 in"
 
+``--old fixed`` runs this tree twice instead: the old side with
+``FullOrderOptions(newton_policy="fixed")`` (the Newton rules before issue 27), the new side with
+the default ``"adaptive"`` (issue 27 item 4; docs/performance.md)::
+
+    python -m benchmarks.performance.bench_fullorder_speed --old fixed --cases paper-41hz \
+        --window 0.05 --repeat 2
+
 ``--offline`` times the offline build instead (mesh + structure, inflation, 10 modes of
 ``paper-membrane`` at the given mesh edges), old and new, with the differences of the inflated
 state and the frequencies.
@@ -44,7 +51,8 @@ SERIES = ("t", "H_norm", "H_discrete", "E", "E_d", "T", "modal_coordinates")
 
 
 def child(setup_file: str, window: float, dt: float, out: str) -> None:
-    """Integrate the pickled setup over [0, window] with whatever quadmodes is importable."""
+    """Integrate the pickled setup over [0, window] with whatever quadmodes is importable
+    (``$QM_NEWTON_POLICY``: the Newton policy, if set)."""
     from quadmodes.fullorder.integrator import integrate_full_order
 
     with open(setup_file, "rb") as fh:
@@ -53,6 +61,8 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
 
     options = dict(model=st.model, damping=st.integrator_damping(), save_every=save_every,
                    hub=st.hub, spin_axis=st.spin_axis)  # fmt: skip
+    if os.environ.get("QM_NEWTON_POLICY"):
+        options["newton_policy"] = os.environ["QM_NEWTON_POLICY"]
     try:  # an options object since issue 23; an older tree takes them as keywords
         from quadmodes.fullorder.options import FullOrderOptions
     except ImportError:
@@ -134,8 +144,13 @@ def build_setup(case: str, folder: Path) -> Path:
     return path
 
 
-def run_child(src: Path, setup: Path, window: float, dt: float, out: Path) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(src), OPENBLAS_NUM_THREADS="1")
+def run_child(src: Path | str, setup: Path, window: float, dt: float, out: Path) -> dict:
+    """One child on ``src`` (a src/ folder, or "fixed"/"adaptive": this tree, that policy)."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    env.pop("QM_NEWTON_POLICY", None)
+    if str(src) in ("fixed", "adaptive"):
+        env["QM_NEWTON_POLICY"], src = str(src), NEW_SRC
+    env["PYTHONPATH"] = str(src)
     cmd = [sys.executable, __file__, "--child", str(setup), str(window), str(dt), str(out)]
     subprocess.run(cmd, env=env, check=True)
     with np.load(out) as z:
@@ -214,7 +229,9 @@ def main() -> None:
         offline_child(sys.argv[2], sys.argv[3], int(sys.argv[4]), sys.argv[5])
         return
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--old", required=True, type=Path, help="src/ folder of the old version")
+    ap.add_argument("--old", required=True, type=Path,
+                    help='src/ folder of the old version, or "fixed": this tree with the Newton '
+                         'policy before issue 27')  # fmt: skip
     ap.add_argument("--cases", default="paper-41hz-coarse", help="comma-separated run cases")
     ap.add_argument("--window", type=float, default=0.2, help="simulated window (s)")
     ap.add_argument("--dt", type=float, default=2.5e-4, help="full-order step (s)")
@@ -225,7 +242,9 @@ def main() -> None:
     ap.add_argument("--setups", type=Path, default=None,
                     help="folder keeping the pickled setups between runs (default: temporary)")
     args = ap.parse_args()
-    if not (args.old / "quadmodes" / "__init__.py").is_file():
+    if str(args.old) == "fixed":
+        args.old = "fixed"
+    elif not (args.old / "quadmodes" / "__init__.py").is_file():
         print(f"error: --old {args.old}: not a source folder with quadmodes/ in it; give the "
               "src/ of a checkout of the old version", file=sys.stderr)  # fmt: skip
         raise SystemExit(2)

@@ -131,7 +131,7 @@ def integrate_full_order(
         problem, state, samples, ops, max_newton=opts.max_newton, full_newton=opts.full_newton,
         save_every=opts.save_every, checkpoint=ck,
         checkpoint_every=opts.checkpoint_every, progress=progress, start=start,
-        key=opts.checkpoint_key,
+        key=opts.checkpoint_key, policy=opts.newton_policy,
     )  # fmt: skip
     modes = problem.damping
     stats = {"n_newton": state.n_newton, "n_factor": state.n_factor, "n_steps": state.step,
@@ -145,20 +145,21 @@ def integrate_full_order(
 def _run_steps(
     problem: FullOrderProblem, state: RunState, samples: SampledSeries, ops: StepOperators, *,
     max_newton: int, full_newton: bool, save_every: int, checkpoint: Path | None, checkpoint_every: int,
-    progress: Callable[[float], None] | None, start: float, key: str = "",
+    progress: Callable[[float], None] | None, start: float, key: str = "", policy: str = "fixed",
 ) -> tuple[RunState, int, str]:  # fmt: skip
     """Step ``state`` to the end of the problem, sampling every ``save_every`` steps (and the
     last), checkpointing every ``checkpoint_every`` (the factorisation is renewed after each,
     so that a resumed run repeats the uninterrupted one); ``start``: perf_counter at the start
-    of this run; ``key``: the checkpoints' key. Returns ``(state, status, message)``; Ctrl-C stops with status 1 (the state
+    of this run; ``key``: the checkpoints' key; ``policy``: the Newton policy
+    (:data:`~quadmodes.fullorder.newton.POLICIES`). Returns ``(state, status, message)``; Ctrl-C stops with status 1 (the state
     reached is sampled)."""
     n_steps, matrix = problem.n_steps, None
     report = max(1, n_steps // 100)
-    make = matrix_factory(problem, ops, full_newton)
+    make = matrix_factory(problem, ops, full_newton, policy)
     try:
         while state.step < n_steps:
             state, matrix = _advance(problem, state, matrix, max_newton, checkpoint, ops, make,
-                                     full_newton)  # fmt: skip
+                                     full_newton, policy)  # fmt: skip
             step = state.step
             if step % save_every == 0 or step == n_steps:
                 samples.record(problem.time(step), state.x, state.v, state.e_d)
@@ -179,6 +180,7 @@ def _run_steps(
 def _advance(
     problem: FullOrderProblem, state: RunState, matrix: NewtonMatrix | None, max_newton: int,
     checkpoint: Path | None, ops: StepOperators | None = None, make=None, full_newton=False,
+    policy: str = "fixed",
 ) -> tuple[RunState, NewtonMatrix]:  # fmt: skip
     """One step: predictor, Newton (reusing ``matrix`` if given), end velocity ``v₁ = 2v½ − v₀``
     and the damping work. Returns the new state and the Newton matrix in use. Raises
@@ -188,7 +190,7 @@ def _advance(
     frame_now = body_frame(problem.body, x, problem.hub, t_now)
     x1, rot = predict(problem, x, v, state.frame_prev, frame_now, t1)
     residual = StepResidual.start(problem, x, v, t_now, None if full_newton else ops)
-    res = solve_step(problem, matrix, x, x1, rot, residual, max_newton, make, full_newton)
+    res = solve_step(problem, matrix, x, x1, rot, residual, max_newton, make, full_newton, policy)
     if not res.converged:
         kept = checkpoint if checkpoint is not None and checkpoint.is_file() else None
         raise FullOrderNewtonError(state.step + 1, t1, res.correction / problem.scale, kept)

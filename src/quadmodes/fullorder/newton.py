@@ -45,6 +45,20 @@ KRYLOV_MANY_TIES = True
 #: Backtrack on the incremental potential when a Newton correction exceeds this (relative).
 LINE_SEARCH = 1e-5
 
+#: Policy ``"adaptive"`` (issue 27): also converged when the error left after the last
+#: correction, estimated from the observed contraction θ = ‖δxₖ‖/‖δxₖ₋₁‖ of this matrix as
+#: ``θ/(1 − θ) ‖δxₖ‖`` (the stopping test of simplified Newton, Hairer & Wanner IV.8), is at
+#: most this fraction of the tolerance. The plain test (‖δxₖ‖ ≤ tol) leaves an error of about
+#: θ tol behind; this one at most RATE_STOP × tol, and it spares the last iteration whose only
+#: use was to show a correction below the tolerance (on paper-41hz the corrections run
+#: 5e-6, 3e-8, 5e-11, 3e-13 of the body size: θ ≈ 2e-3 is set by the damping, which the
+#: Newton matrix leaves out).
+RATE_STOP = 0.1
+#: The Newton policies: ``"adaptive"`` (the default since issue 27: :data:`RATE_STOP`, and the
+#: Krylov preconditioner renewed by cost, :data:`~quadmodes.fullorder.krylov.FACTOR_COST`) and
+#: ``"fixed"`` (before: converged on ‖δx‖ ≤ tol, renewal by a fixed Krylov-step budget).
+POLICIES = ("adaptive", "fixed")
+
 
 class FullOrderNewtonError(QuadmodesError, RuntimeError):
     """Newton did not converge in a full-order step; the message is one line."""
@@ -205,14 +219,15 @@ def _rho(matrix) -> float:
 
 
 def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
-                   full_newton: bool = False) -> Callable:  # fmt: skip
+                   full_newton: bool = False, policy: str = "adaptive") -> Callable:  # fmt: skip
     """``make(z0, z1)``: the Newton matrix of a run at a body-frame pair (n,3). With ``ops``
     and ties in the structure: a :class:`~quadmodes.fullorder.condensed.CondensedNewtonMatrix`
     (the ties renewed at every iteration; at most :data:`MAX_TIE_DOFS` of them); with more ties:
     a :class:`~quadmodes.fullorder.krylov.KrylovNewtonMatrix` (GMRES on the current matrix,
     preconditioned by a float32 factorisation); without ties, with ``ops``: a
     :class:`NewtonMatrix` assembled by ``ops``; ``full_newton`` or no ``ops``: the
-    straightforward :class:`NewtonMatrix`."""
+    straightforward :class:`NewtonMatrix`. policy: :data:`POLICIES` (the Krylov matrix's
+    renewal rule)."""
     if full_newton or ops is None:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1)
     split = TieSplit.of(ops, problem.free)
@@ -222,7 +237,8 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)  # the kept whole matrix
     if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
         return lambda z0, z1: KrylovNewtonMatrix(
-            problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
+            problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True),
+            policy,
         )
     return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
 
@@ -230,6 +246,7 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
 def solve_step(
     problem: FullOrderProblem, matrix, x: np.ndarray, x1: np.ndarray, rot: np.ndarray,
     residual: Callable, max_newton: int, make: Callable | None = None, full_newton: bool = False,
+    policy: str = "fixed",
 ) -> NewtonResult:  # fmt: skip
     """Modified Newton from the predicted end state x1 (n,3) of the step from x (n,3); the
     Newton matrix is applied in frame rot (3,3). ``matrix``: the factorisation to reuse (None:
@@ -243,14 +260,16 @@ def solve_step(
     the step). ``full_newton``:
     a fresh factorisation at every iteration (the reference Newton; slow).
     ``residual(y) -> (v½, r, f_d)``. Corrections above :data:`LINE_SEARCH` × body size
-    backtrack on the residual norm (:func:`line_search`)."""
+    backtrack on the residual norm (:func:`line_search`). policy ``"adaptive"``: converged also
+    by the contraction estimate (:data:`RATE_STOP`), and v½ returned as ``(x₁ − x)/Δt`` of the
+    end state (``"fixed"``: the v½ of the last residual, before the last correction)."""
     make = make if make is not None else (lambda z0, z1: NewtonMatrix.at(problem, z0, z1))
     n_newton = n_factor = 0
     since = math.inf  # Newton iterations since the last factorisation
     if matrix is None or full_newton or getattr(matrix, "worn", False):
         matrix = make(x @ rot, x1 @ rot)
         n_factor, since = n_factor + 1, 0
-    prev, nd, ok = None, math.inf, False
+    seen, nd, ok = [], math.inf, False  # the corrections made with the current matrix
     stalled = 0  # refactorisations that did not restore contraction (a kink of the law)
     predictor, restarted = x1, False
     residual_at = _LastResidual(residual)
@@ -272,14 +291,14 @@ def solve_step(
             # factorised at every iterate) for the rest of this step
             x1, restarted, budget = predictor, True, max_newton
             matrix = make(x @ rot, x1 @ rot)
-            n_factor, since, prev = n_factor + 1, 0, None
+            n_factor, since, seen = n_factor + 1, 0, []
             continue
         if not np.isfinite(nd):
             break
-        if nd <= problem.tol:
+        if nd <= problem.tol or (policy == "adaptive" and _rate_converged(nd, seen, problem.tol)):
             ok = True
             break
-        slow = prev is not None and nd > _rho(matrix) * prev
+        slow = bool(seen) and nd > _rho(matrix) * seen[-1]
         if since >= 2 and (slow or getattr(matrix, "stale", False)):
             # the frozen matrix no longer contracts well (or a Krylov solve on it did not reach
             # its tolerance): renew it at this iterate; if a fresh
@@ -287,10 +306,24 @@ def solve_step(
             # and Newton can cycle), backtrack on the residual from now on
             stalled += since <= 3 and n_factor > 0
             matrix = make(x @ rot, x1 @ rot)
-            n_factor, since, prev = n_factor + 1, 0, None
+            n_factor, since, seen = n_factor + 1, 0, []
             continue
-        prev = nd
+        seen.append(nd)
+    if policy == "adaptive":
+        vh = (x1 - x) / problem.h  # the end state's, not the last residual's
     return NewtonResult(x1, vh, fd, matrix, ok, nd, n_newton, n_factor)
+
+
+def _rate_converged(nd: float, seen: list[float], tol: float) -> bool:
+    """The error left after a correction of size nd (m) is below :data:`RATE_STOP` × tol, by
+    the largest contraction θ among the corrections ``seen`` before it with the same matrix
+    (at least two of them: one ratio right after a poor predictor is quadratic convergence,
+    not the iteration's rate, and would stop it too early)."""
+    if len(seen) < 2 or min(seen) <= 0.0:
+        return False
+    steps = [*seen, nd]
+    theta = max(b / a for a, b in zip(steps[:-1], steps[1:], strict=True))
+    return theta < 1.0 and theta / (1.0 - theta) * nd <= RATE_STOP * tol
 
 
 def _step_to(problem: FullOrderProblem, matrix, residual_at: Callable, x1: np.ndarray, r, rot,

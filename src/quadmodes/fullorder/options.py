@@ -37,7 +37,12 @@ class FullOrderOptions:
     equals the uninterrupted run's (the factorisation is renewed after every checkpoint in
     both). checkpoint_key: text naming what the run is of (e.g. a hash of the run case and
     its model, :func:`quadmodes.analysis.full_order_runs.checkpoint_key`), written into the
-    checkpoint; a resume from a checkpoint with another key is refused.
+    checkpoint; a resume from a checkpoint with another key is refused. newton_policy:
+    ``"adaptive"`` (the default since issue 27: converged also when the contraction estimate of
+    the error left is below a tenth of the tolerance, the Krylov preconditioner renewed when
+    its marginal cost passes the average; :data:`quadmodes.fullorder.newton.RATE_STOP`,
+    :data:`quadmodes.fullorder.krylov.FACTOR_COST`) or ``"fixed"`` (the rules before it, kept
+    for the side-by-side benchmark and the tests).
     """
 
     model: ReducedModel | None = None
@@ -54,6 +59,11 @@ class FullOrderOptions:
     checkpoint_every: int = 1000
     resume: bool = False
     checkpoint_key: str = ""
+    newton_policy: str = "adaptive"
+
+    def __post_init__(self):
+        if self.newton_policy not in ("adaptive", "fixed"):
+            raise ValueError(f"newton_policy {self.newton_policy!r}: choose adaptive or fixed")
 
     def updated(self, **changes) -> FullOrderOptions:
         """A copy with ``changes`` (option names as the fields; ``TypeError`` for others)."""
