@@ -62,10 +62,13 @@ def _cone_times(summary: dict) -> str | None:
 
 def _sink(summary: dict) -> str | None:
     sink = summary.get("energy_sink_consistency")
-    if not sink or sink.get("ratio_min") is None:
+    if not sink:
         return None
-    return (f"{sink['ratio_min']:.5f} – {sink['ratio_max']:.5f} over {sink['windows']} windows "
-            f"from t = {sink['window_start_s'][0]:.4g} s")  # fmt: skip
+    if sink.get("ratio_min") is None:
+        return "— (the cone's growth is within 2 standard errors of 0 in every window)"
+    resolved = sink.get("windows_resolved", sink["windows"])
+    return (f"{sink['ratio_min']:.5f} – {sink['ratio_max']:.5f} over {resolved} of "
+            f"{sink['windows']} windows from t = {sink['window_start_s'][0]:.4g} s")  # fmt: skip
 
 
 #: (label, function of the summary, "") rows of the free-body run summary.

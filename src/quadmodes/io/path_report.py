@@ -64,4 +64,7 @@ def sink_parts(sink: dict | None) -> list[str]:
                    "standard error"), rows,
                   "energy-sink consistency along the path: the law applied to the run's own "
                   "dissipated power against its cone growth"),
-            paragraph(f"rule: {sink.get('rule', '')}")]  # fmt: skip
+            paragraph(f"rule: {sink.get('rule', '')}"
+                      + ("; in no window is the cone's growth more than 2 standard errors from "
+                         "0, so these ratios are noise" if sink.get("windows_resolved") == 0
+                         else ""))]  # fmt: skip

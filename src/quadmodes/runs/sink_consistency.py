@@ -72,8 +72,11 @@ class SinkConsistency:
     ratio_se: np.ndarray
 
     def as_json(self) -> dict:
-        """Summary keys: the ratios (null where undefined), their range and the rule."""
-        r = self.ratio[np.isfinite(self.ratio)]
+        """Summary keys: the ratios (null where undefined), their range over the windows whose
+        cone growth the run resolves (slope ≥ 2 standard errors: elsewhere the ratio is noise,
+        e.g. ±160 for a cone that does not move), how many those are, and the rule."""
+        resolved = np.isfinite(self.ratio) & (np.abs(self.cone_rate) >= 2.0 * self.cone_rate_se)
+        r = self.ratio[resolved]
 
         def clean(a):
             return [float(x) if math.isfinite(x) else None for x in a]
@@ -81,6 +84,7 @@ class SinkConsistency:
         return {"windows": len(self.start), "window_start_s": clean(self.start),
                 "window_end_s": clean(self.end), "ratio": clean(self.ratio),
                 "ratio_se": clean(self.ratio_se),
+                "windows_resolved": int(resolved.sum()),
                 "ratio_min": float(r.min()) if len(r) else None,
                 "ratio_max": float(r.max()) if len(r) else None, "rule": RULE}  # fmt: skip
 
