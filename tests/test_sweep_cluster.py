@@ -72,10 +72,26 @@ def test_a_ctrl_c_reaches_the_parent_only(local):
     import signal
     import time
 
-    assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
     pids = local.run(os.getpid)
     for pid in pids.values():
         os.kill(pid, signal.SIGINT)
     time.sleep(1.0)  # a worker that took it would be dead (and replaced) by now
     assert local.run(os.getpid) == pids
     assert set(local.run(lambda: signal.getsignal(signal.SIGINT) is signal.SIG_IGN).values()) == {True}
+
+
+def test_the_parent_keeps_its_own_ctrl_c_handler():
+    """Ctrl-C is ignored only while the workers are spawned; the parent's handler (whatever it
+    was: a test runner started in the background has SIG_IGN) is put back."""
+    import signal
+
+    def mine(signum, frame):  # pragma: no cover - never called
+        pass
+
+    before = signal.signal(signal.SIGINT, mine)
+    try:
+        with cluster._children_ignore_ctrl_c():
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert signal.getsignal(signal.SIGINT) is mine
+    finally:
+        signal.signal(signal.SIGINT, before)
