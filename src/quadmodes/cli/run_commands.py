@@ -45,6 +45,7 @@ from quadmodes.cli.run_files import (
     stopped_message,
 )
 from quadmodes.cli.run_tables import dt_table, mode_lines, mode_table
+from quadmodes.io.run_report import ANSWER_ROWS
 
 # ------------------------------------------------------------------------------ summary tables
 
@@ -62,17 +63,7 @@ _RUN_ROWS = [
         ("cone_angle_start_deg", "cone_angle_end_deg"),
         "{:.4f} → {:.4f}",
     ),
-    ("cone-growth rate (deg/s), quasi-steady fit",
-     ("cone_growth_rate_deg_per_s", "cone_growth_rate_se_deg_per_s", "cone_growth_fit_start_s",
-      "cone_growth_fit_end_s"), "{:.4g} ± {:.2g} (t = {:.4g}–{:.4g} s)"),
-    ("dissipated power (W): run | energy sink at the fit's state",
-     ("dissipated_power_W", "energy_sink_power_at_fit_state_W"),
-     "{:.4g} | {:.4g}"),
-    ("coning time constant (s): energy sink at the start (as sweep)", "coning_time_constant_s",
-     "{:.4g}"),
-    ("coning time constant (s): energy sink at the fit's spin, cone",
-     "coning_time_constant_at_fit_state_s", "{:.4g}"),
-    ("coning time constant (s): this run (θ̄/θ̇)", "simulated_coning_time_constant_s", "{:.4g}"),
+    *ANSWER_ROWS,  # the answer: cone growth, dissipated power, time constants
     ("this run / energy sink at the fit's state | at the start",
      ("time_constant_ratio", "time_constant_ratio_to_start"), "{:.4f} | {:.4f}"),
     ("spin (rule below)", "spin_verdict", "{}"),

@@ -114,6 +114,22 @@ def _case_section(run, model_case, extra: list[tuple[str, object]]) -> Section:
     return Section("case", key_values(pairs) + toml)
 
 
+#: (label, summary key or keys, format) of a run's answer (docs/outputs.md, "The answer"):
+#: shared by the report's headline table and the table ``quadmodes run`` prints.
+ANSWER_ROWS = (
+    ("secular cone-growth rate (deg/s), quasi-steady fit",
+     ("cone_growth_rate_deg_per_s", "cone_growth_rate_se_deg_per_s", "cone_growth_fit_start_s",
+      "cone_growth_fit_end_s"), "{:.4g} ± {:.2g} (t = {:.4g}–{:.4g} s)"),
+    ("dissipated power (W): run | energy sink at the fit's state",
+     ("dissipated_power_W", "energy_sink_power_at_fit_state_W"),
+     "{:.4g} | {:.4g}"),
+    ("coning time constant (s): energy sink at the start (as sweep)", "coning_time_constant_s",
+     "{:.4g}"),
+    ("coning time constant (s): energy sink at the fit's spin, cone",
+     "coning_time_constant_at_fit_state_s", "{:.4g}"),
+    ("coning time constant (s): this run (θ̄/θ̇)", "simulated_coning_time_constant_s", "{:.4g}"),
+)
+
 #: (label, summary key or keys, format) of the run headline table.
 _HEADLINES = (
     ("status", "status", "{}"),
@@ -126,17 +142,7 @@ _HEADLINES = (
     ("cone angle start → end (deg)", ("cone_angle_start_deg", "cone_angle_end_deg"), "{:.5g} → {:.5g}"),
     ("cone angle max (deg)", "cone_angle_max_deg", "{:.5g}"),
     ("spin", "spin_verdict", "{}"),
-    ("secular cone-growth rate (deg/s), quasi-steady fit",
-     ("cone_growth_rate_deg_per_s", "cone_growth_rate_se_deg_per_s", "cone_growth_fit_start_s",
-      "cone_growth_fit_end_s"), "{:.4g} ± {:.2g} (t = {:.4g}–{:.4g} s)"),
-    ("dissipated power (W): run | energy sink at the fit's state",
-     ("dissipated_power_W", "energy_sink_power_at_fit_state_W"),
-     "{:.4g} | {:.4g}"),
-    ("coning time constant (s): energy sink at the start (as sweep)", "coning_time_constant_s",
-     "{:.4g}"),
-    ("coning time constant (s): energy sink at the fit's spin, cone",
-     "coning_time_constant_at_fit_state_s", "{:.4g}"),
-    ("coning time constant (s): this run (θ̄/θ̇)", "simulated_coning_time_constant_s", "{:.4g}"),
+    *ANSWER_ROWS,
     ("stability rule", "stability_rule", "{}"),
     ("bending log decrement (free decay only)", "log_decrement", "{:.4g}"),
     ("retained modes N", "n_modes", "{}"),
