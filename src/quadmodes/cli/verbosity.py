@@ -16,6 +16,20 @@ _LEVEL = {"value": 0}
 _HANDLER: dict[str, logging.Handler] = {}
 
 
+class _CurrentStderr(logging.StreamHandler):
+    """Plain log lines to whatever ``sys.stderr`` is when a line is written (a handler bound
+    to the stream of configure time writes into a closed file once a caller, e.g. a test
+    runner capturing output, has swapped and closed it: "--- Logging error ---")."""
+
+    @property
+    def stream(self):  # noqa: D102 (the logging.StreamHandler attribute)
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, _value) -> None:
+        pass
+
+
 def configure(quiet: bool = False, verbose: bool = False) -> None:
     """Set the verbosity and configure the ``quadmodes`` logger (WARNING by default, INFO with
     ``verbose``, ERROR with ``quiet``; one handler on stderr: rich on a terminal, plain lines
@@ -29,7 +43,7 @@ def configure(quiet: bool = False, verbose: bool = False) -> None:
         handler: logging.Handler = RichHandler(console=err, show_path=False, markup=False)
         handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
     else:  # a log file or pipe: plain lines, whole
-        handler = logging.StreamHandler(sys.stderr)
+        handler = _CurrentStderr()
         handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     logger.addHandler(handler)
     _HANDLER["handler"] = handler
