@@ -108,11 +108,15 @@ def test_calibrate_and_rotating_offer_json(runner):
 def test_rotating_json_has_a_stable_shape(runner, tmp_path):
     """At rest the full-order linearisation is the modal analysis: Q matches the full order."""
     result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spin-rate", "0 Hz", "--modes", "2", "--json",
-                                 "-o", str(tmp_path)])  # fmt: skip
+                                 "--units", "rpm", "-o", str(tmp_path)])  # fmt: skip
     assert result.exit_code == 0, result.output
     payload = json.loads(result.stdout)
     assert set(payload) == {"case", "formulations", "spins_hz", "n_nodes", "rows",
-                            "unmatched_full_order_roots", "text"}  # fmt: skip
+                            "unmatched_full_order_roots", "text", "text_units"}  # fmt: skip
+    # the numbers stay in Hz (keys *_hz); the printed table follows --units (1 Hz = 60 rpm)
+    assert payload["text_units"] == "rpm" and "full order (rpm)" in payload["text"]
+    first = next(r for r in payload["rows"] if r["full_hz"])
+    assert f"{60.0 * first['full_hz']:.6g}" in payload["text"]
     assert payload["spins_hz"] == [0.0] and payload["formulations"] == ["Q", "L"]
     elastic = [r for r in payload["rows"] if r["label"] != "nutation" and r["full_hz"]]
     assert elastic and all(r["rom_hz"]["Q"] == pytest.approx(r["full_hz"], rel=1e-6)

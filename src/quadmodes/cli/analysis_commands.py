@@ -170,7 +170,7 @@ FormulationList = formulation_option("comma-separated, from Q, P, L, Q4", LINEAR
                                      listed=True)  # fmt: skip
 AxisOption = axis_option(AXIS_HELP)
 CampbellUnits = units_option("the table and campbell.png (campbell.nc/.csv stay SI)")
-RotatingUnits = units_option("the table (rotating.md too; --json stays in Hz)")
+RotatingUnits = units_option("the table (rotating.md and the JSON's text too; its numbers stay in Hz)")
 CampbellCase = case_argument("model case (membrane or beam), name or TOML file")
 CampbellOutput = output_path("folder for campbell.png/.nc/.csv")
 
@@ -286,9 +286,10 @@ def _finite(value):
     return value
 
 
-def _rotating_summary(table) -> dict:
+def _rotating_summary(table, unit: str = "Hz") -> dict:
     """The JSON of ``rotating --json``: the case, spin rates (Hz), formulations and one object
-    per branch row (frequencies in Hz, rotating frame; growth rates in 1/s)."""
+    per branch row (frequencies in Hz, rotating frame; growth rates in 1/s: the keys name
+    their unit); ``text`` is the printed table, in ``unit`` (``text_units``)."""
     import dataclasses
 
     return {
@@ -298,7 +299,8 @@ def _rotating_summary(table) -> dict:
         "n_nodes": int(table.n_nodes),
         "rows": [_finite(dataclasses.asdict(r)) for r in table.rows],
         "unmatched_full_order_roots": [_finite(dataclasses.asdict(r)) for r in table.extra],
-        "text": table.to_text(),  # Hz, whatever --units
+        "text": table.to_text(unit),
+        "text_units": getattr(unit, "name", unit),
     }
 
 
@@ -323,7 +325,7 @@ def rotating_command(
     """Rotating-frame frequencies of the full-order model linearised about its spinning
     equilibrium (centrifugal prestress, gyroscopic coupling) against the reduced model's
     (campbell), branch by branch, matched by MAC. Frequencies in the rotating frame, in --units
-    (Hz by default; the JSON stays in Hz). Default --axis: the minor axis, or for a body whose
+    (Hz by default; the JSON's numbers stay in Hz, keys named *_hz). Default --axis: the minor axis, or for a body whose
     model is expanded about a spinning state (a membrane without stiffness at rest) that
     state's axis (a flat membrane's normal)."""
     from quadmodes.analysis.rotating_comparison import rotating_frequency_comparison
@@ -346,7 +348,7 @@ def rotating_command(
             )
     text = table.to_text(unit)
     if as_json:
-        sys.stdout.write(json.dumps(_rotating_summary(table), indent=2) + "\n")
+        sys.stdout.write(json.dumps(_rotating_summary(table, unit), indent=2) + "\n")
     else:
         out.print(text, markup=False, highlight=False, soft_wrap=True)
     if output is not None:
