@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import mesh_convergence_figure
 from quadmodes.case import load_case
 from quadmodes.case.editing import edit
 from quadmodes.structure.pipeline import build_modal_model
@@ -168,22 +169,9 @@ def main() -> None:
 
 def plot(ks, expected, errors, path) -> None:
     """Error against the reference vs mesh size, one line per branch."""
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    h = np.array([1.0 / k for k in ks])
-    for ns in expected:
-        e = np.array([abs(errors[k][ns]) for k in ks]) * 100
-        ax.loglog(h, e, "o-", lw=1, ms=3, label=str(ns))
-    ax.loglog(h, 100 * 1.0 * h**2, "k--", lw=1, label="∝ h²")
-    ax.axhline(1.0, color="0.5", lw=0.8)
-    ax.set_xlabel("edge length / outer radius")
-    ax.set_ylabel("|ω/Ω − reference| (%)")
-    ax.set_title("membrane annulus on a rigid hub vs the membrane equation")
-    ax.legend(fontsize=6, ncol=3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    print(f"figure: {path}")
+    series = {str(ns): [errors[k][ns] for k in ks] for ns in expected}
+    mesh_convergence_figure(ks, series, 1.0, "edge length / outer radius", "|ω/Ω − reference| (%)",
+                            "membrane annulus on a rigid hub vs the membrane equation", path)  # fmt: skip
 
 
 if __name__ == "__main__":

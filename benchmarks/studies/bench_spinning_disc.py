@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import mesh_convergence_figure
 from quadmodes.case import load_case
 from quadmodes.case.editing import edit
 from quadmodes.fe.membrane import MembraneSet
@@ -110,22 +111,9 @@ def main() -> None:
 
 def plot(ks, expected, errors, path) -> None:
     """Error against the closed form vs mesh size, one line per branch."""
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    h = np.array([1.0 / k for k in ks])
-    for _, n, s in expected:
-        e = np.array([abs(errors[k][(n, s)]) for k in ks]) * 100
-        ax.loglog(h, e, "o-", lw=1, ms=3, label=f"({n}, {s})")
-    ax.loglog(h, 100 * 0.4 * h**2, "k--", lw=1, label="∝ h²")
-    ax.axhline(1.0, color="0.5", lw=0.8)
-    ax.set_xlabel("edge length / radius")
-    ax.set_ylabel("|ω/Ω − closed form| (%)")
-    ax.set_title("spinning membrane disc vs Lamb & Southwell (1921)")
-    ax.legend(fontsize=6, ncol=3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    print(f"figure: {path}")
+    series = {f"({n}, {s})": [errors[k][(n, s)] for k in ks] for _, n, s in expected}
+    mesh_convergence_figure(ks, series, 0.4, "edge length / radius", "|ω/Ω − closed form| (%)",
+                            "spinning membrane disc vs Lamb & Southwell (1921)", path)  # fmt: skip
 
 
 if __name__ == "__main__":
