@@ -52,3 +52,121 @@ def test_cli_campbell_of_a_body_without_stiffness_at_rest_is_the_librarys(coarse
     ratio = lib.ratio
     np.testing.assert_allclose(ratio[:, lib.branch("nutation")], 1.0, rtol=2e-4)
     np.testing.assert_allclose(ratio[1], ratio[2], rtol=2e-3)
+
+
+# --------------------------------------------------------------- a spin-rate change (item 1)
+
+ROOT, TIP = 0.5, 10.5  # m: the rotor's hub rim and blade tip from the axis
+
+
+def rotor_file(folder: Path, elements: int) -> Path:
+    text = (BUILTIN / "string-blade-rotor.toml").read_text()
+    text = text.replace("elements = 40", f"elements = {elements}")
+    text = text.replace('name = "string-blade-rotor"', f'name = "rotor-{elements}"')
+    path = folder / f"rotor-{elements}.toml"
+    path.write_text(text)
+    return path
+
+
+def test_string_lag_closed_form_meets_the_moment_balance():
+    """The reference's hinged-string lag: its root slope carries the torque that accelerates the
+    blade's moment about the axis, b T(b) v'(b) = −α μ (R³ − b³)/3 (per unit μ)."""
+    from reference.blade_lag import string_root_slope, string_tip_lag
+
+    alpha, spin = 2e-4, 1.01
+    tension = 0.5 * spin**2 * (TIP**2 - ROOT**2)  # T(b)/μ
+    slope = string_root_slope(alpha, spin, ROOT, TIP)
+    assert ROOT * tension * slope == pytest.approx(-alpha * (TIP**3 - ROOT**3) / 3, rel=1e-12)
+    assert string_tip_lag(alpha, spin, ROOT, TIP) < slope * (TIP - ROOT) < 0  # bows backwards
+
+
+def test_spin_change_lag_of_string_blades_converges_to_the_closed_form(tmp_path):
+    """string-blade-rotor spun 1 → 1.02 rad/s in 200 s by a hub torque (Ω̇ peaks at
+    2ΔΩ/T = 2e-4 rad/s² at T/2, Ω = 1.01 rad/s; the lag mode, 0.85 Ω, is 27 × faster than the
+    ramp: quasi-static). The peak tip lag against the hinged string's closed form: the FE
+    clamp of a string of EI ≈ 0 is first order in the element length (as its frequencies), so
+    20 and 40 elements per blade are extrapolated (Richardson) — within 1.5 %; the raw errors
+    halve. The body's spin ends at Ω_s (the torque is J_e Ω̇) and nothing leaves the plane."""
+    from reference.blade_lag import string_tip_lag
+
+    from quadmodes.runs.spin_change import spin_change, spin_change_model
+
+    exact = string_tip_lag(2e-4, 1.01, ROOT, TIP)
+    peaks = {}
+    for el in (20, 40):
+        model = spin_change_model(load_case(rotor_file(tmp_path, el)), 1, 1.0)
+        r = spin_change(model, 1.0, 1.02, 200.0, 220.0, n_out=1101)
+        assert r.status == "ok" and r.peak_time == pytest.approx(100.0, abs=3.0)
+        assert r.rate[-1] == pytest.approx(1.02, rel=1e-5)
+        assert np.abs(r.tip[:, 2]).max() < 1e-9 * abs(r.peak_deflection)
+        peaks[el] = r.peak_deflection
+    err20, err40 = peaks[20] / exact - 1, peaks[40] / exact - 1
+    assert -0.2 < err20 < err40 < 0 and err40 / err20 == pytest.approx(0.5, abs=0.1)
+    assert 2 * peaks[40] - peaks[20] == pytest.approx(exact, rel=0.015)
+
+
+@pytest.fixture(scope="module")
+def heliogyro_change():
+    """The built-in heliogyro-spinup (1 → 1.5 rad/s in 30 s, the collective lag) and its run."""
+    from quadmodes.case import load_run_case
+    from quadmodes.runs.simulate import simulate_spinup
+
+    run = load_run_case("heliogyro-spinup")
+    return run, simulate_spinup(run)
+
+
+def test_heliogyro_spin_change_lags_quasi_statically_and_is_in_range(heliogyro_change):
+    """The blades lag (v < 0) with the acceleration, peaking at T/2 where Ω̇ does and back to
+    rest by the end of the ramp (their lag mode, 10.5 rad/s, is 50 × faster than the ramp); flap
+    stays zero (mirror symmetry); the hub ends at 1.5 rad/s; the model about 1 rad/s is within
+    its range along the path (measured against the model rebuilt about 1.5 rad/s, modal
+    amplitudes against the FE model's energy); doubling the change doubles the lag (linear)."""
+    from quadmodes.runs.spin_change import spin_change
+
+    run, res = heliogyro_change
+    r = res.result
+    assert r.status == "ok" and r.omega_0 == 1.0
+    assert r.peak_deflection < 0 and r.peak_time == pytest.approx(15.0, abs=0.2)
+    assert r.settling_time == pytest.approx(30.0, abs=0.1)
+    assert r.rate[-1] == pytest.approx(1.5, rel=1e-6)
+    assert np.abs(r.tip[:, 2]).max() < 1e-9 * abs(r.peak_deflection)
+    assert res.path.valid, res.path.message()
+    assert res.path.measured_error < 0.01 and res.path.measured_spin == pytest.approx(1.5, 1e-3)
+    twice = spin_change(r.model, 1.0, 2.0, 30.0, 30.0, n_out=601)
+    assert twice.peak_deflection == pytest.approx(2 * r.peak_deflection, rel=0.02)
+
+
+def test_spin_change_beyond_the_models_range_says_so(tmp_path):
+    """The L formulation drops the centrifugal stiffening that is this body's whole stiffness:
+    the path check reports the rotating-frame stiffness lost at once, and the run is not valid."""
+    from quadmodes.runs.spin_change import spin_change, spin_change_model, spin_change_path
+
+    case = load_case(rotor_file(tmp_path, 12))
+    model = spin_change_model(case, 1, 1.0)
+    r = spin_change(model, 1.0, 1.2, 50.0, 50.0, formulation="L", n_out=201)
+    path = spin_change_path(model, r, case, "L")
+    assert not path.valid and path.left_at == 0.0
+    assert "leaves its reduced model's range" in path.message()
+
+
+@pytest.mark.parametrize("changes, field", [
+    ({"model": "spinning-disc"}, "model"),
+    ({"reduced.reference": "rest"}, "reduced.reference"),
+])  # fmt: skip
+def test_spin_change_bad_input_is_one_line(tmp_path, changes, field):
+    """A spin change needs a body on a hub and the spinning reference: one line naming the field."""
+    from typer.testing import CliRunner
+
+    from quadmodes.cli.app import app
+
+    text = (BUILTIN / "heliogyro-spinup.toml").read_text()
+    for key, value in changes.items():
+        name = key.split(".")[-1]
+        old = next(line for line in text.splitlines() if line.startswith(f"{name} ="))
+        text = text.replace(old, f'{name} = "{value}"')
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    result = CliRunner().invoke(app, ["run", str(path), "-o", str(tmp_path / "out"), "-q"])
+    assert result.exit_code == 2, result.output
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("error:") and field in last and "Traceback" not in result.output
