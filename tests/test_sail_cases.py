@@ -170,3 +170,47 @@ def test_spin_change_bad_input_is_one_line(tmp_path, changes, field):
     assert result.exit_code == 2, result.output
     last = result.stderr.strip().splitlines()[-1]
     assert last.startswith("error:") and field in last and "Traceback" not in result.output
+
+
+# ------------------------------------------------------- mode pictures: the hub ring (item 4)
+
+
+def _areas(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    a, b, c = (points[tri[:, k]] for k in range(3))
+    return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+
+def test_mode_pictures_cover_the_whole_annulus_hub_ring_included(tmp_path):
+    """The cells drawn by `modes -o` (and `--animate`) on the annulus clamped to its hub: the
+    triangles touching the hub, whose hub corners are images of the hub's DOFs, are drawn on
+    extra points that lie on the hub's circle, so the picture's triangles cover the membrane —
+    their area is the polygonal annulus's, within the polygon's deficit of π(R² − b²) — and no
+    edge is open except on the outer boundary and the hub's circle; in a mode the extra points
+    move as the image of the hub's motion (E · shape)."""
+    from quadmodes.api.compute import modal_model
+    from quadmodes.case.editing import edit
+    from quadmodes.io.hub_ring import with_image_points
+    from quadmodes.structure.modal_files import mesh_for_output, write_modal_outputs
+
+    case = edit(load_case("spinning-annulus"), {"mesh.edge_length": "1 m"}, "test")
+    model = modal_model(case)
+    tri, _, cells, e_mat = mesh_for_output(model)
+    pts = with_image_points(model.x, e_mat)
+    radius, hub = 5.0, 0.8
+    assert len(e_mat) >= 6
+    r_extra = np.linalg.norm(pts[len(model.x):, :2], axis=1)
+    np.testing.assert_allclose(r_extra, hub, rtol=1e-6)
+    area = _areas(pts, tri).sum()
+    assert area == pytest.approx(np.pi * (radius**2 - hub**2), rel=0.03)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    open_r = np.linalg.norm(pts[uniq[count == 1]][..., :2], axis=2)
+    on_edge = np.isclose(open_r, hub, rtol=1e-6) | (open_r > 0.9 * radius)
+    assert np.all(on_edge), "a hole in the picture"
+    assert all(len(v) == len(tri) for v in cells.values())
+    shape = with_image_points(model.modes.shapes[0], e_mat)
+    hub_c, axes = model.modes.shapes[0][0], model.modes.shapes[0][1:4]
+    rho = np.linalg.solve(model.x[1:4].T, (pts[len(model.x):] - model.x[0]).T).T
+    np.testing.assert_allclose(shape[len(model.x):], hub_c + rho @ axes, atol=1e-12)
+    write_modal_outputs(model, tmp_path)
+    assert (tmp_path / "mode_01.png").stat().st_size > 0
