@@ -115,7 +115,7 @@ def main() -> None:
               + " | ".join(f"{r[k]:.4f}" for k in keys[1:]) + " |")  # fmt: skip
     fine, coarse = rows[-1], rows[-2]
     ratio = coarse["edge"] / fine["edge"]
-    print(f"| first-order extrapolation | | "
+    print("| first-order extrapolation | | "
           + " | ".join(f"{(ratio * fine[k] - coarse[k]) / (ratio - 1):.4f}" for k in keys) + " |")
     print("| change between the two finest | | "
           + " | ".join(f"{100 * (fine[k] / coarse[k] - 1):+.2f} %" for k in keys) + " |")
