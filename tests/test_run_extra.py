@@ -100,7 +100,7 @@ def test_run_command_warns_and_json_says_so(workdir, formulation):  # noqa: F811
 
 
 def test_kane_spinup_case_loads_and_overrides():
-    assert builtin_run_case_names(spinup=True) == ["kane-spinup"]
+    assert builtin_run_case_names(spinup=True) == ["heliogyro-spinup", "kane-spinup"]
     assert "kane-spinup" in builtin_run_case_names(None)
     assert "kane-spinup" not in builtin_run_case_names()  # the free-body runs (paper cases)
     run = load_run_case("kane-spinup")

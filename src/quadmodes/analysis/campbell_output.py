@@ -196,16 +196,60 @@ def write_campbell(result: CampbellResult, directory, stem: str = "campbell",
     return paths
 
 
-def model_for_case(case, progress=None) -> ReducedModel:
+def model_for_case(case, progress=None, spin_max: float = 0.0, axis=None) -> ReducedModel:
     """Reduced model of a case (name, path or :class:`~quadmodes.case.Case`) with its modes and
     damping ratio (:func:`quadmodes.models.build.case_modes_model`: degenerate y/z pairs of a
-    straight beam are split into pure planes)."""
+    straight beam are split into pure planes; a membrane with a ``[spin]``: about that spin).
+
+    A structure with no stiffness at rest and no ``[spin]`` (a spin-stiffened blade: lowest
+    elastic frequency at rest below :data:`~quadmodes.structure.damping.STIFFLESS_RATIO` × the
+    sweep's top spin ``spin_max`` rad/s) has no useful model about rest: it is expanded about its
+    spinning state at ``spin_max`` about the sweep's ``axis`` request (None: the major axis, the
+    only one a spin can stiffen a flat rotor about), :func:`spinning_reference_for`."""
     from quadmodes.case import Case, load_case
     from quadmodes.models.build import case_modes_model
 
     if not isinstance(case, Case):
         case = load_case(case)
-    return case_modes_model(case, progress)
+    spinning = spinning_reference_for(case, spin_max, axis, progress)
+    return spinning if spinning is not None else case_modes_model(case, progress)
+
+
+def _axis_text(axis) -> str:
+    """An axis request (:func:`~quadmodes.rom.spin_axis.parse_axis`) as the text a model's
+    spinning reference takes (``initial.spin_axis``): None → "major"."""
+    if axis is None:
+        return "major"
+    if isinstance(axis, str):
+        return axis
+    if isinstance(axis, int | np.integer):
+        return ("minor", "intermediate", "major")[int(axis)]
+    return ",".join(repr(float(v)) for v in np.asarray(axis, float).ravel())
+
+
+def spinning_reference_for(case, spin_max: float, axis=None, progress=None):
+    """The reduced model of ``case`` (``modes.count`` modes) about its spinning state at
+    ``spin_max`` (rad/s) about ``axis`` (:func:`_axis_text`) when the case is a structure with
+    no stiffness at rest and no ``[spin]`` table of its own; None otherwise (and for
+    ``spin_max`` ≤ 0)."""
+    from quadmodes.case import CaseError
+    from quadmodes.models.build import modal_model_for, reduced_model_for
+    from quadmodes.structure.damping import STIFFLESS_RATIO
+
+    if spin_max <= 0.0 or getattr(case, "spin", None) is not None:
+        return None
+    modal = modal_model_for(case, 1, progress)
+    lowest = np.asarray(modal.modes.frequencies_hz, float)
+    if modal.spinning is not None or not lowest.size:
+        return None
+    if 2.0 * np.pi * lowest[0] >= STIFFLESS_RATIO * spin_max:
+        return None
+    try:
+        return reduced_model_for(case, case.modes.count, progress, spin=float(spin_max),
+                                 axis=_axis_text(axis))  # fmt: skip
+    except CaseError as exc:
+        raise ValueError(f"no stiffness at rest, so the model is expanded about its spinning "
+                         f"state at {spin_max:.4g} rad/s: {exc}") from None  # fmt: skip
 
 
 def campbell_main(
@@ -262,7 +306,7 @@ def campbell_with_full_order(
     model = (
         case_or_model
         if isinstance(case_or_model, ReducedModel)
-        else model_for_case(case_or_model, progress)
+        else model_for_case(case_or_model, progress, spin_max, axis)
     )
     if spins and not model.free:
         raise ValueError("full_order_spins: the full-order rotating-frame analysis is for free "

@@ -222,7 +222,7 @@ def _model_picture(setup, folder: Path) -> None:
     """The inflated mesh of the full-order ``setup`` (its structure's cells on the reduced
     model's reference positions) as ``model.png`` in ``folder``, for the report; nothing
     without a setup or a membrane."""
-    from quadmodes.io.motion import body_cells
+    from quadmodes.io.hub_ring import all_triangles, with_image_points
     from quadmodes.io.pictures import plot_mesh_png
     from quadmodes.io.run_report import MODEL_PICTURE
 
@@ -230,10 +230,11 @@ def _model_picture(setup, folder: Path) -> None:
     structure = getattr(setup, "structure", None)
     if model is None or structure is None:
         return
-    tri, lines = body_cells(structure)
-    n = model.X.shape[0]
+    tri, lines, e_mat = all_triangles(structure)  # the hub ring's corners: extra points
+    n = model.X.shape[0] + len(e_mat)
     if len(tri) and max(tri.max(), lines.max(initial=-1)) < n:
-        plot_mesh_png(folder / MODEL_PICTURE, model.X, tri, lines=lines if len(lines) else None,
+        points = with_image_points(model.X, e_mat)
+        plot_mesh_png(folder / MODEL_PICTURE, points, tri, lines=lines if len(lines) else None,
                       title="the model")  # fmt: skip
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from quadmodes.case import RunCase, load_case, load_run_case
+from quadmodes.case import CaseError, RunCase, load_case, load_run_case
 from quadmodes.fe.model import Structure, centre_of_mass
 from quadmodes.fullorder import damping as fdamp
 from quadmodes.fullorder.integrator import FullOrderSolution, integrate_full_order
@@ -140,6 +140,10 @@ def _setup_for_run(run, model, stretch) -> FullOrderSetup:
     structure = pipeline.structure_for_case(case)
     if run.spinup is not None:
         sp = run.spinup
+        if sp.omega_0 > 0.0:  # docs/sails.md, "A spin-rate change"
+            raise CaseError("a spin change of a body on a hub (spinup.omega_0 > 0) has no "
+                            "full-order comparison yet (the full order's hub torque is not "
+                            "built); compare a free-body run instead", field="spinup.omega_0")  # fmt: skip
         model = model if model is not None else simulate.spinup_model(run, case)
         x_ref = structure.reference
         hub = kane_hub(float(sp.omega_s), float(sp.ramp_time))

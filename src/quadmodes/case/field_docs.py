@@ -36,7 +36,8 @@ TABLE_DOCS: dict[str, str] = {
     "RunReduced": "The reduced model of the run (quadratic modes by default).",
     "RunInitial": "The initial state of a free-body run.",
     "RunIntegration": "The time integration of a free-body run.",
-    "RunSpinup": "A hub-driven spin-up of a clamped beam (replaces [initial] and [integration]).",
+    "RunSpinup": "A hub-driven spin-up of a clamped beam, or a spin change of a body on a hub "
+    "(replaces [initial] and [integration]).",
 }
 
 FIELD_DOCS: dict[str, dict[str, str]] = {
@@ -187,7 +188,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "reduced": "the reduced model",
         "initial": "the initial state (free-body runs)",
         "integration": "the time integration (free-body runs)",
-        "spinup": "a hub-driven spin-up of a clamped beam (instead of [initial], [integration])",
+        "spinup": "a hub-driven spin-up of a clamped beam or a spin change of a body on a hub "
+        "(instead of [initial], [integration])",
     },
     "RunReduced": {
         "modes": "number N of elastic modes u^m kept (the lowest), or \"auto\": every mode up "
@@ -219,8 +221,10 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         'or "flat spin" (optionally "flat spin A deg": within A of the major axis)',
     },
     "RunSpinup": {
+        "omega_0": "spin before the change (0: a clamped beam from rest); > 0: a spin change of a "
+        "body on a [hub] by a torque on the hub, its model about this spinning state",
         "omega_s": "final hub spin rate Ω_s",
-        "ramp_time": "time of the smooth ramp from 0 to Ω_s",
+        "ramp_time": "time of the smooth ramp from Ω_0 to Ω_s",
         "duration": "length of the run (Ω_s held after the ramp)",
         "rtol": "relative tolerance of the DOP853 integrator",
         "samples": "number of output samples",

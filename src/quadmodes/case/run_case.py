@@ -82,11 +82,20 @@ class RunCase(Section):
                         "table or the [spinup] table",
                         table,
                     )
-            if self.reduced.reference == "spinning":
+            change = self.spinup.omega_0 > 0.0  # a spin change of a free body on a hub
+            if self.reduced.reference == "spinning" and not change:
                 raise field_error(
                     "case_rule",
-                    'is for free-body runs (about the spin of [initial]); a [spinup] is expanded '
-                    'about the state at rest: use "rest"',
+                    'is for free-body runs (about the spin of [initial]) and spin changes from '
+                    'spinup.omega_0 > 0; a [spinup] from rest is expanded about the state at '
+                    'rest: use "rest"',
+                    "reduced.reference",
+                )
+            if change and self.reduced.reference != "spinning":
+                raise field_error(
+                    "case_rule",
+                    '"rest": a spin change from spinup.omega_0 > 0 is expanded about that '
+                    'spinning state; use reference = "spinning"',
                     "reduced.reference",
                 )
             if self.reduced.modes == "auto":
@@ -160,14 +169,18 @@ class RunCase(Section):
     def reference_spin(self) -> float:
         """Spin (rad/s) of the state the reduced model is expanded about: the initial spin rate
         with ``reduced.reference = "spinning"``, else 0 (the prestressed state at rest)."""
-        if self.reduced.reference != "spinning" or self.initial is None:
+        if self.reduced.reference != "spinning":
             return 0.0
+        if self.spinup is not None:
+            return float(self.spinup.omega_0)
         return float(self.initial.spin_rate)
 
     @property
     def reference_axis(self) -> str | None:
         """The body axis the spinning reference turns about: ``initial.spin_axis`` with
         ``reduced.reference = "spinning"`` (None: the minor axis, or a flat membrane's normal)."""
+        if self.spinup is not None and self.reference_spin:
+            return "major"  # a spin change turns a body on a hub about its major axis
         if not self.reference_spin or self.initial.spin_axis in (None, "minor"):
             return None
         return self.initial.spin_axis

@@ -188,8 +188,14 @@ class RunSpinup(Section):
     """Hub-driven spin-up of a clamped beam (Kane, Ryan & Banerjee): the hub rate rises
     smoothly from 0 to ``omega_s`` (rad/s) in ``ramp_time`` (s) and is held until ``duration``
     (s); integrated with scipy's DOP853 (relative tolerance ``rtol``) by
-    :func:`quadmodes.runs.spinup.kane_spinup`. Replaces ``[initial]`` and ``[integration]``."""
+    :func:`quadmodes.runs.spinup.kane_spinup`. Replaces ``[initial]`` and ``[integration]``.
 
+    ``omega_0`` > 0 (rad/s): a spin change of a free body on a hub (a model case with a
+    ``[hub]``, e.g. heliogyro blades) from ``omega_0`` to ``omega_s`` by a torque on the hub,
+    its reduced model expanded about the spinning state at ``omega_0`` (``reduced.reference =
+    "spinning"``; :mod:`quadmodes.runs.spin_change`)."""
+
+    omega_0: quantity("angular_rate", "1 rad/s", nonnegative, "rad/s") = 0.0
     omega_s: quantity("angular_rate", "6 rad/s", positive, "rad/s")
     ramp_time: quantity("time", "15 s", positive, "s") = 15.0
     duration: quantity("time", "30 s", positive, "s") = 30.0

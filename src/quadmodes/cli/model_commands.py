@@ -141,7 +141,8 @@ def _print_modes_summary(name: str, summary: dict) -> None:
         )
         out.print(
             f"spinning state: stress resultants {spinning['stress_resultant_min_n_per_m']:.3g}–"
-            f"{spinning['stress_resultant_max_n_per_m']:.3g} N/m, "
+            f"{spinning['stress_resultant_max_n_per_m']:.3g} N/m (largest at the nodes "
+            f"{spinning['stress_resultant_max_nodal_n_per_m']:.3g} N/m), "
             f"{spinning['elements_in_compression']} elements in compression, largest "
             f"displacement {spinning['max_displacement_m']:.3g} m"
         )

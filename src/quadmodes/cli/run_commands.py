@@ -81,10 +81,13 @@ _RUN_ROWS = [
 _SPINUP_ROWS = [
     ("status", "status", "{}"),
     ("formulation", "formulation", "{}"),
+    ("hub rate before the change Ω₀ (rad/s; 0: from rest)", "omega_0_rad_s", "{:.4g}"),
     ("final hub rate Ωs (rad/s)", "omega_s_rad_s", "{:.4g}"),
     ("peak in-plane tip deflection (m)", "peak_tip_deflection_m", "{:.4f}"),
     ("time of the peak (s)", "peak_time_s", "{:.3f}"),
-    ("max |v| after the spin-up (m)", "max_abs_after_spinup_m", "{:.4f}"),
+    ("max |v| after the spin-up (m)", "max_abs_after_spinup_m", "{:.4g}"),
+    ("settled (|v| < 5 % of its peak) from (s)", "settling_time_s", "{:.2f}"),
+    *path_rows.PATH_ROWS[:3],  # a spin change: the model's validity along its path
     ("rotating stiffness min eigenvalue (s⁻²)", "rotating_stiffness_min_eigenvalue", "{:.4g}"),
     ("steps", "steps", "{}"),
     ("wall time (s)", "wall_s", "{:.1f}"),
@@ -312,6 +315,9 @@ def _execute_spinup(run, folders: RunFolders, opts: _Options) -> tuple[Any, dict
 
     result = simulate.simulate_spinup(run)
     _warn_validity(run.name, result.validity)
+    if result.path is not None and result.path.message():  # a spin change: its path
+        err.print(f"[bold yellow]warning:[/] {escape(run.name)}: {escape(result.path.message())}",
+                  highlight=False, soft_wrap=True)  # fmt: skip
     return result, _write(result, folders, opts)
 
 

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from quadmodes.io.motion import FRAMES, Motion, body_cells, position_rows, write_motion_xdmf
+from quadmodes.io.hub_ring import all_triangles, with_image_points
+from quadmodes.io.motion import FRAMES, Motion, position_rows, write_motion_xdmf
 
 __all__ = ["FullOrderRecorder", "render_motion", "write_animation"]
 
@@ -65,20 +66,23 @@ class FullOrderRecorder:
         t_rows = np.asarray(model.translational, float)
         w = np.asarray(model.weights, float)
         mx = self.structure.mass_scalar @ x_ref
-        tri, lines = body_cells(self.structure)
-        rows, tri, lines = position_rows(model.translational, tri, lines)
+        tri, lines, e_mat = all_triangles(self.structure)  # the hub ring's on extra points
+        trans = np.concatenate([np.asarray(model.translational, bool), np.ones(len(e_mat), bool)])
+        rows, tri, lines = position_rows(trans, tri, lines)
         positions, elastic = [], []
         for x in xs:
             p = (w @ x) / float(model.mass)
             r = x - np.outer(t_rows, p)
             rot = polar_rotation(r.T @ mx)
-            u = r @ rot - x_ref
+            u = with_image_points(r @ rot - x_ref, e_mat)
+            r = with_image_points(r, e_mat)
             if frame == "body":
                 positions.append((x_ref + u)[rows])
                 elastic.append(u[rows])
             else:  # about the centre of mass, as the reduced motion (which has p = 0)
                 positions.append(r[rows])
                 elastic.append((u @ rot.T)[rows])
+        x_ref = with_image_points(x_ref, e_mat)
         return Motion(x_ref[rows], np.asarray(times), np.asarray(positions),
                       np.asarray(elastic), tri, lines, frame)  # fmt: skip
 

@@ -392,6 +392,12 @@ def spinup_dataset(run) -> xr.Dataset:
         "modal_normalisation": cf.MODAL_NORMALISATION,
     }
     attrs.update(validity_attrs(run.validity))
+    if r.omega_0 > 0.0:  # a spin change of a free body on a hub (runs.spin_change)
+        attrs.update(omega_0=float(r.omega_0), omega_0_units="rad/s",
+                     settling_time=float(r.settling_time), settling_time_units="s",
+                     comment="SI units; tip relative to the hub, hub frame: radial x, in-plane "
+                     "y (negative = lag), out-of-plane z; hub_rate is the hub's own spin rate",
+                     **path_attrs(run))  # fmt: skip
     if not run.complete:
         attrs["incomplete_reason"] = run.reason
     ds.attrs.update(attrs)
@@ -419,6 +425,10 @@ def spinup_summary(ds: xr.Dataset) -> dict:
         "message": str(ds.attrs.get("message", "")),
     }
     out.update(validity_summary(ds))
+    if "omega_0" in ds.attrs:  # a spin change: its start, settling and path
+        out.update(omega_0_rad_s=_float(ds.attrs["omega_0"]),
+                   settling_time_s=_float(ds.attrs.get("settling_time", float("nan"))))
+        out.update(path_summary(ds))
     if not out["complete"]:
         out["incomplete_reason"] = str(ds.attrs.get("incomplete_reason", ""))
     return out

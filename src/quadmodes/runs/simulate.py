@@ -368,13 +368,16 @@ def is_run_case(name_or_path: str) -> bool:
 class SpinupRun:
     """A hub-driven spin-up run: the run case, its (beam) model case, the
     :class:`quadmodes.runs.spinup.SpinupResult`, the :class:`~quadmodes.runs.validity.Validity`
-    of the formulation at the final hub rate (about the hub z axis), and the wall time (s)."""
+    of the formulation at the final hub rate (about the hub z axis), and the wall time (s); a
+    spin change of a free body on a hub (:mod:`quadmodes.runs.spin_change`) also its path's
+    :class:`~quadmodes.runs.path_validity.PathValidity`."""
 
     run: RunCase
     model_case: Case
     result: object
     validity: Validity
     wall_s: float
+    path: PathValidity | None = None
 
     @property
     def complete(self) -> bool:
@@ -430,6 +433,10 @@ def simulate_spinup(
         run = run.with_model(model_case)
     else:
         model_case = run.model_case()
+    if run.spinup.omega_0 > 0.0:  # a spin change of a free body on a hub
+        from quadmodes.runs.spin_change import simulate_spin_change
+
+        return simulate_spin_change(run, model_case, model, SpinupRun)
     if model is None:
         model = spinup_model(run, model_case)
     sp = run.spinup

@@ -105,6 +105,10 @@ class SpinupResult:
     |v|, refined on the dense solution; for a diverged run, the last value before the stop). after_ramp_max (m): max |v| for t > T.
     status: "ok", "diverged" (|U_tip| passed ``blowup`` × L or became non-finite: the run was
     stopped there) or "failed" (integrator error); message explains.
+    A spin change of a free body on a hub (:mod:`quadmodes.runs.spin_change`) also has omega_0
+    (rad/s, the spin before the change; 0 for Kane's spin-up from rest), settling_time (s, when
+    |v| stays within 5 % of its peak; NaN: not within the run) and omega (nt, 3) rad/s the
+    frame's angular velocity; its ``rate`` is the hub's own spin rate.
     """
 
     omega_s: float
@@ -122,6 +126,9 @@ class SpinupResult:
     message: str
     model: ReducedModel = field(repr=False)
     n_steps: int = 0
+    omega_0: float = 0.0
+    settling_time: float = math.nan
+    omega: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def diverged(self) -> bool:

@@ -17,9 +17,14 @@ from quadmodes.io.atomic import write_text
 MODAL_OUTPUTS = ("mesh.vtu", "modes", "mesh.png", "prestress.png", "modes.png", "modes.json")
 
 
-def mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict]:
-    """Triangles (n_tri, 3), line segments (n_lines, 2) or None, and per-triangle cell data of a
-    modal model; a beam is drawn as the centreline through its position DOFs."""
+def mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict, np.ndarray]:
+    """Triangles (n_tri, 3), line segments (n_lines, 2) or None, per-triangle cell data and the
+    hub ring's extra points ``E`` (nv, n) of a modal model (:func:`quadmodes.io.hub_ring.
+    all_triangles`: the triangles touching a hub come last, on the points ``n + v`` at
+    ``E[v] @ x``; their cell data NaN); a beam is drawn as the centreline through its position
+    DOFs."""
+    from quadmodes.io.hub_ring import image_points
+
     s = model.structure
     tri, lines, cell_data = None, None, {}
     for e in s.elements:
@@ -28,28 +33,31 @@ def mesh_for_output(model) -> tuple[np.ndarray, np.ndarray | None, dict]:
             tri = e.conn
         elif kind in ("BarSet",):
             lines = e.conn
+    e_mat, ring = image_points(s)
     if model.prestress is not None:
         res = model.prestress.stress_resultants
+        pad = np.full(len(ring), np.nan)
         cell_data = {
-            "stress_resultant_minor_N_per_m": res[:, 0],
-            "stress_resultant_major_N_per_m": res[:, 1],
-            "wrinkle_state": model.prestress.wrinkle_state(),
+            "stress_resultant_minor_N_per_m": np.concatenate([res[:, 0], pad]),
+            "stress_resultant_major_N_per_m": np.concatenate([res[:, 1], pad]),
+            "wrinkle_state": np.concatenate([model.prestress.wrinkle_state(), pad]),
         }
     if tri is None:  # beam: draw the centreline of the position DOFs as lines
         pos = np.flatnonzero(s.translational)
         lines = np.stack([pos[:-1], pos[1:]], 1)
         tri = np.zeros((0, 3), int)
-    return tri, lines, cell_data
+    return np.concatenate([np.asarray(tri), ring]).astype(int), lines, cell_data, e_mat
 
 
 def write_modal_outputs(model, directory: Path) -> None:
     """Mesh and modes as VTU/PVD (ParaView), PNG pictures and ``modes.json`` in ``directory``."""
     from quadmodes.io import pictures, vtk
+    from quadmodes.io.hub_ring import with_image_points
     from quadmodes.structure.pipeline import modes_summary
 
-    x = model.x
-    tri, lines, cell_data = mesh_for_output(model)
-    shapes = model.modes.shapes
+    tri, lines, cell_data, e_mat = mesh_for_output(model)
+    x = with_image_points(model.x, e_mat)  # the hub ring's corners move with the hub
+    shapes = with_image_points(model.modes.shapes, e_mat)
     freqs = model.modes.frequencies_hz
     labels = model.labels
     vtk.write_mesh_vtu(directory / "mesh.vtu", x, tri, lines=lines, cell_data=cell_data or None)
