@@ -108,8 +108,8 @@ class Validity:
                 f"{100 * self.slack_onset_fraction:.2g} % of this deformation "
                 f"({1e3 * self.slack_onset_amplitude:.3g} mm of largest displacement; "
                 f"{100 * self.slack_fraction:.2g} % of the membrane taut at the reference slack "
-                f"at the full deformation, exact strain{rest}), beyond which the taut model and "
-                "no smooth reduced potential holds")  # fmt: skip
+                f"at the full deformation, exact strain{rest}), beyond which neither the taut model "
+                "nor any smooth reduced potential holds")  # fmt: skip
 
     def message(self) -> str:
         """One line for a warning ("" when valid)."""
