@@ -374,14 +374,10 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag) -> PathValid
 
 def _round_off(setup, y: np.ndarray) -> bool:
     """The manifold displacement at state ``y`` is below the round-off of a deformation
-    (:data:`~quadmodes.runs.taut_path.ROUND_OFF_DEFORMATION` × the body's size)."""
-    from quadmodes.runs import deformation_check as dc
-    from quadmodes.runs.taut_path import ROUND_OFF_DEFORMATION
+    (:func:`~quadmodes.runs.taut_path.is_round_off`)."""
+    from quadmodes.runs.taut_path import is_round_off
 
-    x = np.asarray(setup.model.X, float)
-    u = np.add(*dc.manifold_parts(setup.model, rsys.split_state(setup.system, y)[2]))
-    size = float(np.max(np.linalg.norm(x - x.mean(axis=0), axis=1)))
-    return float(np.max(np.linalg.norm(u, axis=1))) < ROUND_OFF_DEFORMATION * size
+    return is_round_off(setup.model, rsys.split_state(setup.system, y)[2])
 
 
 def with_tension_check(path: PathValidity, setup, solution, diag) -> PathValidity:

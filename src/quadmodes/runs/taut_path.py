@@ -33,6 +33,24 @@ TENSION_SAMPLES = 200
 ROUND_OFF_DEFORMATION = 1e-9
 
 
+def deformation_scale(model, s: np.ndarray) -> tuple[float, float]:
+    """(largest nodal displacement of the manifold displacement at ``s`` (N,), the body's size)
+    (m), both over the position rows of ``model`` (not slopes nor a hub's axes)."""
+    from quadmodes.runs.deformation_check import manifold_parts
+
+    rows = np.asarray(model.translational, bool)
+    x = np.asarray(model.X, float)[rows]
+    u = np.add(*manifold_parts(model, s))[rows]
+    return (float(np.max(np.linalg.norm(u, axis=1))),
+            float(np.max(np.linalg.norm(x - x.mean(axis=0), axis=1))))  # fmt: skip
+
+
+def is_round_off(model, s: np.ndarray) -> bool:
+    """The deformation at ``s`` is below :data:`ROUND_OFF_DEFORMATION` × the body's size."""
+    largest, size = deformation_scale(model, s)
+    return largest < ROUND_OFF_DEFORMATION * size
+
+
 @dataclasses.dataclass(frozen=True)
 class PathTension:
     """The membrane's tension along a path.
@@ -76,13 +94,12 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
     peak = int(np.argmax(amp))
     idx = np.unique(np.r_[np.linspace(0, len(t) - 1, min(len(t), TENSION_SAMPLES)).astype(int),
                           peak])  # fmt: skip
-    size = float(np.max(np.linalg.norm(x_ref - x_ref.mean(axis=0), axis=1)))
     least, least_k, least_e, slack_at, slack_area = math.inf, 0, 0, None, 0.0
     judged_area = taut.area[taut.judged].sum()
     for k in idx:
-        u = np.add(*dc.manifold_parts(model, s[k]))
-        if np.max(np.linalg.norm(u, axis=1)) < ROUND_OFF_DEFORMATION * size:
+        if is_round_off(model, s[k]):
             continue  # round-off: no deformation
+        u = np.add(*dc.manifold_parts(model, s[k]))
         tension = np.where(taut.judged, taut.tensions(x_ref + u), np.inf)
         e = int(np.argmin(tension))
         if tension[e] < least:
