@@ -106,6 +106,9 @@ def test_the_corners_lose_tension_first(nutation):
     path = s["path_validity"]
     assert path["taut"] is False and not s["valid"] and "loses tension" in path["message"]
     assert path["slack_onset_fraction_of_peak"] < 0.05
+    least = qm.results_dataset(nutation)["membrane_least_tension"]
+    assert least.attrs["units"] == "N/m" and float(least.min()) == pytest.approx(
+        path["least_tension_n_per_m"])
     states = split_state(nutation.system, np.asarray(nutation.solution.y))[2]
     peak = states[np.argmax(np.linalg.norm(states, axis=1))]
     assert near_corner(slack_along(model, structure, peak, taut)[0].position)

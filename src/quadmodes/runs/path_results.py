@@ -37,6 +37,14 @@ def path_variables(result) -> tuple[dict, dict]:
             ("time",), load_departure(result.system, w), "1", "departure of the centrifugal load "
             f"from the reduced model's reference, |C(omega) - C(omega_ref)|_2 / Omega_ref^2{plane}")  # fmt: skip
     path = getattr(result, "path", None)
+    if path is not None and path.tension_samples:
+        when, least = path.tension_samples
+        series = np.full(len(t), np.nan)
+        series[np.searchsorted(t, when)] = np.where(np.isfinite(least), least, np.nan)
+        data["membrane_least_tension"] = cf.variable(
+            ("time",), series, "N/m", "least minor principal stress resultant of the membrane "
+            "elements taut at the reference (exact strain of the manifold displacement; NaN: "
+            "sample not checked, or its deformation round-off)")  # fmt: skip
     if path is not None:
         inside = t < path.left_at if path.left_at is not None else np.ones(len(t), bool)
         data["model_in_range"] = cf.variable(

@@ -77,7 +77,8 @@ class PathValidity:
     reference_slack_area the reference's own slack area (NaN: no tension check,
     :mod:`quadmodes.runs.taut_path`); slack_at (s): the first checked sample where one is slack
     (None: none, or not judged); slack_judged: the loss of tension is judged (a membrane held
-    taut by its spin alone), else recorded only."""
+    taut by its spin alone), else recorded only; tension_samples: ``(times (s), least tension
+    (N/m))`` arrays of the checked samples (empty: no tension check)."""
 
     reference_spin: float
     centrifugal_max: float
@@ -101,6 +102,7 @@ class PathValidity:
     reference_slack_area: float = math.nan
     slack_at: float | None = None
     slack_judged: bool = False
+    tension_samples: tuple = ()
 
     @property
     def valid(self) -> bool:
@@ -395,6 +397,7 @@ def with_tension_check(path: PathValidity, setup, solution, diag) -> PathValidit
         path, checked=(*path.checked, "membrane tension"), least_tension=tension.least,
         slack_area=tension.slack_area, reference_slack_area=tension.reference_slack_area,
         amplitude_slack_fraction=tension.peak_fraction,
+        tension_samples=(tension.checked_times, tension.checked_least),
     )  # fmt: skip
     from quadmodes.runs.deformation_check import slack_judged
 

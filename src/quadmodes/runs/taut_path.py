@@ -61,7 +61,9 @@ class PathTension:
     largest fraction of the judged area slack at a checked sample; reference_slack_area: of the
     off-patch area, the fraction not taut at the reference (not judged); peak_fraction: the
     fraction of the state of largest ‖s‖ at which the first judged element loses tension along
-    its manifold ray (inf: none up to 4 ×); samples: how many were checked."""
+    its manifold ray (inf: none up to 4 ×); samples: how many were checked; checked_times (s)
+    and checked_least (N/m) ``(samples,)``: each checked sample's time and least tension of the
+    judged elements (+inf where its deformation is round-off)."""
 
     least: float
     least_time: float
@@ -71,6 +73,8 @@ class PathTension:
     reference_slack_area: float
     peak_fraction: float
     samples: int
+    checked_times: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    checked_least: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
 def path_tension(setup, solution, structure=None) -> PathTension | None:
@@ -96,12 +100,14 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
                           peak])  # fmt: skip
     least, least_k, least_e, slack_at, slack_area = math.inf, 0, 0, None, 0.0
     judged_area = taut.area[taut.judged].sum()
-    for k in idx:
+    per_sample = np.full(len(idx), np.inf)
+    for i, k in enumerate(idx):
         if is_round_off(model, s[k]):
             continue  # round-off: no deformation
         u = np.add(*dc.manifold_parts(model, s[k]))
         tension = np.where(taut.judged, taut.tensions(x_ref + u), np.inf)
         e = int(np.argmin(tension))
+        per_sample[i] = tension[e]
         if tension[e] < least:
             least, least_k, least_e = float(tension[e]), int(k), e
         if tension[e] <= 0.0:
@@ -114,7 +120,7 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
         slack_at=slack_at, slack_area=slack_area,
         reference_slack_area=taut.reference_slack_area,
         peak_fraction=math.inf if onset is None else float(onset[0].fraction),
-        samples=len(idx),
+        samples=len(idx), checked_times=t[idx], checked_least=per_sample,
     )  # fmt: skip
 
 
