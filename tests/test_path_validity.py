@@ -149,3 +149,67 @@ def test_api_simulate_until(workdir):  # noqa: F811
     assert 'until = "time 0.0071 s"' in result.run.to_toml()
     assert result.path is not None and result.path.unchecked == ("modal amplitudes",)
     assert not result.path.valid  # amplitudes not checked against the FE model: not valid
+
+
+def _nutating(j0, beta_deg: float, omega_ref: float = 1.0, samples: int = 9):
+    """A body whose angular velocity keeps its spin Ω_ref about e = e1 and is tilted by β, its
+    transverse part turning (as a free flat disc's in its body frame): (setup, solution, diag)."""
+    sys = dataclasses.replace(rigid_system(), reference_omega=omega_ref * E1, J0=np.asarray(j0))
+    phase = np.linspace(0.0, 2 * math.pi, samples)
+    tb = math.tan(math.radians(beta_deg)) * omega_ref
+    w = np.c_[np.full(samples, omega_ref), tb * np.cos(phase), tb * np.sin(phase)]
+    y = np.array([rsys.pack_state(sys, omega=wk) for wk in w])
+    t = np.arange(samples, dtype=float)
+    diag = SimpleNamespace(spin_rate=np.linalg.norm(w, axis=1), cone_angle=np.zeros(samples))
+    return SimpleNamespace(system=sys), SimpleNamespace(t=t, y=y), diag
+
+
+PLANAR = np.diag([2.0, 1.0, 1.0])  # a lamina normal to e1: I_axis = I_1 + I_2
+TALL = np.diag([2.0, 1.2, 1.2])  # the same with height along e1 (Σ m x₁² = 0.2)
+
+
+@pytest.mark.parametrize("beta_deg", [1.0, 6.0, 9.92])
+def test_planar_departure_is_second_order_in_the_tilt(beta_deg):
+    """A planar body with a spin Ω about its normal tilted by β: its in-plane block of C(ω)
+    departs by tan²β (the out-of-plane part, (ω·e)(ω_t·r) e on the plane, is a rigid rotation's
+    field), against the sine of the whole departure."""
+    from quadmodes.runs.path_validity import is_planar, load_departure
+
+    setup, sol, _ = _nutating(PLANAR, beta_deg)
+    w = rsys.split_state(setup.system, sol.y)[1]
+    tb = math.tan(math.radians(beta_deg))
+    assert is_planar(setup.system)
+    np.testing.assert_allclose(load_departure(setup.system, w), tb**2, rtol=1e-12)
+    tall = dataclasses.replace(setup.system, J0=TALL)
+    assert not is_planar(tall)
+    assert load_departure(tall, w)[0] > math.sin(math.radians(beta_deg))
+
+
+def test_a_planar_body_is_not_out_of_range_by_its_rigid_tilt(monkeypatch):
+    """The free disc's 5° cone (β = 9.92°): a 3° cone (β ≈ 6°, tan²β = 1.1 %) is inside the a-priori
+    bound for a planar body and outside for a body with height (sin β = 10 %); at 5° the
+    planar body's δ = tan²β = 3.06 % is measured against the model rebuilt about |ω| (the spin
+    of the largest in-plane departure), which decides; a body with height stays out at t = 0,
+    and so does the planar body when the rebuilt model disagrees."""
+    from quadmodes.runs import path_validity as pv
+    from quadmodes.runs import spin_check
+
+    setup, sol, diag = _nutating(PLANAR, 6.0)
+    assert path_validity(setup, sol, diag).left_at is None
+    tall = SimpleNamespace(system=dataclasses.replace(setup.system, J0=TALL))
+    out = path_validity(tall, sol, diag)
+    assert out.left_at == 0.0 and "in the body's plane" not in out.left_reason
+
+    setup, sol, diag = _nutating(PLANAR, 9.92)
+    bound = path_validity(setup, sol, diag)
+    assert bound.left_at == 0.0 and "in the body's plane" in bound.left_reason
+    monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(np.linalg.norm(w)), 1e-9))
+    measured = pv.with_measured_range(bound, setup, sol, diag)
+    assert measured.left_at is None and measured.valid
+    assert measured.measured_spin == pytest.approx(1.0 / math.cos(math.radians(9.92)))
+    monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(np.linalg.norm(w)), 0.05))
+    assert pv.with_measured_range(bound, setup, sol, diag).left_at == 0.0  # the model disagrees
+    tall = SimpleNamespace(system=dataclasses.replace(setup.system, J0=TALL))
+    monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(abs(w @ E1)), 0.0))
+    still = pv.with_measured_range(path_validity(tall, sol, diag), tall, sol, diag)
+    assert still.left_at == 0.0 and "tilted by 9.92 deg" in still.left_reason

@@ -43,6 +43,27 @@ def _spin_range(summary: dict) -> str | None:
     return f"{rng[0]:.5g} – {rng[1]:.5g}"
 
 
+def _taut(summary: dict) -> str | None:
+    """Whether the membrane stays taut along the path (exact strain of the manifold
+    displacement; runs.taut_path): None without the check."""
+    path = summary.get("path_validity") or {}
+    least = path.get("least_tension_n_per_m")
+    rest = path.get("reference_slack_area_fraction")
+    if least is None and path.get("taut") is None:
+        return None
+    apart = f"; {100 * rest:.2g} % slack at the reference, not judged" if rest else ""
+    if least is None:
+        return f"True (no deformation above round-off){apart}"
+    verdict = {True: "True", False: "False", None: "recorded"}[path.get("taut")]
+    return (f"{verdict}: least tension {least:.3g} N/m, {100 * path['slack_area_fraction']:.3g} % "
+            f"of the taut area slack; the largest |s| is "
+            f"{_times(path.get('slack_onset_fraction_of_peak'))} the onset{apart}")  # fmt: skip
+
+
+def _times(fraction) -> str:
+    return "< 1/4 ×" if fraction is None else f"{1 / fraction:.3g} ×"
+
+
 def _until(summary: dict) -> str | None:
     ev = summary.get("until")
     if ev is None:
@@ -75,6 +96,7 @@ def _sink(summary: dict) -> str | None:
 PATH_ROWS = [
     ("reduced model valid along the path", _path_valid, ""),
     ("path leaves the model's range at", _left, ""),
+    ("membrane taut along the path (where taut at the reference)", _taut, ""),
     ("model's spin range (centrifugal load, Hz)", _spin_range, ""),
     ("until", _until, ""),
     ("time to cone angle (s)", _cone_times, ""),

@@ -140,6 +140,21 @@ def _warn_validity(name: str, validity) -> None:
         )
 
 
+def _warn_slack(name: str, result) -> None:
+    """Warn (stderr) when the membrane of a spin-stiffened run loses tension along its path."""
+    path = getattr(result, "path", None)
+    if path is not None and path.slack_at is not None:
+        err.print(
+            f"[bold yellow]warning:[/] {escape(name)}: the membrane loses tension from t = "
+            f"{path.slack_at:.6g} s where it is taut at its reference (least tension "
+            f"{path.least_tension:.3g} N/m, {100 * path.slack_area:.3g} % of that area slack): "
+            "beyond the taut model's range (valid: false); use a smaller initial cone or "
+            "deformation",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
 def _warn_stopped_early(name: str, result, target: Path) -> None:
     """Warn (stderr) that a run stopped before its end and wrote partial results."""
     err.print(
@@ -288,6 +303,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {stopped.where}{hint}", opts.exit_code) from None
         result = with_linear_answer(result)  # energy-sink time constant, stability at the spin
+        _warn_slack(name, result)
         try:
             extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:

@@ -26,6 +26,12 @@ def _validity(path: dict) -> list[str]:
         ("its rotating-frame frequency difference", format_value(path.get("centrifugal_measured_frequency_error"), ".2e")),
         ("largest modal amplitude |s| (kg^0.5 m)", format_value(path.get("modal_amplitude_peak_m"), ".4g")),
         ("reduced potential error there", format_value(path.get("modal_amplitude_error"), ".3g")),
+        ("membrane taut (where taut at the reference)", {True: "yes", False: "no"}.get(
+            path.get("taut"), "—")),
+        ("least tension (N/m)", format_value(path.get("least_tension_n_per_m"), ".3g")),
+        ("taut area slack (largest fraction)", format_value(path.get("slack_area_fraction"), ".3g")),
+        ("area slack at the reference (not judged)",
+         format_value(path.get("reference_slack_area_fraction"), ".3g")),
     ]  # fmt: skip
     return [paragraph(text, "ok" if ok else "bad"), key_values(rows, "the model along the path")]
 

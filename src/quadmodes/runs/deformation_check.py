@@ -26,7 +26,7 @@ from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_energy as me
 from quadmodes.rom import system as rsys
 from quadmodes.structure import pipeline
-from quadmodes.structure.tension_margin import slack_onset
+from quadmodes.structure.tension_margin import manifold_slack_onset, slack_onset
 
 #: Below this fraction of the initial deformation at which the membrane first loses tension
 #: (the deformation at least 10 × the linearised onset of wrinkling) ``W_c`` is attempted once,
@@ -71,23 +71,63 @@ def initial_deformation_energies(
     return reduced, condensed.value if condensed.converged else float("nan")
 
 
-def initial_slack_onset(setup, structure=None) -> tuple[float, float, float] | None:
-    """Along the linear part ``Φ s0`` of a prepared run's initial deformation: ``(a, a·d, f)``,
-    the fraction ``a`` of it at which a membrane element off the bonded patches first loses
-    tension (linearised, :func:`quadmodes.structure.tension_margin.slack_onset`), that as the
-    largest nodal displacement (m, ``d`` the deformation's), and the slack fraction ``f`` of
-    the membrane at the full deformation; None without a deformation or a membrane."""
-    system, model = setup.system, setup.model
-    s0 = rsys.split_state(system, setup.initial.y0)[2]
-    if not np.any(s0):
+def manifold_parts(model, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The linear and quadratic parts ``(Φs, Σ s_m s_n g^{mn})`` ``(n, 3)`` (m) of the manifold
+    displacement of ``model`` (a :class:`~quadmodes.rom.reduced.ReducedModel`) at ``s`` (N,)."""
+    n_modes = len(s)
+    phi = np.asarray(model.Phi, float).reshape(n_modes, -1)
+    g = np.asarray(model.G, float).reshape(n_modes * n_modes, -1)
+    return (s @ phi).reshape(-1, 3), (np.outer(s, s).ravel() @ g).reshape(-1, 3)
+
+
+def slack_along(model, structure, s: np.ndarray, taut=None):
+    """``(onset, amplitude)`` along the manifold ray ``a ↦ Φ(a s) + Σ a² s_m s_n g^{mn}`` from the
+    model's reference state (:func:`quadmodes.structure.tension_margin.manifold_slack_onset`,
+    exact strain, the elements taut at the reference judged) and the largest nodal displacement
+    (m) at the onset (NaN: none); None without a membrane or a deformation."""
+    if not np.any(s):
         return None
-    structure = structure or deformation_structure(setup)
-    u = np.einsum("m,mi->i", s0, np.asarray(model.Phi, float).reshape(len(s0), -1))
-    onset = slack_onset(structure, np.asarray(model.X, float), u.reshape(-1, 3))
+    u1, u2 = manifold_parts(model, s)
+    onset = manifold_slack_onset(structure, np.asarray(model.X, float), u1, u2, taut)
     if onset is None:
         return None
-    largest = float(np.max(np.linalg.norm(u.reshape(-1, 3), axis=1)))
-    return onset.fraction, onset.fraction * largest, onset.slack_at_unit
+    a = onset.fraction
+    amplitude = (float(np.max(np.linalg.norm(a * u1 + a * a * u2, axis=1)))
+                 if np.isfinite(a) else float("nan"))  # fmt: skip
+    return onset, amplitude
+
+
+def initial_slack_onset(setup, structure=None):
+    """Along a prepared run's initial deformation ``s0`` (:func:`slack_along`): ``(a, amplitude,
+    onset)``: the fraction ``a`` of the deformation at which a membrane element taut at the
+    reference first loses tension (exact strain of the manifold displacement; inf: not up to
+    4 ×), that as the largest nodal displacement (m), and the whole
+    :class:`~quadmodes.structure.tension_margin.ManifoldSlack`; None without a deformation or a
+    membrane."""
+    s0 = rsys.split_state(setup.system, setup.initial.y0)[2]
+    if not np.any(s0):
+        return None
+    found = slack_along(setup.model, structure or deformation_structure(setup), s0)
+    return None if found is None else (found[0].fraction, found[1], found[0])
+
+
+def slack_judged(setup) -> bool:
+    """Whether a loss of tension makes the run invalid: for a membrane held taut by its spin
+    alone (no pressure: a sail, a disc, a blade), whose prestrain is tiny (3e-6 on ikaros-sail),
+    so that an out-of-plane deflection stretches and compresses it at second order past its
+    prestress. A pressurised membrane's onset is recorded only: its verdict is the energy check
+    against the SVK FE model (docs/full-order.md, "Where the membrane loses tension")."""
+    return not getattr(setup.model_case, "pressure", None)
+
+
+def linear_slack_fraction(setup, structure) -> float:
+    """The linearised onset (:func:`quadmodes.structure.tension_margin.slack_onset`) along the
+    linear part ``Φ s0`` of the initial deformation (inf: none), which decides whether the
+    condensed energy is reached by continuation (:data:`SLACK_CONTINUATION_LIMIT`)."""
+    s0 = rsys.split_state(setup.system, setup.initial.y0)[2]
+    onset = slack_onset(structure, np.asarray(setup.model.X, float),
+                        manifold_parts(setup.model, s0)[0])  # fmt: skip
+    return float("inf") if onset is None else onset.fraction
 
 
 def with_deformation_check(setup, progress=None):
@@ -105,7 +145,7 @@ def with_deformation_check(setup, progress=None):
         step(0.0)
     structure = deformation_structure(setup)
     slack = initial_slack_onset(setup, structure)
-    continuation = slack is None or not slack[0] < SLACK_CONTINUATION_LIMIT
+    continuation = not linear_slack_fraction(setup, structure) < SLACK_CONTINUATION_LIMIT
     energies = initial_deformation_energies(setup, step, continuation, structure)
     if step:
         step(1.0)
@@ -114,6 +154,11 @@ def with_deformation_check(setup, progress=None):
     validity = dataclasses.replace(setup.validity, deformation_energy_reduced=energies[0],
                                    deformation_energy_condensed=energies[1])  # fmt: skip
     if slack is not None:
-        validity = dataclasses.replace(validity, slack_onset_fraction=slack[0],
-                                       slack_onset_amplitude=slack[1], slack_fraction=slack[2])  # fmt: skip
+        _, amplitude, onset = slack
+        validity = dataclasses.replace(
+            validity, slack_onset_fraction=onset.fraction, slack_onset_amplitude=amplitude,
+            slack_fraction=onset.slack_area, reference_slack_fraction=onset.reference_slack_area,
+            slack_onset_position=tuple(float(v) for v in onset.position),
+            slack_judged=slack_judged(setup),
+        )  # fmt: skip
     return dataclasses.replace(setup, validity=validity)

@@ -19,7 +19,7 @@ import xarray as xr
 from quadmodes.io import cf
 from quadmodes.rom import system as rsys
 from quadmodes.runs.events import cone_times
-from quadmodes.runs.path_validity import centrifugal_departure
+from quadmodes.runs.path_validity import is_planar, load_departure
 
 
 def path_variables(result) -> tuple[dict, dict]:
@@ -32,10 +32,19 @@ def path_variables(result) -> tuple[dict, dict]:
         "to 1 kg)")}  # fmt: skip
     w_ref = np.asarray(result.system.reference_omega, float)
     if np.any(w_ref):
+        plane = " (its in-plane block: a planar body)" if is_planar(result.system) else ""
         data["centrifugal_departure"] = cf.variable(
-            ("time",), centrifugal_departure(w, w_ref), "1", "departure of the centrifugal load "
-            "from the reduced model's reference, |C(omega) - C(omega_ref)|_2 / Omega_ref^2")  # fmt: skip
+            ("time",), load_departure(result.system, w), "1", "departure of the centrifugal load "
+            f"from the reduced model's reference, |C(omega) - C(omega_ref)|_2 / Omega_ref^2{plane}")  # fmt: skip
     path = getattr(result, "path", None)
+    if path is not None and path.tension_samples:
+        when, least = path.tension_samples
+        series = np.full(len(t), np.nan)
+        series[np.searchsorted(t, when)] = np.where(np.isfinite(least), least, np.nan)
+        data["membrane_least_tension"] = cf.variable(
+            ("time",), series, "N/m", "least minor principal stress resultant of the membrane "
+            "elements taut at the reference (exact strain of the manifold displacement; NaN: "
+            "sample not checked, or its deformation round-off)")  # fmt: skip
     if path is not None:
         inside = t < path.left_at if path.left_at is not None else np.ones(len(t), bool)
         data["model_in_range"] = cf.variable(
@@ -75,6 +84,10 @@ def path_attrs(result) -> dict:
             path_modal_amplitude_peak_time=float(path.amplitude_peak_time),
             path_modal_amplitude_error=float(path.amplitude_error),
             path_slack_onset_fraction=float(path.amplitude_slack_fraction),
+            path_least_tension=float(path.least_tension), path_least_tension_units="N/m",
+            path_slack_area=float(path.slack_area),
+            path_reference_slack_area=float(path.reference_slack_area),
+            path_taut=-1 if path.taut is None else int(path.taut),
             centrifugal_measured_spin_rate=float(path.measured_spin),
             centrifugal_measured_spin_rate_units="rad/s",
             centrifugal_measured_frequency_error=float(path.measured_error),
@@ -121,6 +134,11 @@ def path_summary(ds: xr.Dataset) -> dict:
             "min_rotating_stiffness_s-2": _f(ds, "path_min_rotating_stiffness"),
             "modal_amplitude_peak_m": _f(ds, "path_modal_amplitude_peak"),
             "modal_amplitude_error": _f(ds, "path_modal_amplitude_error"),
+            "slack_onset_fraction_of_peak": _f(ds, "path_slack_onset_fraction"),
+            "least_tension_n_per_m": _f(ds, "path_least_tension"),
+            "slack_area_fraction": _f(ds, "path_slack_area"),
+            "reference_slack_area_fraction": _f(ds, "path_reference_slack_area"),
+            "taut": {1: True, 0: False}.get(int(ds.attrs.get("path_taut", -1))),
             "centrifugal_measured_at_spin_hz": _hz(_f(ds, "centrifugal_measured_spin_rate")),
             "centrifugal_measured_frequency_error": _f(ds, "centrifugal_measured_frequency_error"),
             "message": str(ds.attrs.get("path_message", "")),

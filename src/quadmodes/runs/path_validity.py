@@ -66,12 +66,19 @@ class PathValidity:
     eigenvalue of Λ − ωᵀJ2ω on the path; amplitude_peak (kg^½ m): largest ‖s‖, at
     amplitude_peak_time (s); amplitude_error: the reduced potential's relative error there
     against the FE model's condensed energy (NaN: not checked); amplitude_slack_fraction: the
-    fraction of the peak deformation at which the membrane first loses tension (linearised; inf:
-    never); left_at (s): the first sample where a check fails (None: none), with left_spin
+    fraction of the peak deformation at which an element taut at the reference first loses
+    tension along its manifold ray (exact strain; inf: not up to 4 ×); left_at (s): the first sample where a check fails (None: none), with left_spin
     (rad/s), left_cone (rad) and left_reason; checked / unchecked: the checks made and not;
     measured_spin (rad/s) and measured_error: where the centrifugal range was measured against a
     model rebuilt about that spin and the largest relative difference of the rotating-frame
-    frequencies there (NaN: not measured; then centrifugal_limit is the a-priori bound)."""
+    frequencies there (NaN: not measured; then centrifugal_limit is the a-priori bound);
+    least_tension (N/m): the smallest minor principal resultant of the membrane elements taut at
+    the reference on the checked samples, slack_area the largest fraction of their area slack,
+    reference_slack_area the reference's own slack area (NaN: no tension check,
+    :mod:`quadmodes.runs.taut_path`); slack_at (s): the first checked sample where one is slack
+    (None: none, or not judged); slack_judged: the loss of tension is judged (a membrane held
+    taut by its spin alone), else recorded only; tension_samples: ``(times (s), least tension
+    (N/m))`` arrays of the checked samples (empty: no tension check)."""
 
     reference_spin: float
     centrifugal_max: float
@@ -90,18 +97,36 @@ class PathValidity:
     amplitude_slack_fraction: float = math.inf
     measured_spin: float = math.nan
     measured_error: float = math.nan
+    least_tension: float = math.nan
+    slack_area: float = math.nan
+    reference_slack_area: float = math.nan
+    slack_at: float | None = None
+    slack_judged: bool = False
+    tension_samples: tuple = ()
 
     @property
     def valid(self) -> bool:
         """Every check ran and none failed."""
         return self.left_at is None and not self.unchecked
 
+    @property
+    def taut(self) -> bool | None:
+        """The membrane stays taut where it is taut at the reference (None: not judged)."""
+        if math.isnan(self.least_tension) or not self.slack_judged:
+            return None
+        return self.slack_at is None
+
     def message(self) -> str:
         """One line ("" when valid)."""
         if self.left_at is not None:
+            also = ""
+            if self.slack_at is not None and "loses tension" not in self.left_reason:
+                also = (f"; the membrane also loses tension from t = {self.slack_at:.6g} s "
+                        f"(least tension {self.least_tension:.3g} N/m, "
+                        f"{100 * self.slack_area:.3g} % of its taut area slack)")  # fmt: skip
             return (f"the run leaves its reduced model's range at t = {self.left_at:.6g} s "
                     f"(spin {self.left_spin / (2 * math.pi):.5g} Hz, cone "
-                    f"{math.degrees(self.left_cone):.4g} deg): {self.left_reason}")  # fmt: skip
+                    f"{math.degrees(self.left_cone):.4g} deg): {self.left_reason}{also}")  # fmt: skip
         if self.unchecked:
             return f"not checked along the path: {', '.join(self.unchecked)}"
         return ""
@@ -160,22 +185,71 @@ def spin_and_tilt(omega: np.ndarray, omega_ref: np.ndarray) -> tuple[np.ndarray,
     return spin, tilt
 
 
-def _centrifugal_failure(t, w, w_ref, spin_limit, basis: str):
+#: A body is planar (every mass in the plane normal to its reference axis: the free membrane
+#: disc, a flat sail on a flat hub) when its second moment of mass along the axis is below this
+#: fraction of the trace of its second-moment tensor (a flat spinning state: round-off).
+PLANAR_TOLERANCE = 1e-9
+
+
+def is_planar(system: rsys.ReducedSystem) -> bool:
+    """The body's mass lies in the plane normal to its reference angular velocity: its second
+    moment ``Σ m (r·e)²`` = ``eᵀ(½ tr J0 − J0)e`` within :data:`PLANAR_TOLERANCE` of the trace."""
+    w_ref = np.asarray(system.reference_omega, float)
+    if not np.any(w_ref):
+        return False
+    e = w_ref / np.linalg.norm(w_ref)
+    j0 = np.asarray(system.J0, float)
+    second = 0.5 * np.trace(j0) * np.eye(3) - j0
+    return float(e @ second @ e) <= PLANAR_TOLERANCE * float(np.trace(second))
+
+
+def plane_departure(omega: np.ndarray, omega_ref: np.ndarray) -> np.ndarray:
+    """δ (k,) of a planar body: the departure of the in-plane block of C(ω), its only part that
+    deforms the body. On the body's points (r·e = 0) the out-of-plane part of C(ω) r is
+    (ω·e)(ω_t·r) e, the field of a rigid rotation about e × ω_t: it loads the rigid tilt, which
+    the rigid-body equations carry exactly (a free flat body nutates at exactly Ω, its tilt a
+    rotating-frame mode there), not the membrane. The in-plane block has the eigenvalues −(ω·e)²
+    (along ω's in-plane part) and −|ω|² (across it), so δ = max(|(ω·e)² − Ω²|, ||ω|² − Ω²|) / Ω²:
+    second order in the tilt β (tan²β at a fixed spin about e), against sin β for a body with
+    height (:func:`spin_and_tilt`)."""
+    w = np.atleast_2d(np.asarray(omega, float))
+    spin_ref = float(np.linalg.norm(omega_ref))
+    e = np.asarray(omega_ref, float) / spin_ref
+    axial = np.abs((w @ e) ** 2 / spin_ref**2 - 1.0)
+    whole = np.abs(np.einsum("ka,ka->k", w, w) / spin_ref**2 - 1.0)
+    return np.maximum(axial, whole)
+
+
+def load_departure(system: rsys.ReducedSystem, omega: np.ndarray) -> np.ndarray:
+    """δ (k,) of the path's angular velocities ``omega`` (k,3) rad/s: :func:`plane_departure` for
+    a planar body, else :func:`centrifugal_departure`."""
+    w_ref = np.asarray(system.reference_omega, float)
+    if is_planar(system):
+        return plane_departure(omega, w_ref)
+    return centrifugal_departure(omega, w_ref)
+
+
+def _centrifugal_failure(t, w, w_ref, spin_limit, basis: str, planar: bool = False):
     """(sample index, reason) where the centrifugal load first leaves the range, or None: δ past
     :data:`CENTRIFUGAL_LIMIT` (a priori), or with a measured ``spin_limit`` the spin part past it
-    or the tilt part past the a-priori bound."""
+    or the tilt part past the a-priori bound. A ``planar`` body's δ is its in-plane departure
+    (:func:`plane_departure`), all of it judged as a spin part (no tilt part)."""
     spin_hz = float(np.linalg.norm(w_ref)) / (2 * math.pi)
+    plane = " in the body's plane (planar body: the tilt's out-of-plane part is rigid)" if planar else ""
     if spin_limit is None:
-        delta = centrifugal_departure(w, w_ref)
+        delta = plane_departure(w, w_ref) if planar else centrifugal_departure(w, w_ref)
         k = _first(delta > CENTRIFUGAL_LIMIT)
         return None if k is None else (k, (
-            f"the centrifugal load departs by {100 * delta[k]:.3g} % from the model's at "
+            f"the centrifugal load departs by {100 * delta[k]:.3g} %{plane} from the model's at "
             f"{spin_hz:.5g} Hz (limit {100 * CENTRIFUGAL_LIMIT:g} %: ±"
             f"{100 * FREQUENCY_TOLERANCE:g} % in the rotating-frame frequencies)"))  # fmt: skip
-    spin, tilt = spin_and_tilt(w, w_ref)
+    if planar:
+        spin, tilt = plane_departure(w, w_ref), np.zeros(len(w))
+    else:
+        spin, tilt = spin_and_tilt(w, w_ref)
     ks, kt = _first(spin > spin_limit), _first(tilt > CENTRIFUGAL_LIMIT)
     if ks is not None and (kt is None or ks <= kt):
-        return ks, (f"the spin departs by {100 * spin[ks]:.3g} % (in Ω²) from the model's "
+        return ks, (f"the spin departs by {100 * spin[ks]:.3g} % (in Ω²){plane} from the model's "
                     f"{spin_hz:.5g} Hz (limit {100 * spin_limit:.3g} %: {basis})")  # fmt: skip
     if kt is not None:
         return kt, (f"the angular velocity is tilted by {math.degrees(math.asin(min(tilt[kt], 1.0))):.3g}"
@@ -202,9 +276,9 @@ def path_validity(setup, solution, diag, spin_limit: float | None = None,
     dmax = math.nan
     if spin_ref > 0.0:
         checked.insert(0, "centrifugal load")
-        fail = _centrifugal_failure(t, w, w_ref, spin_limit, basis)
+        fail = _centrifugal_failure(t, w, w_ref, spin_limit, basis, is_planar(system))
         fails += [fail] if fail is not None else []
-        dmax = float(centrifugal_departure(w, w_ref).max()) if len(w) else 0.0
+        dmax = float(load_departure(system, w).max()) if len(w) else 0.0
     idx, kmin = _stiffness(system, w)
     bad = np.flatnonzero(kmin <= 0.0)
     if len(bad):
@@ -244,8 +318,9 @@ def _amplitude_error(setup, y: np.ndarray, structure) -> tuple[float, tuple | No
     from quadmodes.runs import deformation_check as dc
 
     at = dataclasses.replace(setup, initial=dataclasses.replace(setup.initial, y0=y))
-    slack = dc.initial_slack_onset(at, structure)
-    continuation = slack is None or not slack[0] < dc.SLACK_CONTINUATION_LIMIT
+    found = dc.initial_slack_onset(at, structure)
+    slack = None if found is None else found[2]
+    continuation = not dc.linear_slack_fraction(at, structure) < dc.SLACK_CONTINUATION_LIMIT
     energies = dc.initial_deformation_energies(at, None, continuation, structure)
     reduced, condensed = energies if energies is not None else (0.0, 0.0)
     if condensed > 0:
@@ -270,10 +345,13 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag) -> PathValid
     amp = np.linalg.norm(rsys.split_state(setup.system, y)[2], axis=1)
     peak = int(np.argmax(amp))
     structure = dc.deformation_structure(setup)
+    if _round_off(setup, y[peak]):  # no deformation: both energies are 0
+        return dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
+                                   unchecked=(), amplitude_error=0.0)  # fmt: skip
     err, slack = _amplitude_error(setup, y[peak], structure)
     checked = dataclasses.replace(
         path, checked=(*path.checked, "modal amplitudes"), unchecked=(),
-        amplitude_error=float(err), amplitude_slack_fraction=math.inf if slack is None else float(slack[0]),
+        amplitude_error=float(err), amplitude_slack_fraction=math.inf if slack is None else float(slack.fraction),
     )  # fmt: skip
     if err <= DEFORMATION_ENERGY_TOLERANCE:
         return checked
@@ -291,9 +369,46 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag) -> PathValid
               f"the reduced potential is {100 * err:.3g} % off the FE model's condensed energy "
               f"{where}; limit {100 * DEFORMATION_ENERGY_TOLERANCE:g} %, passed below "
               f"|s| = {good:.3g} kg^0.5 m")  # fmt: skip
-    if slack is not None and slack[0] < 1.0:
-        reason += f"; the membrane loses tension at {100 * slack[0]:.3g} % of it, linearised"
+    if slack is not None and slack.fraction < 1.0:
+        reason += f"; the membrane loses tension at {100 * slack.fraction:.3g} % of it"
     return _with_failures(checked, [(k, reason)], t, diag)
+
+
+def _round_off(setup, y: np.ndarray) -> bool:
+    """The manifold displacement at state ``y`` is below the round-off of a deformation
+    (:func:`~quadmodes.runs.taut_path.is_round_off`)."""
+    from quadmodes.runs.taut_path import is_round_off
+
+    return is_round_off(setup.model, rsys.split_state(setup.system, y)[2])
+
+
+def with_tension_check(path: PathValidity, setup, solution, diag) -> PathValidity:
+    """``path`` with the membrane's tension checked on its samples
+    (:func:`quadmodes.runs.taut_path.path_tension`): it leaves the range at the first sample
+    where an element taut at the reference has lost tension (unchanged without a membrane;
+    recorded, not judged, for a pressurised one: :func:`~quadmodes.runs.deformation_check.
+    slack_judged`)."""
+    from quadmodes.runs.taut_path import path_tension, tension_reason
+
+    tension = path_tension(setup, solution)
+    if tension is None:
+        return path
+    path = dataclasses.replace(
+        path, checked=(*path.checked, "membrane tension"), least_tension=tension.least,
+        slack_area=tension.slack_area, reference_slack_area=tension.reference_slack_area,
+        amplitude_slack_fraction=tension.peak_fraction,
+        tension_samples=(tension.checked_times, tension.checked_least),
+    )  # fmt: skip
+    from quadmodes.runs.deformation_check import slack_judged
+
+    judged = slack_judged(setup)
+    path = dataclasses.replace(path, slack_judged=judged)
+    if tension.slack_at is None or not judged:
+        return path  # recorded only for a pressurised membrane (slack_judged)
+    path = dataclasses.replace(path, slack_at=tension.slack_at)
+    t = np.asarray(solution.t, float)
+    k = int(np.argmax(t >= tension.slack_at))
+    return _with_failures(path, [(k, tension_reason(tension))], t, diag)
 
 
 def run_path_validity(setup, solution, diag) -> PathValidity:
@@ -304,7 +419,8 @@ def run_path_validity(setup, solution, diag) -> PathValidity:
     if not setup.fe_checks:
         return path
     path = with_measured_range(path, setup, solution, diag)
-    return with_amplitude_check(path, setup, solution, diag)
+    path = with_amplitude_check(path, setup, solution, diag)
+    return with_tension_check(path, setup, solution, diag)
 
 
 def with_measured_range(path: PathValidity, setup, solution, diag) -> PathValidity:
@@ -320,10 +436,17 @@ def with_measured_range(path: PathValidity, setup, solution, diag) -> PathValidi
         return path
     w_ref = np.asarray(setup.system.reference_omega, float)
     w = rsys.split_state(setup.system, np.asarray(solution.y, float))[1]
-    spin = spin_and_tilt(w, w_ref)[0]
-    k = int(np.argmax(spin))
     e = w_ref / np.linalg.norm(w_ref)
-    rate, eps = measured_error(setup, float(w[k] @ e) * e)
+    if is_planar(setup.system):  # the spin, about e or whole, of the largest in-plane departure
+        spin = plane_departure(w, w_ref)
+        k = int(np.argmax(spin))
+        rates = (abs(float(w[k] @ e)), float(np.linalg.norm(w[k])))
+        rate_k = max(rates, key=lambda r: abs(r * r - float(w_ref @ w_ref)))
+    else:
+        spin = spin_and_tilt(w, w_ref)[0]
+        k = int(np.argmax(spin))
+        rate_k = float(w[k] @ e)
+    rate, eps = measured_error(setup, rate_k * e)
     ok = eps <= FREQUENCY_TOLERANCE
     limit = float(spin[k]) if ok else float(spin[k]) * FREQUENCY_TOLERANCE / eps
     basis = (f"measured: the model rebuilt about {rate / (2 * math.pi):.5g} Hz differs by "

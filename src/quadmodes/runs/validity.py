@@ -44,6 +44,9 @@ class Validity:
     slack_onset_fraction: float = math.inf
     slack_onset_amplitude: float = math.nan
     slack_fraction: float = math.nan
+    reference_slack_fraction: float = math.nan
+    slack_onset_position: tuple = ()
+    slack_judged: bool = False
 
     @property
     def beyond_barrier(self) -> bool:
@@ -69,6 +72,14 @@ class Validity:
         return self.deformation_error > DEFORMATION_ENERGY_TOLERANCE  # False for NaN
 
     @property
+    def slackens(self) -> bool:
+        """A membrane element taut at the reference loses tension within the initial deformation
+        (exact strain of the manifold displacement, :mod:`quadmodes.structure.tension_margin`)
+        and the onset is judged (``slack_judged``: a membrane held taut by its spin alone; for a
+        pressurised one it is recorded, and the energy check judges, docs/sails.md)."""
+        return self.slack_judged and self.slack_onset_fraction < 1.0
+
+    @property
     def valid(self) -> bool:
         return self.spin_valid and self.initial_deformation_valid
 
@@ -80,24 +91,35 @@ class Validity:
     @property
     def initial_deformation_valid(self) -> bool:
         """The initial-deformation check: the reduced potential within
-        :data:`DEFORMATION_ENERGY_TOLERANCE` of the FE model's condensed energy (True: unchecked)."""
-        return not self.beyond_deformation_range
+        :data:`DEFORMATION_ENERGY_TOLERANCE` of the FE model's condensed energy, and the
+        membrane taut wherever it is taut at the reference (True: unchecked)."""
+        return not self.beyond_deformation_range and not self.slackens
 
     def slack_note(self) -> str:
         """Where the membrane first loses tension along the initial deformation, when that lies
         before the deformation ("" otherwise; :mod:`quadmodes.structure.tension_margin`)."""
         if not self.slack_onset_fraction < 1.0:
             return ""
-        return (f"the membrane first loses tension (wrinkles) at "
+        where = ("" if not self.slack_onset_position else " at (" + ", ".join(
+            f"{v:.3g}" for v in self.slack_onset_position) + ") m")
+        rest = (f"; {100 * self.reference_slack_fraction:.2g} % of it already slack at the "
+                "reference state, not judged" if self.reference_slack_fraction > 0 else "")
+        return (f"the membrane first loses tension (wrinkles){where} at "
                 f"{100 * self.slack_onset_fraction:.2g} % of this deformation "
                 f"({1e3 * self.slack_onset_amplitude:.3g} mm of largest displacement; "
-                f"{100 * self.slack_fraction:.0f} % of the membrane slack at the full "
-                "deformation, linearised), beyond which no smooth reduced potential holds")  # fmt: skip
+                f"{100 * self.slack_fraction:.2g} % of the membrane taut at the reference slack "
+                f"at the full deformation, exact strain{rest}), beyond which neither the taut model "
+                "nor any smooth reduced potential holds")  # fmt: skip
 
     def message(self) -> str:
         """One line for a warning ("" when valid)."""
         if self.valid:
             return ""
+        if (self.lost_at is None and not self.beyond_barrier and self.slackens
+                and not self.beyond_deformation_range):
+            return (f"formulation {self.formulation}: the initial deformation takes the membrane "
+                    f"out of tension: {self.slack_note()}; use a smaller "
+                    "initial.bending_amplitude (or a smaller modal amplitude)")  # fmt: skip
         if self.beyond_deformation_range and self.lost_at is None and not self.beyond_barrier:
             err = self.deformation_error
             what = ("the FE model's condensed energy did not converge" if math.isinf(err) else
@@ -154,6 +176,7 @@ class Validity:
             "slack_onset_fraction_of_initial_deformation": _json_float(self.slack_onset_fraction),
             "slack_onset_amplitude_m": _json_float(self.slack_onset_amplitude),
             "slack_membrane_fraction_at_initial_deformation": _json_float(self.slack_fraction),
+            "reference_slack_fraction": _json_float(self.reference_slack_fraction),
             "message": self.message(),
         }
 

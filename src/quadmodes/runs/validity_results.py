@@ -35,11 +35,13 @@ def validity_attrs(validity) -> dict:
         "initial_deformation_energy_reduced": float(validity.deformation_energy_reduced),
         "initial_deformation_energy_condensed": float(validity.deformation_energy_condensed),
         "initial_deformation_energy_units": "J",
-        # where the membrane first loses tension along the initial deformation (linearised)
+        # where a membrane element taut at the reference first loses tension along the initial
+        # deformation (exact strain of the manifold displacement), and the reference's slack area
         "slack_onset_fraction": float(validity.slack_onset_fraction),
         "slack_onset_amplitude": float(validity.slack_onset_amplitude),
         "slack_onset_amplitude_units": "m",
         "slack_membrane_fraction": float(validity.slack_fraction),
+        "reference_slack_fraction": float(validity.reference_slack_fraction),
     }
 
 
@@ -80,5 +82,6 @@ def validity_summary(ds: xr.Dataset) -> dict:
             "slack_membrane_fraction_at_initial_deformation": _float(
                 ds.attrs.get("slack_membrane_fraction", float("nan"))
             ),
+            "reference_slack_fraction": _float(ds.attrs.get("reference_slack_fraction", math.nan)),
         },
     }

@@ -108,3 +108,169 @@ def slack_onset(structure: Structure, x0: np.ndarray, u: np.ndarray) -> SlackOns
                                        weights=membrane.area0[off_patch])),  # fmt: skip
         slack_at_rest=int(at_rest.sum()),
     )
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact (nonlinear) slack onset along a manifold displacement
+# ---------------------------------------------------------------------------------------------
+#
+# The linearised onset above is blind where the linear strain change F0ᵀF1 vanishes: a flat
+# membrane deflected out of its plane (F0 in the plane, F1 out of it). Its tension changes at
+# second order, through the stretch ½F1ᵀF1 and the in-plane motion of the quadratic modes, so
+# the check below evaluates the Green strain of x0 + U exactly per element, U = a u1 + a² u2 the
+# reduced model's manifold displacement (u1 = Φs, u2 = Σ s_m s_n g^{mn}) scaled by a.
+
+#: Along a ray the onset is sought up to this many times the displacement given (beyond: inf).
+RAY_LIMIT = 4.0
+#: Points of the scan of the ray (quadratic in a: finest near a = 0) before the bisection.
+RAY_SCAN = 96
+#: Bisections of the first bracket found by the scan (the onset to 2⁻⁴⁰ of its bracket).
+RAY_BISECTIONS = 40
+
+
+def _inner(element_set):
+    """The membrane set of ``element_set`` (itself, or the one an image set wraps) or None."""
+    inner = getattr(element_set, "inner", element_set)
+    return inner if isinstance(inner, MembraneSet) else None
+
+
+def _element_positions(element_set, x: np.ndarray) -> np.ndarray:
+    """Node positions ``(ne, 3, 3)`` (m) of the elements of ``element_set`` at the state ``x``
+    ``(n, 3)`` (an image set's: its virtual nodes, images of the hub's DOFs)."""
+    if hasattr(element_set, "inner"):
+        return element_set._virtual(x)[element_set.inner.conn]
+    return x[element_set.conn]
+
+
+def minor_resultant(membrane: MembraneSet, xe: np.ndarray) -> np.ndarray:
+    """Minor principal Cauchy stress resultant ``(ne,)`` (N/m) of the SVK law (the taut branch,
+    also of a tension-field membrane) at element node positions ``xe`` ``(ne, 3, 3)`` (m): the
+    exact Green strain, no linearisation. Its sign is that of the 2nd Piola–Kirchhoff stress's
+    minor eigenvalue (t F S Fᵀ / J is congruent to S)."""
+    f, e = green_strain(membrane.gradients, xe)
+    s = _voigt_stress(membrane.d, e)
+    c = np.einsum("eki,ekj->eij", f, f)
+    a = np.einsum("eij,ejk->eik", s, c) * (membrane.thickness / np.sqrt(_det2(c)))[:, None, None]
+    half_trace = 0.5 * (a[:, 0, 0] + a[:, 1, 1])
+    return half_trace - np.sqrt(np.maximum(half_trace**2 - _det2(a), 0.0))
+
+
+@dataclass(frozen=True)
+class TautSet:
+    """The membrane elements of a structure at a reference state ``x0`` (every membrane set, an
+    image set's too, concatenated in the order of ``structure.elements``).
+
+    sets: the element sets; area ``(ne,)`` m² (stress-free); centroid ``(ne, 3)`` m at x0;
+    tension ``(ne,)`` N/m: minor principal resultant at x0; judged ``(ne,)`` bool: the elements
+    whose loss of tension counts — taut at x0 (tension > 0) and off the bonded end-body patches.
+    Elements already slack at x0 (an SVK membrane in compression there, e.g. near the corners of
+    the IKAROS-like sail) are not judged: the reference is the model's, and its own slack area is
+    reported apart (:attr:`reference_slack_area`)."""
+
+    sets: tuple
+    area: np.ndarray
+    centroid: np.ndarray
+    tension: np.ndarray
+    judged: np.ndarray
+    off_patch: np.ndarray
+
+    @property
+    def reference_slack_area(self) -> float:
+        """Fraction of the off-patch membrane area not taut at the reference state."""
+        off = self.off_patch
+        return float(np.sum(self.area[off & ~self.judged]) / max(np.sum(self.area[off]), 1e-300))
+
+    def tensions(self, x: np.ndarray) -> np.ndarray:
+        """Minor principal resultants ``(ne,)`` (N/m) at the state ``x`` ``(n, 3)`` m."""
+        return np.concatenate([minor_resultant(_inner(e), _element_positions(e, x))
+                               for e in self.sets])  # fmt: skip
+
+
+def taut_set(structure: Structure, x0: np.ndarray) -> TautSet | None:
+    """:class:`TautSet` of ``structure`` at ``x0`` ``(n, 3)`` m (None without a membrane)."""
+    x0 = np.asarray(x0, float).reshape(-1, 3)
+    sets = tuple(e for e in structure.elements if _inner(e) is not None)
+    if not sets:
+        return None
+    area = np.concatenate([_inner(e).area0 for e in sets])
+    centroid = np.concatenate([_element_positions(e, x0).mean(axis=1) for e in sets])
+    off_patch = np.concatenate([~bonded_elements(structure, e) if e is _inner(e)
+                                else np.ones(len(e.conn), bool) for e in sets])  # fmt: skip
+    probe = TautSet(sets, area, centroid, np.zeros(len(area)), off_patch, off_patch)
+    tension = probe.tensions(x0)
+    return TautSet(sets, area, centroid, tension, off_patch & (tension > 0.0), off_patch)
+
+
+@dataclass(frozen=True)
+class ManifoldSlack:
+    """First loss of tension along ``x0 + a u1 + a² u2`` (exact strain), among the elements taut
+    at ``x0`` (:class:`TautSet`).
+
+    fraction: the smallest ``a`` > 0 at which a judged element's minor resultant reaches 0 (inf:
+    none up to :data:`RAY_LIMIT`); element: its index in the concatenated membrane elements (-1:
+    none); position ``(3,)`` m: its centroid at x0; least_tension (N/m) at ``a = 1`` over the
+    judged elements, at least_position ``(3,)`` m, whose tension at x0 was least_reference
+    (N/m); slack_area: fraction of the judged area slack at ``a = 1``; reference_slack_area: of
+    the off-patch area, the fraction not taut at x0 (not judged)."""
+
+    fraction: float
+    element: int
+    position: np.ndarray
+    least_tension: float
+    least_position: np.ndarray
+    least_reference: float
+    slack_area: float
+    reference_slack_area: float
+
+
+def _first_slack(taut: TautSet, x0, u1, u2) -> tuple[float, int]:
+    """(a, element) of the first loss of tension of a judged element along the ray (inf, -1)."""
+    judged = taut.judged
+
+    def least(a: float) -> tuple[float, int]:
+        t = np.where(judged, taut.tensions(x0 + a * u1 + a * a * u2), np.inf)
+        k = int(np.argmin(t))
+        return float(t[k]), k
+
+    grid = RAY_LIMIT * np.linspace(0.0, 1.0, RAY_SCAN + 1)[1:] ** 2
+    lo = 0.0
+    for a in grid:
+        value, k = least(a)
+        if value <= 0.0:
+            hi = a
+            for _ in range(RAY_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                value, j = least(mid)
+                if value <= 0.0:
+                    hi, k = mid, j
+                else:
+                    lo = mid
+            return hi, k
+        lo = a
+    return np.inf, -1
+
+
+def manifold_slack_onset(structure: Structure, x0: np.ndarray, u1: np.ndarray,
+                         u2: np.ndarray | None = None, taut: TautSet | None = None,
+                         ) -> ManifoldSlack | None:  # fmt: skip
+    """:class:`ManifoldSlack` of ``structure`` at ``x0`` ``(n, 3)`` m along the displacement
+    ``a u1 + a² u2`` (``(n, 3)`` m each; ``u2`` None: a straight ray). ``taut``: the structure's
+    :class:`TautSet` at ``x0`` when already made. None without a membrane or a judged element."""
+    x0 = np.asarray(x0, float).reshape(-1, 3)
+    u1 = np.asarray(u1, float).reshape(-1, 3)
+    u2 = np.zeros_like(u1) if u2 is None else np.asarray(u2, float).reshape(-1, 3)
+    taut = taut if taut is not None else taut_set(structure, x0)
+    if taut is None or not taut.judged.any():
+        return None
+    fraction, k = _first_slack(taut, x0, u1, u2)
+    t1 = np.where(taut.judged, taut.tensions(x0 + u1 + u2), np.inf)
+    j = int(np.argmin(t1))
+    slack = taut.judged & (t1 <= 0.0)
+    return ManifoldSlack(
+        fraction=fraction, element=k,
+        position=taut.centroid[k] if k >= 0 else np.full(3, np.nan),
+        least_tension=float(t1[j]), least_position=taut.centroid[j],
+        least_reference=float(taut.tension[j]),
+        slack_area=float(taut.area[slack].sum() / taut.area[taut.judged].sum()),
+        reference_slack_area=taut.reference_slack_area,
+    )  # fmt: skip

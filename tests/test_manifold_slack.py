@@ -1,0 +1,125 @@
+"""Exact slack onset along a manifold displacement (structure.tension_margin, item 6 of issue
+26): the second-order strain of a flat prestretched membrane deflected out of its plane, which
+the linearised onset cannot see, against closed forms derived here.
+
+The membrane: a square of side L in z = 0 on a structured grid of right triangles, stretched
+uniformly, x0 = (1 + λ) X. Every displacement below is linear or quadratic in X, so on the
+constant-strain triangles it is represented exactly (for w = b X² the element slope is b times
+twice the column's mid-x, which is the closed form's slope there).
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from quadmodes.fe.membrane import membrane_set
+from quadmodes.fe.model import Structure
+from quadmodes.structure.tension_margin import manifold_slack_onset, slack_onset, taut_set
+
+E, NU, T, RHO = 3.0e9, 0.3, 7.5e-6, 1420.0  # a polyimide sail
+L, CELLS, LAM = 2.0, 8, 1e-4  # side (m), cells a side, prestretch
+
+
+def _square():
+    g = np.linspace(-L / 2, L / 2, CELLS + 1)
+    xx, yy = np.meshgrid(g, g, indexing="ij")
+    points = np.c_[xx.ravel(), yy.ravel(), np.zeros(xx.size)]
+    idx = np.arange(xx.size).reshape(CELLS + 1, CELLS + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel()
+    conn = np.r_[np.c_[a, b, c], np.c_[b, d, c]]
+    membrane = membrane_set(conn, points, T, E, NU, RHO)
+    n = len(points)
+    structure = Structure(points, np.ones(n, bool), (membrane,), sp.identity(n, format="csr"),
+                          np.zeros((n, 3), bool))  # fmt: skip
+    return structure, membrane, points
+
+
+@pytest.fixture(scope="module")
+def square():
+    return _square()
+
+
+def _svk_minor(e11: float, e22: float) -> float:
+    """Minor principal 2nd PK stress resultant (N/m) of diagonal Green strains (SVK)."""
+    c = E / (1 - NU**2)
+    return T * c * min(e11 + NU * e22, NU * e11 + e22)
+
+
+def test_flat_bending_is_invisible_to_the_linearised_onset(square):
+    """w = b X²: F0ᵀF1 = 0, so the linearised onset is infinite; the exact strain is the stretch
+    E11 = e0 + ½ w'² per element (w' = 2b x̄, x̄ the element column's mid-x), E22 = e0."""
+    structure, membrane, X = square
+    x0 = (1 + LAM) * X
+    b = 0.05
+    u = np.c_[np.zeros((len(X), 2)), b * X[:, 0] ** 2]
+    assert slack_onset(structure, x0, u).fraction == np.inf
+    taut = taut_set(structure, x0)
+    e0 = 0.5 * ((1 + LAM) ** 2 - 1)
+    xm = X[membrane.conn, 0]
+    mid = 0.5 * (xm.min(axis=1) + xm.max(axis=1))
+    stretched = e0 + 0.5 * (2 * b * mid) ** 2
+    # the Cauchy resultant: t F S Fᵀ / J, F = diag(√C11, √C22) in the plane's directions
+    c11, c22 = 1 + 2 * stretched, 1 + 2 * e0
+    cd = E / (1 - NU**2)
+    s11, s22 = cd * (stretched + NU * e0), cd * (NU * stretched + e0)
+    expected = T * np.minimum(s11 * c11, s22 * c22) / np.sqrt(c11 * c22)
+    np.testing.assert_allclose(taut.tensions(x0 + u), expected, rtol=1e-10)
+    assert manifold_slack_onset(structure, x0, u).fraction == np.inf  # only stretches
+
+
+def test_rigid_tilt_changes_no_strain_to_second_order(square):
+    """The tilt w = θX alone stretches by ½θ² (a linear mode's rotation is not rigid); with its
+    quadratic part u2 = −½θ²X e_x the strain change is E11 = ((1+λ−½θ²)² + θ² − (1+λ)²)/2
+    = −λθ²/2 + θ⁴/8 (closed form): zero to second order for λ → 0."""
+    structure, _, X = square
+    x0 = (1 + LAM) * X
+    u1 = np.c_[np.zeros((len(X), 2)), X[:, 0]]
+    u2 = np.c_[-0.5 * X[:, 0], np.zeros((len(X), 2))]
+    taut = taut_set(structure, x0)
+    e0 = 0.5 * ((1 + LAM) ** 2 - 1)
+    for theta in (1e-3, 0.05, 0.3):
+        exact = 0.5 * ((1 + LAM - 0.5 * theta**2) ** 2 + theta**2 - 1)
+        assert exact - e0 == pytest.approx(-LAM * theta**2 / 2 + theta**4 / 8, rel=1e-6)
+        c11, c22 = 1 + 2 * exact, 1 + 2 * e0
+        cd = E / (1 - NU**2)
+        s = [cd * (exact + NU * e0) * c11, cd * (NU * exact + e0) * c22]
+        expected = T * min(s) / np.sqrt(c11 * c22)
+        np.testing.assert_allclose(taut.tensions(x0 + theta * u1 + theta**2 * u2), expected,
+                                   rtol=1e-8)  # fmt: skip
+
+
+def test_onset_of_an_overshooting_quadratic_part(square):
+    """u1 = X e_z, u2 = −k X e_x (k > ½: the in-plane part overshoots the tilt's and compresses):
+    F11 = 1 + λ − k a², F31 = a, so E11 = ½((1 + λ − k a²)² + a² − 1) and the minor stress
+    E11 + ν e0 = 0 at b = a² the smallest positive root of
+    k² b² + (1 − 2k(1 + λ)) b + (1 + λ)² − 1 + 2ν e0 = 0."""
+    structure, _, X = square
+    x0 = (1 + LAM) * X
+    k = 0.8
+    e0 = 0.5 * ((1 + LAM) ** 2 - 1)
+    roots = np.roots([k * k, 1 - 2 * k * (1 + LAM), (1 + LAM) ** 2 - 1 + 2 * NU * e0])
+    expected = np.sqrt(roots[roots > 0].min())
+    u1 = np.c_[np.zeros((len(X), 2)), X[:, 0]]
+    u2 = np.c_[-k * X[:, 0], np.zeros((len(X), 2))]
+    scale = 10.0 * expected  # the direction given at 10 × the onset
+    onset = manifold_slack_onset(structure, x0, scale * u1, scale**2 * u2)
+    assert onset.fraction * scale == pytest.approx(expected, rel=1e-9)
+    assert onset.slack_area == 1.0 and onset.reference_slack_area == 0.0
+    assert onset.fraction == pytest.approx(0.1, rel=1e-9)
+    # at x0 the stretch is isotropic: the Cauchy resultant t S (1+λ)² / (1+λ)² = t S
+    assert onset.least_tension < 0.0
+    assert onset.least_reference == pytest.approx(_svk_minor(e0, e0), rel=1e-9)
+
+
+def test_reference_slack_is_reported_apart(square):
+    """Elements already in compression at x0 are not judged: the onset is that of the taut ones,
+    the slack area at x0 is reported apart."""
+    structure, membrane, X = square
+    x0 = (1 + LAM) * X
+    left = X[:, 0] < -L / 4
+    x0[left, 0] = (1 - LAM) * X[left, 0] - 2 * LAM * L / 4  # the left quarter compressed along x
+    taut = taut_set(structure, x0)
+    assert 0.0 < taut.reference_slack_area < 0.5
+    u = np.c_[np.zeros((len(X), 2)), 0.05 * X[:, 0] ** 2]  # stretches only
+    onset = manifold_slack_onset(structure, x0, u)
+    assert onset.fraction == np.inf and onset.reference_slack_area == taut.reference_slack_area
