@@ -186,6 +186,16 @@ def damping_free(x, v, t, w, mx, indptr, indices, data, mphi_flat, cmat):  # pra
 
 
 @nb.njit(cache=True)
+def scatter_add(positions, values, out):  # pragma: no cover - jit
+    """``out[positions[i]] += values[i]`` in the order of i, skipping ``positions[i] < 0``
+    (the sums of ``np.bincount``, bit for bit; :mod:`quadmodes.fullorder.preconditioner`)."""
+    for i in range(positions.shape[0]):
+        p = positions[i]
+        if p >= 0:
+            out[p] += values[i]
+
+
+@nb.njit(cache=True)
 def tie_blocks(conn, l2, k, x0, x1, positions, weight, out):  # pragma: no cover - jit
     """Add ``weight ×`` the Green-strain bars' energy–momentum Jacobian blocks
     ``½k(ε̄ I + d½ d₁ᵀ/L₀²)`` (as ``[[kb, −kb], [−kb, kb]]``) at the pair (x0, x1) (n,3) to the
