@@ -65,3 +65,19 @@ def test_permuted_assembly_is_the_straightforward_preconditioner_bit_for_bit(cap
         slow = NewtonMatrix.at(problem, x0, x1, ops, single=True, node_order=True)
         fast = _kept(problem, ops, permuted, x0, x1)
         assert fast.low and np.array_equal(fast.solve(b), slow.solve(b))
+
+
+@pytest.mark.skipif(jit_module() is None, reason="numba cannot be imported here")
+def test_compiled_bar_force_is_the_numpy_one_bit_for_bit(capsule):
+    # the ties' step force compiled (jit.bar_force) adds bar by bar in index order: the sums of
+    # the sparse products of the numpy form, so every run is unchanged by it
+    from quadmodes.fe.bar import BarKernel, BarSet
+
+    problem, _, pairs = capsule
+    bars = [e for e in problem.structure.elements if isinstance(e, BarSet)]
+    assert bars
+    for x0, x1 in pairs:
+        for e in bars:
+            plain, compiled = BarKernel(e, problem.n), BarKernel(e, problem.n, jit_module())
+            start = plain.start(x0)
+            assert np.array_equal(compiled.force(start, x1), plain.force(start, x1))
