@@ -88,7 +88,7 @@ class BarSet(ElementSet):
 
     def step_kernel(self, n: int, energy_momentum: bool, jit=None) -> StepKernel:
         """:class:`BarKernel` (a tie) with the energy–momentum average."""
-        return BarKernel(self, n) if energy_momentum else super().step_kernel(n, False, jit)
+        return BarKernel(self, n, jit) if energy_momentum else super().step_kernel(n, False, jit)
 
 
 class BarKernel(StepKernel):
@@ -98,9 +98,9 @@ class BarKernel(StepKernel):
 
     tie = True
 
-    def __init__(self, e: BarSet, n: int):
+    def __init__(self, e: BarSet, n: int, jit=None):
         super().__init__(e, n)
-        self.conn = np.ascontiguousarray(e.conn)
+        self.conn, self.jit = np.ascontiguousarray(e.conn), jit
         self.l2 = e.length0**2
         self.k = e.EA / e.length0
         signs = np.broadcast_to(np.array([-1.0, 1.0]), e.conn.shape)
@@ -120,6 +120,10 @@ class BarKernel(StepKernel):
     def force(self, start, x1: np.ndarray) -> np.ndarray:
         """Nodal forces (n,3): ``∓ EA ε̄ d½ / L₀`` on the two ends."""
         d0, e0 = start
+        if self.jit is not None:  # the same sums, compiled
+            out = np.zeros((self.n, 3))
+            self.jit.bar_force(self.conn, self.l2, self.k, d0, e0, np.ascontiguousarray(x1), out)
+            return out
         d1 = self._d(x1)
         return self.force_op @ ((self.k * self._mean_strain(e0, d1))[:, None] * (0.5 * (d0 + d1)))
 

@@ -186,6 +186,40 @@ def damping_free(x, v, t, w, mx, indptr, indices, data, mphi_flat, cmat):  # pra
 
 
 @nb.njit(cache=True)
+def bar_force(conn, l2, k, d0, e0, x1, out):  # pragma: no cover - jit
+    """Add the Green-strain bars' step forces ``∓ k ε̄ d½`` (ε̄ = (ε₀ + ε₁)/2, k = EA/L₀) to
+    ``out`` (n,3), bar by bar in index order: the sums of ``BarKernel.force``'s sparse
+    products, bit for bit. conn (nb,2), l2 = L₀² (nb,), d0 (nb,3) and e0 (nb,) the start
+    vectors and strains, x1 (n,3)."""
+    for e in range(conn.shape[0]):
+        a, b = conn[e, 0], conn[e, 1]
+        d10 = x1[b, 0] - x1[a, 0]
+        d11 = x1[b, 1] - x1[a, 1]
+        d12 = x1[b, 2] - x1[a, 2]
+        e1 = (d10 * d10 + d11 * d11 + d12 * d12 - l2[e]) / (2.0 * l2[e])
+        s = k[e] * (0.5 * (e0[e] + e1))
+        f0 = s * (0.5 * (d0[e, 0] + d10))
+        f1 = s * (0.5 * (d0[e, 1] + d11))
+        f2 = s * (0.5 * (d0[e, 2] + d12))
+        out[a, 0] -= f0
+        out[a, 1] -= f1
+        out[a, 2] -= f2
+        out[b, 0] += f0
+        out[b, 1] += f1
+        out[b, 2] += f2
+
+
+@nb.njit(cache=True)
+def scatter_add(positions, values, out):  # pragma: no cover - jit
+    """``out[positions[i]] += values[i]`` in the order of i, skipping ``positions[i] < 0``
+    (the sums of ``np.bincount``, bit for bit; :mod:`quadmodes.fullorder.preconditioner`)."""
+    for i in range(positions.shape[0]):
+        p = positions[i]
+        if p >= 0:
+            out[p] += values[i]
+
+
+@nb.njit(cache=True)
 def tie_blocks(conn, l2, k, x0, x1, positions, weight, out):  # pragma: no cover - jit
     """Add ``weight ×`` the Green-strain bars' energy–momentum Jacobian blocks
     ``½k(ε̄ I + d½ d₁ᵀ/L₀²)`` (as ``[[kb, −kb], [−kb, kb]]``) at the pair (x0, x1) (n,3) to the

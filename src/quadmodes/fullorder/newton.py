@@ -22,6 +22,7 @@ from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
 from quadmodes.fullorder.condensed import CondensedNewtonMatrix, TieSplit
 from quadmodes.fullorder.kernels import StepOperators
 from quadmodes.fullorder.krylov import KrylovNewtonMatrix
+from quadmodes.fullorder.preconditioner import PermutedNewtonAssembly, low_rank_terms
 from quadmodes.fullorder.setup import FullOrderProblem
 from quadmodes.linalg.factor import factorize
 
@@ -110,13 +111,16 @@ class NewtonMatrix:
     ``A⁻¹ r ≈ 𝒬 A(z)⁻¹ 𝒬ᵀ r`` with Q the current frame, whatever the rigid rotation since."""
 
     def __init__(self, a_free, low: list, weight: float, free: np.ndarray, single: bool = False,
-                 node_order: bool = False):  # fmt: skip
+                 node_order: bool = False, lu=None):  # fmt: skip
         """a_free: A on the free DOFs (sparse); low: rank-one terms ``(c, v)`` of J (v over all
         3n DOFs); weight: Δt²/2 (s²); single: factorise in float32 (a preconditioner);
         node_order: the fill-reducing ordering computed on the node graph, once per pattern
-        (:func:`~quadmodes.linalg.factor.lu_factor`; about a quarter of a factorisation)."""
-        nodes = free // 3 if node_order else None
-        self.lu = factorize(a_free, symmetric=True, single=single, nodes=nodes)
+        (:func:`~quadmodes.linalg.factor.lu_factor`; about a quarter of a factorisation).
+        lu: A already factorised (then ``a_free``, ``single`` and ``node_order`` are unused)."""
+        if lu is None:
+            nodes = free // 3 if node_order else None
+            lu = factorize(a_free, symmetric=True, single=single, nodes=nodes)
+        self.lu = lu
         self.low = []
         for coef, vec in low:
             vf = np.asarray(vec).ravel()[free]
@@ -236,11 +240,25 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
     if len(split.tie) > MAX_TIE_DOFS and not KRYLOV_MANY_TIES:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)  # the kept whole matrix
     if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
+        permuted = PermutedNewtonAssembly.of(ops, problem.free)
         return lambda z0, z1: KrylovNewtonMatrix(
-            problem, ops, NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True),
-            policy,
+            problem, ops, _kept(problem, ops, permuted, z0, z1), policy
         )
     return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
+
+
+def _kept(problem: FullOrderProblem, ops: StepOperators, permuted: PermutedNewtonAssembly,
+          z0: np.ndarray, z1: np.ndarray) -> NewtonMatrix:  # fmt: skip
+    """The float32 preconditioner of the Krylov path at the body-frame pair (z0, z1) (n,3):
+    ``NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)``, assembled straight
+    into its permuted data by ``permuted`` (built once per run; the same matrix bit for bit)."""
+    weight = 0.5 * problem.h * problem.h
+    try:
+        lu = permuted.factorize(ops, z0, z1, weight)
+    except RuntimeError:  # exactly singular: the general path's partial pivoting decides
+        return NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
+    low = low_rank_terms(problem.structure, z0, z1)
+    return NewtonMatrix(None, low, weight, problem.free, lu=lu)
 
 
 def solve_step(

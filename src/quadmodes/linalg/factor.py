@@ -179,15 +179,29 @@ def lu_factor(a: sp.spmatrix, symmetric: bool = True, border: int = 0,
     try:
         if nodes is None:
             return spla.splu(a, **SYMMETRIC_OPTIONS)
-        a.sort_indices()
-        key = (NODE_ORDERING, *_pattern_key(a))
-        if key not in _ORDERINGS:
-            _keep_ordering(key, node_ordering(a, np.asarray(nodes)))
-        order = _ORDERINGS[key]
-        natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
-        return PermutedLU(spla.splu(a[order][:, order].tocsc(), **natural), order, a.dtype)
+        order = kept_node_ordering(a, nodes)
+        return permuted_lu(a[order][:, order].tocsc(), order)
     except RuntimeError:  # "Factor is exactly singular": let partial pivoting decide
         return spla.splu(a, **GENERAL_OPTIONS)
+
+
+def kept_node_ordering(a: sp.csc_matrix, nodes: np.ndarray) -> np.ndarray:
+    """The node-graph ordering ``(m,)`` of ``a`` (CSC; its indices sorted in place) that
+    :func:`lu_factor` uses, computed once per stored sparsity pattern (:func:`node_ordering`)."""
+    a.sort_indices()
+    key = (NODE_ORDERING, *_pattern_key(a))
+    if key not in _ORDERINGS:
+        _keep_ordering(key, node_ordering(a, np.asarray(nodes)))
+    return _ORDERINGS[key]
+
+
+def permuted_lu(permuted: sp.csc_matrix, order: np.ndarray) -> PermutedLU:
+    """The factorisation of ``A`` given ``permuted = A[order][:, order]`` (CSC), as
+    :func:`lu_factor` makes it with ``nodes`` (``NATURAL`` on the permuted matrix; raises
+    RuntimeError for an exactly singular pivot). For callers that assemble the permuted matrix
+    themselves, once per pattern (:mod:`quadmodes.fullorder.preconditioner`)."""
+    natural = dict(SYMMETRIC_OPTIONS, permc_spec="NATURAL")
+    return PermutedLU(spla.splu(permuted, **natural), order, permuted.dtype)
 
 
 class Factorization(Protocol):
@@ -253,12 +267,16 @@ def backend_choice(backend: str | None = None) -> str:
 
 
 class _Single:
-    """A float32 SuperLU factorisation of a real matrix behind float64 solves."""
+    """A float32 SuperLU factorisation of a real matrix behind float64 solves (``lu``: an
+    existing float32 factorisation instead of ``a``)."""
 
     backend = "superlu (float32)"
 
-    def __init__(self, a: sp.spmatrix, symmetric: bool, border: int = 0, nodes=None):
-        self.lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric, border, nodes)
+    def __init__(self, a: sp.spmatrix | None, symmetric: bool = True, border: int = 0,
+                 nodes=None, lu=None):  # fmt: skip
+        if lu is None:
+            lu = lu_factor(sp.csc_matrix(a).astype(np.float32), symmetric, border, nodes)
+        self.lu = lu
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.lu.solve(np.asarray(rhs, np.float32)).astype(np.float64)
@@ -282,6 +300,12 @@ def factorize(a: sp.spmatrix, symmetric: bool = True, backend: str | None = None
     if name == "pardiso" and not np.iscomplexobj(a.data if sp.issparse(a) else a):
         return _Pardiso(a, symmetric)
     return _SuperLU(a, symmetric, border, nodes)
+
+
+def single_permuted(permuted: sp.csc_matrix, order: np.ndarray) -> Factorization:
+    """What ``factorize(a, single=True, nodes=...)`` returns, from the float32 permuted matrix
+    ``permuted = A[order][:, order]`` (:func:`permuted_lu`; RuntimeError if exactly singular)."""
+    return _Single(None, lu=permuted_lu(permuted, order))
 
 
 def with_rank_one_terms(solve: Solve, low_rank: Sequence[tuple[float, np.ndarray]]) -> Solve:
