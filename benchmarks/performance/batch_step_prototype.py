@@ -213,7 +213,7 @@ def _jac(m1, p1, pm, w2, numid, theta, rh0, lam, cmat, dt, jl, jm):
 
 
 @_jit
-def _residuals(mass, lam, cmat, dt, xs, st, wk, bw):
+def _residuals(mass, lam, cmat, dt, xs, st, wk, bw, free):
     """Batched residuals of every point at xs (B, m3); returns False where an iterate is
     non-finite (wk[8][b] = 0)."""
     x0, h0, p0, sb1, sbm = st
@@ -221,15 +221,16 @@ def _residuals(mass, lam, cmat, dt, xs, st, wk, bw):
     nb_ = xs.shape[0]
     for b in range(nb_):
         _pre(xs[b], x0[b], sb1[b], sbm[b], dt, z1[b], zm[b], numid[b])
-    _mass_all(mass, z1, bw, m1)
-    _products_all(mass, True, zm, numid, bw, pm)
+    if not free:
+        _mass_all(mass, z1, bw, m1)
+        _products_all(mass, True, zm, numid, bw, pm)
     for b in range(nb_):
         ok[b] = 1 if _post(xs[b], m1[b], pm[b], numid[b], zm[b], lam, cmat, h0[b], p0[b], dt,
                            theta[b], rh0[b], r[b]) else 0  # fmt: skip
 
 
 @_jit
-def _linearise_all(mass, lam, cmat, wt, f1, dt, ps, st, wk, bw, nw, info):
+def _linearise_all(mass, lam, cmat, wt, f1, dt, ps, st, wk, bw, nw, info, free):
     """Start a step for every point: per-step constants, the predictor 2ν₀ − ν₋₁, the batched
     residual there, each point's Jacobian, its LU and the convergence scale. Returns the index
     of a point whose start failed (singular or non-finite), or −1."""
@@ -245,12 +246,14 @@ def _linearise_all(mass, lam, cmat, wt, f1, dt, ps, st, wk, bw, nw, info):
             p0[b, k] -= dt * f1[k]
         for a in range(m3):
             xg[b, a] = 2.0 * x[b, a] - x_prev[b, a]
-    _residuals(mass, lam, cmat, dt, xg, st, wk, bw)
-    _products_all(mass, False, z1, xg, bw, p1)
+    _residuals(mass, lam, cmat, dt, xg, st, wk, bw, free)
+    if not free:
+        _products_all(mass, False, z1, xg, bw, p1)
     for b in range(nb_):
         if ok[b] == 0:
             return b
-        K._block_second(mass[3], numid[b], w2[b])
+        if not free:
+            K._block_second(mass[3], numid[b], w2[b])
         _jac(m1[b], p1[b], pm[b], w2[b], numid[b], theta[b], rh0[b], lam, cmat, dt, jl, jm[b])
         if not K._lu_factor(jm[b], piv[b]):
             return b
@@ -295,7 +298,7 @@ def _chord_round(wt, newton_tol, max_newton, its, r, nw, info):
 
 
 @_jit
-def _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small):
+def _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small, free):
     """Finish the step of every point: s₁, 𝕄(s₁) (batched), then each point's ω projection,
     dissipated energy and attitude."""
     q, s, x, x_prev, m, zs, e_d = ps
@@ -309,7 +312,8 @@ def _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small):
         for k in range(n):
             s[b, k] = sb1[b, k] + hdt * xg[b, 3 + k]
             zs[b, k + 1] = s[b, k]
-    _mass_all(mass, zs, bw, m)
+    if not free:
+        _mass_all(mass, zs, bw, m)
     for b in range(nb_):
         e_d[b] += _finish(cmat, dt, x[b], xg[b], h0[b], m[b], phi, tgt, lu3, piv3)
         K._quat_step(q[b], phi)
@@ -345,17 +349,44 @@ def _arrays_for(y0s, n):
 
 
 @_jit
-def run_batch(mass, lam, cmat, wt, f1, y0s, n_steps, dt, newton_tol, max_newton, last, info):
+def _two_rounds(mass, lam, cmat, dt, st, wk, bw, nw, info):
+    """Two chord updates of every point with a residual between them, no convergence test
+    (the ``free`` timing bound of :func:`run_batch`)."""
+    xg, dx, jm, piv = nw[0], nw[1], nw[2], nw[3]
+    nb_, m3 = xg.shape
+    for rnd in range(2):
+        if rnd == 1:
+            _residuals(mass, lam, cmat, dt, xg, st, wk, bw, True)
+        for b in range(nb_):
+            K._lu_solve(jm[b], piv[b], wk[7][b], dx[b])
+            for a in range(m3):
+                xg[b, a] -= dx[b, a]
+            info[b, 1] += 1
+
+
+@_jit
+def run_batch(mass, lam, cmat, wt, f1, y0s, n_steps, dt, newton_tol, max_newton, last, info,
+              free=False):
     """``n_steps`` midpoint steps of the B states y0s (B, 7+2N) in lock step; last (B, 7+2N)
     the final states, info (B, 3) = [status, n_newton, steps done]. Returns 0, or the step at
-    which a point (info[b, 0] ≠ 0) failed: the run stops there (a prototype)."""
+    which a point (info[b, 0] ≠ 0) failed: the run stops there (a prototype).
+
+    ``free``: a timing bound, not a computation: every contraction is skipped (its arrays keep
+    their first values) and each step makes exactly two chord rounds, as the real steps of
+    the benchmark do, so the time is that of the per-point work alone."""
     n = lam.shape[0]
     ps, st, wk, bw, nw = _arrays_for(y0s, n)
     _mass_all(mass, ps[5], bw, ps[4])
     small = (np.empty(3), np.empty(3), np.empty((3, 3)), np.empty(3, np.int64))
     info[:, :] = 0
+    if free:  # the contractions' arrays hold the first step's values (not garbage)
+        _linearise_all(mass, lam, cmat, wt, f1, dt, ps, st, wk, bw, nw, info, False)
     for i in range(1, n_steps + 1):
-        bad = _linearise_all(mass, lam, cmat, wt, f1, dt, ps, st, wk, bw, nw, info)
+        bad = _linearise_all(mass, lam, cmat, wt, f1, dt, ps, st, wk, bw, nw, info, free)
+        if free:
+            _two_rounds(mass, lam, cmat, dt, st, wk, bw, nw, info)
+            _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small, free)
+            continue
         if bad >= 0:
             info[bad, 0] = K.SINGULAR
             return i
@@ -368,12 +399,12 @@ def run_batch(mass, lam, cmat, wt, f1, y0s, n_steps, dt, newton_tol, max_newton,
                 return i
             if left == 0:
                 break
-            _residuals(mass, lam, cmat, dt, nw[0], st, wk, bw)
+            _residuals(mass, lam, cmat, dt, nw[0], st, wk, bw, free)
             for b in range(y0s.shape[0]):
                 if nw[9][b] == 1 and wk[8][b] == 0:
                     info[b, 0] = K.SINGULAR
                     return i
-        _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small)
+        _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small, free)
     q, s, x, e_d = ps[0], ps[1], ps[2], ps[6]
     for b in range(y0s.shape[0]):
         K._store(last[b:b + 1], e_d[b:b + 1], 0, q[b], x[b], s[b], e_d[b])
@@ -410,12 +441,13 @@ def _finish(cmat, dt, x0, x1, h0, m1, phi, tgt, lu3, piv3):
     return dt * ded
 
 
-def batch_run(sys, y0s, n_steps, dt, newton_tol=1e-13, max_newton=25):
-    """(final states (B, 7+2N), info (B, 3), failing step or 0) of ``n_steps`` lock-step steps."""
+def batch_run(sys, y0s, n_steps, dt, newton_tol=1e-13, max_newton=25, free=False):
+    """(final states (B, 7+2N), info (B, 3), failing step or 0) of ``n_steps`` lock-step steps
+    (``free``: the timing bound of :func:`run_batch`, whose states mean nothing)."""
     mass, lam, cmat, wt, _, _, f1 = K._arrays(sys)
     y0s = np.ascontiguousarray(y0s, dtype=np.float64)
     last = np.empty_like(y0s)
     info = np.zeros((len(y0s), 3), np.int64)
     fail = run_batch(mass, lam, cmat, wt, f1, y0s, int(n_steps), float(dt), float(newton_tol),
-                     int(max_newton), last, info)  # fmt: skip
+                     int(max_newton), last, info, bool(free))  # fmt: skip
     return last, info, int(fail)

@@ -12,16 +12,21 @@ initial cone angle of ``paper-41hz-coarse``, B values between 1° and 10°) inte
 
 alternating, best of ``--repeat``, for B = 1, 4, 16, 64 at N = 8, 16, 31: point-steps per
 second and the ratio batched/single, and the largest relative difference of the batched final
-states from the single runs' (and whether they are equal bit for bit). Before each N's rows, a
-comment line gives the contractions' cost per single step, each timed on its own in a tight
-loop and counted per step (a lower bound of their part of a step: inside the step they sit on
-its chain of dependent operations, which a tight loop of independent calls overlaps). Then (``--sweep``) the same points as a sweep (``quadmodes.sweeps.engine``) on a
-LocalCluster of 2 workers, one task per point, and in a plain loop of
+states from the single runs' (and whether they are equal bit for bit). The column "bound" is
+the same batch with every contraction skipped (``batch_run(..., free=True)``: two chord rounds
+per step, as the real steps here make, on stale arrays; its states mean nothing): the rate of
+the per-point work alone, hence the most that any faster form of the shared contractions (BLAS
+products included) could give this design. A comment line after each N's rows gives the rate
+of BLAS (GFMA/s) on the largest of the batched contractions, for the arithmetic of what a BLAS
+form could reach.
+
+Then (``--sweep``) the same points as a sweep (``quadmodes.sweeps.engine``) on a LocalCluster
+of 2 workers, one task per point, and in a plain loop of
 :func:`quadmodes.sweeps.points.run_point` in this process: a point's whole work (the time run
 with its diagnostics and secular fits, the rotating-frame roots, the energy-sink estimate), the
 part of it the integration loop takes, and the loop projected with the best batched/single
 ratio of that N applied to all of each point's integration time (generous: the per-chunk Python
-work included), with the bound of an integration that costs nothing.
+work included); the same with the bound's ratio, and with an integration that costs nothing.
 
     OPENBLAS_NUM_THREADS=1 nice -n 10 python -m benchmarks.performance.bench_sweep_batch
     OPENBLAS_NUM_THREADS=1 nice -n 10 python -m benchmarks.performance.bench_sweep_batch --modes 16 --batches 16 --sweep
@@ -88,59 +93,39 @@ def single_runs(sys, y0s, n_steps, dt):
 
 
 @nb.njit
-def _repeat(which, mass, z, v, g, out_m, out_p, out_w, reps):
-    """``reps`` evaluations of one contraction of the single kernel (0: 𝕄(s), 1: P_E(s, ν),
-    2: P(s, ν), 3: W(ν)), nudging s each time."""
+def _gemm_repeat(s, j, out, reps):
     for _ in range(reps):
-        z[1] += 1e-15
-        if which == 0:
-            K._block_mass_matrix(mass, z, g, out_m)
-        elif which == 1:
-            K._block_products(mass, True, z, v, g, out_p)
-        elif which == 2:
-            K._block_products(mass, False, z, v, g, out_p)
-        else:
-            K._block_second(mass[3], v, out_w)
+        s[0, 0] += 1e-15
+        np.dot(s, j, out)
 
 
-def contraction_share(sys, y0, dt, n_steps: int, repeat: int) -> str:
-    """The contractions' cost per single compiled step (the work a batch shares), each timed
-    alone (a lower bound, see the module docstring) and counted from the step's own counts: per Newton iteration one 𝕄 and one P_E (the
-    residual), per step one P and one W (the Jacobian) and one 𝕄 (the advance)."""
-    n = sys.n_modes
-    mass = K._arrays(sys)[0]
-    z, v = np.r_[1.0, y0[7:7 + n]], np.r_[y0[4:7], y0[7 + n:]]
-    work = (np.empty((n + 3) ** 2), np.empty((n + 3, n + 3)), np.empty((n, n + 3)), np.empty((n, n)))
-    for which in range(4):
-        _repeat(which, mass, z, v, *work, 2)
-    reps = 10 * n_steps
-    idx = np.array([0, n_steps], np.int64)
-    best, best_s = [np.inf] * 4, np.inf
+def gemm_rate(n_modes: int, batch: int = 16, repeat: int = 3) -> float:
+    """GFMA/s of BLAS (numba's np.dot) on the largest contraction of a batch, G = S·J2 with S
+    (B, N) and J2 laid out (N, 9N): the rate a BLAS form of the batched contractions could hope
+    for at these shapes."""
+    rng = np.random.default_rng(1)
+    s, j = rng.random((batch, n_modes)), rng.random((n_modes, 9 * n_modes))
+    out = np.empty((batch, 9 * n_modes))
+    _gemm_repeat(s, j, out, 2)
+    reps, best = 5000, np.inf
     for _ in range(repeat):
-        for which in range(4):
-            t = time.perf_counter()
-            _repeat(which, mass, z, v, *work, reps)
-            best[which] = min(best[which], (time.perf_counter() - t) / reps)
         t = time.perf_counter()
-        _, _, _, stats, _, _ = K.fixed_run(sys, y0, n_steps, dt, idx, *NEWTON, 0.0)
-        best_s = min(best_s, (time.perf_counter() - t) / n_steps)
-    its = stats["n_newton"] / stats["n_steps"]
-    per_step = (its + 1) * best[0] + its * best[1] + best[2] + best[3]
-    share = per_step / best_s
-    return (f"N = {n}: single step {best_s * 1e6:.1f} us ({its:.2f} Newton iterations); the "
-            f"contractions, timed one at a time, {per_step * 1e6:.1f} us per step ({share:.0%})")
+        _gemm_repeat(s, j, out, reps)
+        best = min(best, (time.perf_counter() - t) / reps)
+    return batch * n_modes * 9 * n_modes / best / 1e9
 
 
-def compare(n_modes: int, batches, n_steps: int, repeat: int) -> dict[int, float]:
-    """Print the rows of the prototype table at N = ``n_modes``; returns {B: batched/single}."""
+def compare(n_modes: int, batches, n_steps: int, repeat: int) -> dict[int, tuple]:
+    """Print the rows of the prototype table at N = ``n_modes``; returns {B: (batched/single,
+    bound/single)}."""
     ratios = {}
     sys, y_all, dt = initial_states(n_modes, np.linspace(1.0, 10.0, max(batches)))
-    print("<!-- " + contraction_share(sys, y_all[0], dt, n_steps, repeat) + " -->", flush=True)
     single_runs(sys, y_all[:1], 2, dt)  # compile / load both kernels first
     batch_run(sys, y_all[:2], 2, dt)
+    batch_run(sys, y_all[:2], 2, dt, free=True)
     for b in batches:
         y0s = y_all[np.linspace(0, len(y_all) - 1, b).round().astype(int)]
-        best = {"single": np.inf, "batched": np.inf}
+        best = {"single": np.inf, "batched": np.inf, "free": np.inf}
         for _ in range(repeat):
             t = time.perf_counter()
             ref = single_runs(sys, y0s, n_steps, dt)
@@ -150,21 +135,27 @@ def compare(n_modes: int, batches, n_steps: int, repeat: int) -> dict[int, float
             best["batched"] = min(best["batched"], time.perf_counter() - t)
             if fail:
                 raise RuntimeError(f"batched run failed at step {fail}: {info}")
+            t = time.perf_counter()
+            batch_run(sys, y0s, n_steps, dt, *NEWTON, free=True)
+            best["free"] = min(best["free"], time.perf_counter() - t)
         diff = float(np.max(np.abs(got - ref) / np.maximum(np.abs(ref).max(axis=0), 1e-300)))
         rate = {k: b * n_steps / v for k, v in best.items()}
-        ratios[b] = rate["batched"] / rate["single"]
+        ratios[b] = (rate["batched"] / rate["single"], rate["free"] / rate["single"])
         print(f"| {n_modes} | {b} | {rate['single']:,.0f} | {rate['batched']:,.0f} | "
-                    f"**{rate['batched'] / rate['single']:.2f}** | {diff:.1e} | "
+                    f"**{rate['batched'] / rate['single']:.2f}** | {rate['free'] / rate['single']:.2f} | {diff:.1e} | "
                     f"{'yes' if np.array_equal(got, ref) else 'no'} |", flush=True)  # fmt: skip
+    print(f"<!-- N = {n_modes}: BLAS on the largest contraction, (16 x {n_modes}) . "
+          f"({n_modes} x {9 * n_modes}): {gemm_rate(n_modes):.1f} GFMA/s -->", flush=True)
     return ratios
 
 
 def sweep_side_by_side(n_modes: int, points: int, duration: str, repeat: int,
-                       ratio: float) -> None:  # fmt: skip
+                       ratio: float, bound_ratio: float) -> None:  # fmt: skip
     """The same ``points`` cone angles as a sweep on 2 local workers and as a plain loop of
     run_point, the integration's share of a point, and what the kernel ratio ``ratio``
     (batched/single) would make of the loop: each point's integration time divided by it (all
-    of it, the per-chunk Python work included: generous), the rest of the point unchanged."""
+    of it, the per-chunk Python work included: generous), the rest of the point unchanged; the
+    same with ``bound_ratio`` (the batch with its contractions free)."""
     from quadmodes.sweeps import engine
     from quadmodes.sweeps.params import parse_param
     from quadmodes.sweeps.points import model_for_group, run_point
@@ -203,13 +194,15 @@ def sweep_side_by_side(n_modes: int, points: int, duration: str, repeat: int,
     whole = sum(w for w, _ in walls)
     gain = whole / sum(w - r + r / ratio for w, r in walls)
     bound = whole / sum(w - r for w, r in walls)
+    free = whole / sum(w - r + r / bound_ratio for w, r in walls)
     print(f"| loop with the batched integration (projected, kernel ratio {ratio:.2f}) | "
           f"{best_loop / gain:.2f} | {points * steps * gain / best_loop:,.0f} | "
           f"{best_loop / gain / points * 1e3:.0f} |")
     print(f"integration loop (run_wall_s) / whole point: median {np.median(share):.2f} "
           f"(range {min(share):.2f}-{max(share):.2f}); sweep on 2 workers / loop: "
-          f"{best_loop / best_sweep:.2f}x; batched integration / loop: {gain:.2f}x "
-          f"(bound with an integration of no cost: {bound:.2f}x)", flush=True)
+          f"{best_loop / best_sweep:.2f}x; batched integration / loop: {gain:.2f}x; with the "
+          f"contractions free ({bound_ratio:.2f}x): {free:.2f}x; with an integration of no cost: "
+          f"{bound:.2f}x", flush=True)
 
 
 def main() -> None:
@@ -227,12 +220,14 @@ def main() -> None:
     load0 = os.getloadavg()[0]
     print(f"{CASE}: cone angles 1-10 deg, {args.steps} steps per point, best of {args.repeat}")
     print("| N | B | single, point-steps/s | batched, point-steps/s | **batched/single** | "
-          "max rel. diff | bit for bit |\n|---|---|---|---|---|---|---|")
+          "bound: contractions free / single | max rel. diff | bit for bit |\n"
+          "|---|---|---|---|---|---|---|---|")
     ratios = {n: compare(n, batches, args.steps, args.repeat) for n in modes}
     if args.sweep:
         for n in modes:
-            best = max(ratios[n].values())
-            sweep_side_by_side(n, args.sweep_points, args.sweep_duration, args.repeat, best)
+            best = max(r[0] for r in ratios[n].values())
+            bound = max(r[1] for r in ratios[n].values())
+            sweep_side_by_side(n, args.sweep_points, args.sweep_duration, args.repeat, best, bound)
     print(f"load average {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end")
 
 
