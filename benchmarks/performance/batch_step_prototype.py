@@ -108,9 +108,74 @@ def batched_products(mass, energy, zt, vt, g, acc, out):
 
 
 @_jit
+def _mass_blas(mass, zs, bw, dest):
+    """dest[b] = 𝕄(zs[b]) for every point from matrix products (BLAS): G = S·J2 (B, 9N),
+    S·J1, S·D_rot and S·D (B, 3N); the same sums in another order (round-off)."""
+    s_, g_, l_, hr, he = bw[7], bw[10], bw[11], bw[12], bw[13]
+    a_r, dr_m, de_m, j1 = bw[16], bw[18], bw[19], mass[1]
+    m0 = mass[0]
+    nb_, n = s_.shape
+    for b in range(nb_):
+        for k in range(n):
+            s_[b, k] = zs[b, k + 1]
+    np.dot(s_, a_r, g_)
+    np.dot(s_, j1, l_)
+    np.dot(s_, dr_m, hr)
+    np.dot(s_, de_m, he)
+    m3 = n + 3
+    for b in range(nb_):
+        for a in range(m3):
+            for c in range(m3):
+                dest[b, a, c] = m0[a, c]
+        for e in range(9):
+            acc = l_[b, e]
+            for k in range(n):
+                acc += s_[b, k] * g_[b, k * 9 + e]
+            dest[b, e // 3, e % 3] += acc
+        for c in range(n):
+            for a in range(3):
+                dest[b, a, 3 + c] += hr[b, c * 3 + a]
+                dest[b, 3 + c, a] += he[b, c * 3 + a]
+
+
+@_jit
+def _products_blas(mass, energy, zs, vs, bw, dest):
+    """dest[b] = ½ (∂𝕄/∂s_k)(zs[b]) vs[b] (N, m3) from matrix products (BLAS): G = S·J2,
+    Ṡ·Dᵀ (B, 3N) and Ω·Dᵀ (B, N²); round-off differences from the loops."""
+    s_, sd, w_, g_, acc, mod = bw[7], bw[8], bw[9], bw[10], bw[14], bw[15]
+    a_m = bw[17] if energy else bw[16]
+    dt_m = bw[21] if energy else bw[20]
+    de_t, j1 = bw[22], mass[1]
+    nb_, n = s_.shape
+    for b in range(nb_):
+        for k in range(n):
+            s_[b, k] = zs[b, k + 1]
+            sd[b, k] = vs[b, 3 + k]
+        for a in range(3):
+            w_[b, a] = vs[b, a]
+    np.dot(s_, a_m, g_)
+    np.dot(sd, dt_m, acc)
+    np.dot(w_, de_t, mod)
+    for b in range(nb_):
+        w0, w1, w2 = w_[b, 0], w_[b, 1], w_[b, 2]
+        for k in range(n):
+            for a in range(3):
+                r = k * 9 + 3 * a
+                dest[b, k, a] = ((0.5 * j1[k, 3 * a] + g_[b, r]) * w0
+                                 + (0.5 * j1[k, 3 * a + 1] + g_[b, r + 1]) * w1
+                                 + (0.5 * j1[k, 3 * a + 2] + g_[b, r + 2]) * w2
+                                 + 0.5 * acc[b, k * 3 + a])  # fmt: skip
+            for c in range(n):
+                dest[b, k, 3 + c] = 0.5 * mod[b, k * n + c]
+
+
+@_jit
 def _mass_all(mass, zs, bw, dest):
     """dest[b] = 𝕄(zs[b]) for every point (batched), bw the batch work arrays."""
-    zt, vt, g, acc, om, op = bw
+    if bw[6][0] == 1:
+        _mass_blas(mass, zs, bw, dest)
+        return
+    zt, g, om = bw[0], bw[2], bw[4]
     nb_, nz = zs.shape
     for b in range(nb_):
         for i in range(nz):
@@ -126,7 +191,10 @@ def _mass_all(mass, zs, bw, dest):
 @_jit
 def _products_all(mass, energy, zs, vs, bw, dest):
     """dest[b] = ½ (∂𝕄/∂s_k)(zs[b]) vs[b] (N, m3) for every point (batched)."""
-    zt, vt, g, acc, om, op = bw
+    if bw[6][0] == 1:
+        _products_blas(mass, energy, zs, vs, bw, dest)
+        return
+    zt, vt, g, acc, op = bw[0], bw[1], bw[2], bw[3], bw[5]
     nb_, nz = zs.shape
     m3 = vs.shape[1]
     for b in range(nb_):
@@ -324,7 +392,7 @@ def _advance_all(mass, cmat, dt, ps, st, bw, nw, i, info, small, free):
 
 
 @_jit
-def _arrays_for(y0s, n):
+def _arrays_for(y0s, n, blas, use_blas):
     """Per-point state ``ps``, step constants ``st``, residual work ``wk``, batch work ``bw``
     and Newton arrays ``nw`` for the states y0s (B, 7+2N)."""
     nb_ = y0s.shape[0]
@@ -341,7 +409,12 @@ def _arrays_for(y0s, n):
           np.empty((nb_, m3)), np.empty((nb_, 3)), np.empty((nb_, 3)), np.empty((nb_, n, m3)),
           np.empty((nb_, m3)), np.zeros(nb_, np.int64))  # fmt: skip
     bw = (np.empty((n + 1, nb_)), np.empty((m3, nb_)), np.empty((9, nb_)), np.empty(nb_),
-          np.empty((m3, m3, nb_)), np.empty((n, m3, nb_)))  # fmt: skip
+          np.empty((m3, m3, nb_)), np.empty((n, m3, nb_)),
+          np.full(1, 1 if use_blas else 0, np.int64),
+          np.empty((nb_, n)), np.empty((nb_, n)), np.empty((nb_, 3)), np.empty((nb_, 9 * n)),
+          np.empty((nb_, 9)), np.empty((nb_, 3 * n)), np.empty((nb_, 3 * n)),
+          np.empty((nb_, 3 * n)), np.empty((nb_, n * n)),
+          blas[0], blas[1], blas[2], blas[3], blas[4], blas[5], blas[6])  # fmt: skip
     nw = (np.empty((nb_, m3)), np.empty((nb_, m3)), np.empty((nb_, m3, m3)),
           np.empty((nb_, m3), np.int64), np.empty((nb_, n, m3)), np.empty((nb_, n, n)),
           np.empty((3, 3)), np.empty(nb_), np.empty(nb_), np.zeros(nb_, np.int64))  # fmt: skip
@@ -366,16 +439,18 @@ def _two_rounds(mass, lam, cmat, dt, st, wk, bw, nw, info):
 
 @_jit
 def run_batch(mass, lam, cmat, wt, f1, y0s, n_steps, dt, newton_tol, max_newton, last, info,
-              free=False):
+              free, blas, use_blas):
     """``n_steps`` midpoint steps of the B states y0s (B, 7+2N) in lock step; last (B, 7+2N)
     the final states, info (B, 3) = [status, n_newton, steps done]. Returns 0, or the step at
     which a point (info[b, 0] ≠ 0) failed: the run stops there (a prototype).
 
     ``free``: a timing bound, not a computation: every contraction is skipped (its arrays keep
     their first values) and each step makes exactly two chord rounds, as the real steps of
-    the benchmark do, so the time is that of the per-point work alone."""
+    the benchmark do, so the time is that of the per-point work alone. ``use_blas``: the
+    contractions as matrix products (:func:`_mass_blas`, :func:`_products_blas`; ``blas`` the
+    layouts of :func:`blas_layouts`) instead of the SIMD-lane loops."""
     n = lam.shape[0]
-    ps, st, wk, bw, nw = _arrays_for(y0s, n)
+    ps, st, wk, bw, nw = _arrays_for(y0s, n, blas, use_blas)
     _mass_all(mass, ps[5], bw, ps[4])
     small = (np.empty(3), np.empty(3), np.empty((3, 3)), np.empty(3, np.int64))
     info[:, :] = 0
@@ -441,13 +516,34 @@ def _finish(cmat, dt, x0, x1, h0, m1, phi, tgt, lu3, piv3):
     return dt * ded
 
 
-def batch_run(sys, y0s, n_steps, dt, newton_tol=1e-13, max_newton=25, free=False):
+def blas_layouts(mass):
+    """The kernel's J2, D (row k·N + m) laid out for matrix products over the batch: J2 as
+    (N, 9N) with [m, 9k + e] = J2_km,e (rotational rows, energy); D_rot, D as (N, 3N) with
+    [k, 3c + a] = D_kc,a (for Σ_k s_k D_kc) and as (N, 3N) with [c, 3k + a] (for Σ_c D_kc ṡ_c);
+    Dᵀ (3, N²)."""
+    n = mass[1].shape[0]
+    c = np.ascontiguousarray
+
+    def by_m(j2):
+        return c(j2.reshape(n, n, 9).transpose(1, 0, 2).reshape(n, 9 * n))
+
+    def by_c(d):
+        return c(d.reshape(n, n, 3).transpose(1, 0, 2).reshape(n, 3 * n))
+
+    return (by_m(mass[2]), by_m(mass[3]), c(mass[4].reshape(n, 3 * n)),
+            c(mass[5].reshape(n, 3 * n)), by_c(mass[4]), by_c(mass[5]), c(mass[5].T))  # fmt: skip
+
+
+def batch_run(sys, y0s, n_steps, dt, newton_tol=1e-13, max_newton=25, free=False,
+              use_blas=False):  # fmt: skip
     """(final states (B, 7+2N), info (B, 3), failing step or 0) of ``n_steps`` lock-step steps
-    (``free``: the timing bound of :func:`run_batch`, whose states mean nothing)."""
+    (``free``: the timing bound of :func:`run_batch`, whose states mean nothing; ``use_blas``:
+    the contractions as matrix products, equal to the single runs to round-off only)."""
     mass, lam, cmat, wt, _, _, f1 = K._arrays(sys)
     y0s = np.ascontiguousarray(y0s, dtype=np.float64)
     last = np.empty_like(y0s)
     info = np.zeros((len(y0s), 3), np.int64)
     fail = run_batch(mass, lam, cmat, wt, f1, y0s, int(n_steps), float(dt), float(newton_tol),
-                     int(max_newton), last, info, bool(free))  # fmt: skip
+                     int(max_newton), last, info, bool(free), blas_layouts(mass),
+                     bool(use_blas))  # fmt: skip
     return last, info, int(fail)

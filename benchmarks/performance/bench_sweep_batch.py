@@ -16,7 +16,9 @@ states from the single runs' (and whether they are equal bit for bit). The colum
 the same batch with every contraction skipped (``batch_run(..., free=True)``: two chord rounds
 per step, as the real steps here make, on stale arrays; its states mean nothing): the rate of
 the per-point work alone, hence the most that any faster form of the shared contractions (BLAS
-products included) could give this design. A comment line after each N's rows gives the rate
+products included) could give this design. The "BLAS batch" is the same prototype with the
+contractions as matrix products (``batch_run(..., use_blas=True)``; equal to the single runs to
+round-off only). A comment line after each N's rows gives the rate
 of BLAS (GFMA/s) on the largest of the batched contractions, for the arithmetic of what a BLAS
 form could reach.
 
@@ -123,9 +125,10 @@ def compare(n_modes: int, batches, n_steps: int, repeat: int) -> dict[int, tuple
     single_runs(sys, y_all[:1], 2, dt)  # compile / load both kernels first
     batch_run(sys, y_all[:2], 2, dt)
     batch_run(sys, y_all[:2], 2, dt, free=True)
+    batch_run(sys, y_all[:2], 2, dt, use_blas=True)
     for b in batches:
         y0s = y_all[np.linspace(0, len(y_all) - 1, b).round().astype(int)]
-        best = {"single": np.inf, "batched": np.inf, "free": np.inf}
+        best = {"single": np.inf, "batched": np.inf, "blas": np.inf, "free": np.inf}
         for _ in range(repeat):
             t = time.perf_counter()
             ref = single_runs(sys, y0s, n_steps, dt)
@@ -136,13 +139,23 @@ def compare(n_modes: int, batches, n_steps: int, repeat: int) -> dict[int, tuple
             if fail:
                 raise RuntimeError(f"batched run failed at step {fail}: {info}")
             t = time.perf_counter()
+            got_blas, _, fail = batch_run(sys, y0s, n_steps, dt, *NEWTON, use_blas=True)
+            best["blas"] = min(best["blas"], time.perf_counter() - t)
+            if fail:
+                raise RuntimeError(f"BLAS batch failed at step {fail}")
+            t = time.perf_counter()
             batch_run(sys, y0s, n_steps, dt, *NEWTON, free=True)
             best["free"] = min(best["free"], time.perf_counter() - t)
-        diff = float(np.max(np.abs(got - ref) / np.maximum(np.abs(ref).max(axis=0), 1e-300)))
+        scale = np.maximum(np.abs(ref).max(axis=0), 1e-300)
+        diff = float(np.max(np.abs(got - ref) / scale))
+        diff_blas = float(np.max(np.abs(got_blas - ref) / scale))
         rate = {k: b * n_steps / v for k, v in best.items()}
-        ratios[b] = (rate["batched"] / rate["single"], rate["free"] / rate["single"])
+        ratios[b] = (rate["batched"] / rate["single"], rate["free"] / rate["single"],
+                     rate["blas"] / rate["single"])
         print(f"| {n_modes} | {b} | {rate['single']:,.0f} | {rate['batched']:,.0f} | "
-                    f"**{rate['batched'] / rate['single']:.2f}** | {rate['free'] / rate['single']:.2f} | {diff:.1e} | "
+                    f"**{rate['batched'] / rate['single']:.2f}** | {rate['blas']:,.0f} | "
+              f"**{rate['blas'] / rate['single']:.2f}** | {rate['free'] / rate['single']:.2f} | "
+              f"{diff:.1e} | {diff_blas:.1e} | "
                     f"{'yes' if np.array_equal(got, ref) else 'no'} |", flush=True)  # fmt: skip
     print(f"<!-- N = {n_modes}: BLAS on the largest contraction, (16 x {n_modes}) . "
           f"({n_modes} x {9 * n_modes}): {gemm_rate(n_modes):.1f} GFMA/s -->", flush=True)
@@ -150,7 +163,7 @@ def compare(n_modes: int, batches, n_steps: int, repeat: int) -> dict[int, tuple
 
 
 def sweep_side_by_side(n_modes: int, points: int, duration: str, repeat: int,
-                       ratio: float, bound_ratio: float) -> None:  # fmt: skip
+                       ratio: float, bound_ratio: float, blas_ratio: float) -> None:  # fmt: skip
     """The same ``points`` cone angles as a sweep on 2 local workers and as a plain loop of
     run_point, the integration's share of a point, and what the kernel ratio ``ratio``
     (batched/single) would make of the loop: each point's integration time divided by it (all
@@ -195,12 +208,14 @@ def sweep_side_by_side(n_modes: int, points: int, duration: str, repeat: int,
     gain = whole / sum(w - r + r / ratio for w, r in walls)
     bound = whole / sum(w - r for w, r in walls)
     free = whole / sum(w - r + r / bound_ratio for w, r in walls)
+    blas = whole / sum(w - r + r / blas_ratio for w, r in walls)
     print(f"| loop with the batched integration (projected, kernel ratio {ratio:.2f}) | "
           f"{best_loop / gain:.2f} | {points * steps * gain / best_loop:,.0f} | "
           f"{best_loop / gain / points * 1e3:.0f} |")
     print(f"integration loop (run_wall_s) / whole point: median {np.median(share):.2f} "
           f"(range {min(share):.2f}-{max(share):.2f}); sweep on 2 workers / loop: "
-          f"{best_loop / best_sweep:.2f}x; batched integration / loop: {gain:.2f}x; with the "
+          f"{best_loop / best_sweep:.2f}x; batched integration / loop: {gain:.2f}x; BLAS batch "
+          f"({blas_ratio:.2f}x): {blas:.2f}x; with the "
           f"contractions free ({bound_ratio:.2f}x): {free:.2f}x; with an integration of no cost: "
           f"{bound:.2f}x", flush=True)
 
@@ -220,14 +235,17 @@ def main() -> None:
     load0 = os.getloadavg()[0]
     print(f"{CASE}: cone angles 1-10 deg, {args.steps} steps per point, best of {args.repeat}")
     print("| N | B | single, point-steps/s | batched, point-steps/s | **batched/single** | "
-          "bound: contractions free / single | max rel. diff | bit for bit |\n"
-          "|---|---|---|---|---|---|---|---|")
+          "BLAS batch, point-steps/s | **BLAS/single** | bound: contractions free / single | "
+          "max rel. diff, batched | max rel. diff, BLAS | batched bit for bit |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|")
     ratios = {n: compare(n, batches, args.steps, args.repeat) for n in modes}
     if args.sweep:
         for n in modes:
             best = max(r[0] for r in ratios[n].values())
             bound = max(r[1] for r in ratios[n].values())
-            sweep_side_by_side(n, args.sweep_points, args.sweep_duration, args.repeat, best, bound)
+            blas = max(r[2] for r in ratios[n].values())
+            sweep_side_by_side(n, args.sweep_points, args.sweep_duration, args.repeat, best, bound,
+                               blas)
     print(f"load average {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end")
 
 
