@@ -14,6 +14,11 @@ The points run in lock step: a chord round evaluates the batched residual for ev
 uses it only for the points still iterating (the others' results are discarded). Formulations
 Q, P, L (no quartic potential); blocks only (no dense reference); the run stops at the first
 failing point (a prototype).
+
+Two more modes of :func:`batch_run`, for the benchmark: ``use_blas=True`` evaluates the same
+contractions as matrix products over the batch (``np.dot`` in the compiled loop, i.e. BLAS;
+the sums in another order, so equal to the single runs to round-off only), and ``free=True``
+skips them altogether (a timing bound whose states mean nothing).
 """
 
 from __future__ import annotations
