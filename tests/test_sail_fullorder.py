@@ -1,0 +1,86 @@
+"""The full order of a membrane on a hub in time (issue 26; docs/sails.md, "Full-order
+comparisons in time"): its Newton failure at a large nutation is the membrane's loss of tension,
+and says so; a nutation small enough for the membrane to stay taut integrates and conserves."""
+
+import numpy as np
+import pytest
+
+from quadmodes.case import load_case
+from quadmodes.case.editing import edit
+from quadmodes.fe.build import MembraneSpec
+from quadmodes.fe.hub import HubSpec
+from quadmodes.fe.hub_membrane import build_hub_membrane_structure
+from quadmodes.fullorder import integrate_full_order
+from quadmodes.fullorder.newton import FullOrderNewtonError
+from quadmodes.fullorder.options import FullOrderOptions
+from quadmodes.fullorder.tension import loss_of_tension, tension_state
+from quadmodes.mesh.hub_flat import annulus_surface, hub_ring_nodes
+from quadmodes.structure import pipeline
+
+E, NU, T = 3e9, 0.3, 7.5e-6
+
+
+def test_tension_state_of_a_uniform_stretch():
+    """Hub and membrane scaled by λ about the hub's centre: a uniform equibiaxial Green strain
+    e = (λ² − 1)/2, so every principal resultant is E t e/(1 − ν) — taut for λ > 1, compressed
+    everywhere for λ < 1."""
+    s = annulus_surface(1.0, 0.3, 0.15)
+    st = build_hub_membrane_structure(s.points, s.triangles, MembraneSpec(T, E, NU, 1420.0, 0.0),
+                                      HubSpec(10.0, (1.0, 1.0, 1.5)),
+                                      hub_ring_nodes(s.points, 0.3))  # fmt: skip
+    for lam in (1.0 + 1e-4, 1.0 - 1e-4):
+        ts = tension_state(st, lam * st.reference)  # the axes rows scaled too: the images
+        expected = E * T * 0.5 * (lam**2 - 1.0) / (1.0 - NU)
+        assert np.isclose(ts.least_resultant, expected, rtol=1e-6)
+        assert ts.not_taut_fraction == (0.0 if lam > 1 else 1.0)
+    assert loss_of_tension(st, (1 + 1e-4) * st.reference, st.reference) == ""
+    cause = loss_of_tension(st, (1 - 1e-4) * st.reference, (1 + 1e-4) * st.reference)
+    assert "lost its tension: not taut on 100 %" in cause
+
+
+@pytest.fixture(scope="module")
+def coarse_annulus():
+    """spinning-annulus on a 1.5 m mesh (51 DOFs) at its 1 rad/s relative equilibrium."""
+    case = edit(load_case("spinning-annulus"), {"mesh.edge_length": "1.5 m"}, "test")
+    st = pipeline.structure_for_case(case)
+    x_ref, _ = pipeline.reference_state(case, st)
+    return st, x_ref
+
+
+def _coning(st, x_ref, cone_deg: float) -> np.ndarray:
+    """The rigid velocity (n,3) of the torque-free body with |H| = I_z × 1 rad/s at
+    ``cone_deg`` from the normal z (body axes principal by symmetry): ω = (H sin θ / I_x, 0,
+    H cos θ / I_z); the hub's axis rows turn as directions (ω × a)."""
+    tr = st.translational.astype(float)
+    ms = st.mass_scalar
+    r = x_ref - np.outer(tr, (tr @ ms @ x_ref) / (tr @ ms @ tr))
+    j = r.T @ (ms @ r)  # the position field is linear in the vector DOFs
+    inertia = np.trace(j) * np.eye(3) - j
+    th = np.radians(cone_deg)
+    h = inertia[2, 2]
+    omega = np.array([h * np.sin(th) / inertia[0, 0], 0.0, h * np.cos(th) / inertia[2, 2]])
+    return np.cross(omega, r)
+
+
+def _run(st, x_ref, cone_deg: float, duration: float):
+    opts = FullOrderOptions(damping=False, spin_axis=np.array([0.0, 0.0, 1.0]))
+    return integrate_full_order(st, x_ref, x_ref, _coning(st, x_ref, cone_deg), (0.0, duration),
+                                0.1, opts)  # fmt: skip
+
+
+def test_large_nutation_fails_naming_the_loss_of_tension(coarse_annulus):
+    """5°: the hub's nutation drives the membrane relative to it far beyond what its
+    centrifugal tension carries; the SVK membrane goes into compression over most of its area
+    and the step's Newton fails — the error names that cause, not the tolerance."""
+    with pytest.raises(FullOrderNewtonError) as err:
+        _run(*coarse_annulus, 5.0, 4.0)
+    assert "the membrane has lost its tension: not taut on" in str(err.value)
+    assert "(0 % in the reference state)" in err.value.cause
+
+
+def test_small_nutation_integrates_and_conserves(coarse_annulus):
+    """0.05°: the membrane stays taut; undamped, |H| and the energy are kept to round-off."""
+    sol = _run(*coarse_annulus, 0.05, 3.0)
+    assert sol.status == 0 and np.isclose(np.degrees(sol.cone_angle[0]), 0.05, rtol=1e-6)
+    assert np.ptp(sol.H_norm) < 1e-9 * sol.H_norm[0]
+    assert np.ptp(sol.E) < 1e-8 * np.abs(sol.E).max()
