@@ -13,9 +13,9 @@ from quadmodes.fe.hub_membrane import build_hub_membrane_structure
 from quadmodes.fullorder import integrate_full_order
 from quadmodes.fullorder.newton import FullOrderNewtonError
 from quadmodes.fullorder.options import FullOrderOptions
-from quadmodes.fullorder.tension import loss_of_tension, tension_state
 from quadmodes.mesh.hub_flat import annulus_surface, hub_ring_nodes
 from quadmodes.structure import pipeline
+from quadmodes.structure.membrane_tension import loss_of_tension, tension_state
 
 E, NU, T = 3e9, 0.3, 7.5e-6
 

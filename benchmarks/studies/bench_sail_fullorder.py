@@ -67,8 +67,8 @@ def reduced_tension(run_path: Path, every: int = 10) -> tuple[float, float, floa
     ``X + Φs + Σ s_m s_n g^{mn}`` every ``every`` samples. Returns (the reference's not-taut
     fraction, the largest not-taut fraction along the run, the least minor resultant N/m, the
     time s of the largest)."""
-    from quadmodes.fullorder.tension import tension_state
     from quadmodes.runs.simulate import simulate
+    from quadmodes.structure.membrane_tension import tension_state
     from quadmodes.structure.pipeline import structure_for_case
 
     r = simulate(load_run_case(str(run_path)))

@@ -30,7 +30,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import quadmodes.fullorder.newton as newton  # noqa: E402
 from quadmodes.analysis.full_order_runs import full_order_for_run, setup_for_run  # noqa: E402
 from quadmodes.fe.hub import HUB_DOFS  # noqa: E402
-from quadmodes.fullorder.tension import membrane_sets  # noqa: E402
+from quadmodes.structure.membrane_tension import membrane_sets  # noqa: E402
 
 
 def hub_frame_state(structure, x: np.ndarray) -> dict:

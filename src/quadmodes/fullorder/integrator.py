@@ -34,8 +34,8 @@ from quadmodes.fullorder.setup import (
     setup_problem,
 )
 from quadmodes.fullorder.step import StepResidual, body_frame, dissipated_work, predict
-from quadmodes.fullorder.tension import loss_of_tension
 from quadmodes.rom.diagnostics import cone_angle
+from quadmodes.structure.membrane_tension import loss_of_tension
 
 
 @dataclass(frozen=True, eq=False)

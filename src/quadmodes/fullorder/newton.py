@@ -66,7 +66,7 @@ class FullOrderNewtonError(QuadmodesError, RuntimeError):
     def __init__(self, step: int, time: float, residual: float, checkpoint: Path | None = None,
                  cause: str = ""):  # fmt: skip
         """cause: one clause saying why, when known (e.g. the membrane's loss of tension,
-        :func:`quadmodes.fullorder.tension.loss_of_tension`)."""
+        :func:`quadmodes.structure.membrane_tension.loss_of_tension`)."""
         self.step, self.time, self.residual, self.checkpoint = step, time, residual, checkpoint
         self.cause = cause
         kept = f"checkpoint kept at {checkpoint}" if checkpoint else "no checkpoint"

@@ -1,14 +1,15 @@
-"""Where a membrane of a full-order state is not taut: the cause named when a full-order Newton
-step fails on a membrane that has lost its tension (docs/sails.md, "Full-order comparisons in
-time").
+"""Where the membrane of a state is not taut: the cause named when a full-order Newton step
+fails on a membrane that has lost its tension, and the taut-regime check of a reduced run's path
+(docs/sails.md, "Full-order comparisons in time on the hub-mounted bodies").
 
 A membrane has no bending stiffness. Where its minor principal stress is negative (a St
 Venant–Kirchhoff membrane in compression) its tangent has a negative geometric stiffness with
-nothing to hold it, so short waves grow at a rate ∝ 1/element size and the step's Newton matrix
-``M + (Δt²/2)K`` loses definiteness (measured on ``spinning-annulus-nutation``, docs); where the
-tension-field law relaxes it (wrinkled or slack) the tangent jumps between iterates and the
-iteration cycles. Either way the Newton failure is the membrane's loss of tension, not the step
-or the tolerance, and the error message says so.
+nothing to hold it, so short waves grow at a rate ∝ 1/element size and the full order's step
+matrix ``M + (Δt²/2)K`` loses definiteness (measured on ``spinning-annulus-nutation``, docs);
+where the tension-field law relaxes it (wrinkled or slack) the residual is not smooth on the
+iteration's scale and the iteration stalls. Either way the Newton failure is the membrane's loss
+of tension, not the step or the tolerance, and the error message says so. A reduced model whose
+quadratic modes are the SVK membrane's carries the same compression without knowing it.
 """
 
 from __future__ import annotations
