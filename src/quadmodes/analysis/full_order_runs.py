@@ -159,21 +159,35 @@ def _setup_for_run(run, model, stretch) -> FullOrderSetup:
     x_rest, centre = x_ref, centre_of_mass(structure, x_ref)
     if setup.model.reference_spin:  # the model's reference is the spinning relative equilibrium
         x_ref = np.asarray(setup.model.X) + np.outer(structure.translational, centre)
-    # a flat membrane without pressure (a sail) is expanded about its spinning state, which has
-    # the centrifugal stretch of the spin already; its out-of-plane stiffness scales with the
-    # spin, so the quasi-static stretch of a coning ω (off a principal axis) is not small there
-    # and is not added
-    flat = case.kind == "membrane" and case.pressure is None
+    stiffless = spin_stiffened(case, structure, x_rest, x_ref, setup.model.reference_spin)
     x0, v0, mapped = full_state_from_reduced(structure, x_ref, setup.model, y0, centre,
-                                             stretch and not flat)  # fmt: skip
+                                             stretch and not stiffless)  # fmt: skip
     notes = (*setup.initial.notes, *mapped)
-    if flat and stretch and np.any(y0[4:7]):
-        notes = (*notes, "full order: a flat membrane about its spinning state, no centrifugal "
+    if stiffless and stretch and np.any(y0[4:7]):
+        what = "a flat membrane" if case.kind == "membrane" else "a spin-stiffened body"
+        notes = (*notes, f"full order: {what} about its spinning state, no centrifugal "
                          "stretch added")  # fmt: skip
     integ = run.integration
     return FullOrderSetup(run, structure, x_ref, setup.model, x0, v0, None,
                           setup.initial.spin_axis, float(integ.duration),
                           float(integ.dt) * int(integ.save_every), notes, x_rest=x_rest)  # fmt: skip
+
+
+def spin_stiffened(case, structure: Structure, x_rest: np.ndarray, x_ref: np.ndarray,
+                   spin: float | None) -> bool:  # fmt: skip
+    """True for a body whose stiffness is its spin's, expanded about its spinning state
+    ``x_ref`` (n,3) m at ``spin`` (rad/s; None/0: about rest): a flat membrane without pressure
+    (a sail), or a structure with no stiffness at rest ``x_rest`` on the spin's scale (string
+    blades: :func:`~quadmodes.structure.damping.damping_state`). Such a state has the
+    centrifugal stretch of the spin already, and the quasi-static stretch of a coning ω (off a
+    principal axis) is not small there — its out-of-plane stiffness scales with the spin: the
+    string-blade rotor with a tall hub from 0.5° swung its blades into compression at t = 0
+    and its Newton failed in the first step (docs/sails.md) — so it is not added."""
+    if case.kind == "membrane":
+        return case.pressure is None
+    if not spin:
+        return False
+    return damping_state(structure, x_rest, x_ref, float(spin))[1] == "spinning"
 
 
 def full_state_from_reduced(

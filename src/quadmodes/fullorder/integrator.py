@@ -35,6 +35,7 @@ from quadmodes.fullorder.setup import (
 )
 from quadmodes.fullorder.step import StepResidual, body_frame, dissipated_work, predict
 from quadmodes.rom.diagnostics import cone_angle
+from quadmodes.structure.membrane_tension import loss_of_tension
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,7 +194,9 @@ def _advance(
     res = solve_step(problem, matrix, x, x1, rot, residual, max_newton, make, full_newton, policy)
     if not res.converged:
         kept = checkpoint if checkpoint is not None and checkpoint.is_file() else None
-        raise FullOrderNewtonError(state.step + 1, t1, res.correction / problem.scale, kept)
+        # the last state reached (a membrane that has lost its tension: docs/sails.md)
+        cause = loss_of_tension(problem.structure, x, problem.X)
+        raise FullOrderNewtonError(state.step + 1, t1, res.correction / problem.scale, kept, cause)
     e_d = state.e_d + dissipated_work(problem, x, res.x1, res.vh, res.fd, t_now + 0.5 * h)
     new = RunState(state.step + 1, res.x1, 2.0 * res.vh - v, e_d, frame_now,
                    state.n_newton + res.n_newton, state.n_factor + res.n_factor,

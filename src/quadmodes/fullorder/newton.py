@@ -64,12 +64,17 @@ POLICIES = ("adaptive", "fixed")
 class FullOrderNewtonError(QuadmodesError, RuntimeError):
     """Newton did not converge in a full-order step; the message is one line."""
 
-    def __init__(self, step: int, time: float, residual: float, checkpoint: Path | None = None):
+    def __init__(self, step: int, time: float, residual: float, checkpoint: Path | None = None,
+                 cause: str = ""):  # fmt: skip
+        """cause: one clause saying why, when known (e.g. the membrane's loss of tension,
+        :func:`quadmodes.structure.membrane_tension.loss_of_tension`)."""
         self.step, self.time, self.residual, self.checkpoint = step, time, residual, checkpoint
+        self.cause = cause
         kept = f"checkpoint kept at {checkpoint}" if checkpoint else "no checkpoint"
+        why = f"; {cause}" if cause else ""
         super().__init__(
             f"full-order Newton did not converge at step {step}, t = {time:.6g} s, residual "
-            f"{residual:.2e} (relative correction); {kept}"
+            f"{residual:.2e} (relative correction){why}; {kept}"
         )
 
 

@@ -1,0 +1,171 @@
+"""The nutation decay of a membrane on a hub, reduced against the full order with its
+independent damping, and the speed of both per simulated second, side by side (issue 26;
+docs/sails.md, "Full-order comparisons in time on the hub-mounted bodies").
+
+Writes copies of a run case (default ``ikaros-sail-nutation``) and of its model case with the
+cone ``--cone`` (deg) and the mesh edges ``--edges`` (m; the first is the comparison's) into a
+scratch folder and runs ``quadmodes compare`` (Q, the run's own mode rule: every mode up to its
+margin) on each. For the first it prints the comparison's envelope, cone and dissipated-power
+figures and the **nutation decay rate** of each model, fitted two ways: the slope of ln(cone) over
+the whole window (least squares), and the quasi-steady cone growth of ``compare``. For every
+mesh it prints the wall time of each model per simulated second and their ratio, measured in
+the same process one after the other. Nothing is asserted. Usage::
+
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_fullorder            # ~3 min
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_fullorder \\
+        --case spinning-annulus-nutation --cone 0.1 --window 600 --edges 0.5
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_fullorder \\
+        --window 60 --edges 0.7,0.5,0.35                                                # speed
+
+The cone must be small enough for the membrane to stay taut (docs: 0.05° for the sail, 0.1°
+for the annulus); at the run cases' 5° the full order stops, naming the loss of tension. The
+reduced run's own membrane is checked first (the FE membrane at the manifold point of its path:
+``--reduced-only --cone 5 --window 60`` shows the 5° runs' compression).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import quadmodes as qm  # noqa: E402
+from quadmodes.case import load_run_case  # noqa: E402
+from quadmodes.case.editing import edit  # noqa: E402
+
+
+def write_cases(folder: Path, run_name: str, cone_deg: float, edge_m: float,
+                duration: float) -> Path:  # fmt: skip
+    """The model case with ``mesh.edge_length`` and the run case with the cone and
+    ``duration`` (s), in folder."""
+    run = load_run_case(run_name)
+    model = edit(run.model_case(), {"mesh.edge_length": f"{edge_m} m"}, "--edges")
+    model_name = f"{model.name}-{edge_m}m"
+    text = model.to_toml().replace(f'name = "{model.name}"', f'name = "{model_name}"', 1)
+    (folder / f"{model_name}.toml").write_text(text, encoding="utf-8")
+    run = edit(run, {"initial.cone_angle": f"{cone_deg} deg",
+                     "integration.duration": f"{duration} s"}, "--cone")  # fmt: skip
+    lines = run.to_toml().splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("model = "):
+            lines[i] = f'model = "{model_name}.toml"'
+        elif line.startswith("name = "):
+            lines[i] = f'name = "{run.name}-{cone_deg}deg-{edge_m}m"'
+    path = folder / f"{run.name}-{edge_m}.toml"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def reduced_tension(run_path: Path, every: int = 10) -> tuple[float, float, float, float]:
+    """The reduced run's own membrane state: the FE membrane at its manifold point
+    ``X + Φs + Σ s_m s_n g^{mn}`` every ``every`` samples. Returns (the reference's not-taut
+    fraction, the largest not-taut fraction along the run, the least minor resultant N/m, the
+    time s of the largest)."""
+    from quadmodes.runs.simulate import simulate
+    from quadmodes.structure.membrane_tension import tension_state
+    from quadmodes.structure.pipeline import structure_for_case
+
+    r = simulate(load_run_case(str(run_path)))
+    m, st = r.model, structure_for_case(r.model_case)
+    s = r.solution.y[:, 7 : 7 + m.n_modes]
+    worst, least, when = 0.0, np.inf, 0.0
+    for k in range(0, len(r.solution.t), every):
+        x = m.X + np.einsum("k,knj->nj", s[k], m.Phi) + np.einsum("k,l,klnj->nj", s[k], s[k], m.G)
+        ts = tension_state(st, x)
+        least = min(least, ts.least_resultant)
+        if ts.not_taut_fraction > worst:
+            worst, when = ts.not_taut_fraction, float(r.solution.t[k])
+    return tension_state(st, m.X).not_taut_fraction, worst, least, when
+
+
+def log_slope(t: np.ndarray, cone: np.ndarray) -> float:
+    """Least-squares slope (1/s) of ln(cone) over the whole window."""
+    return float(np.polyfit(t, np.log(cone), 1)[0])
+
+
+def compare_one(folder: Path, args, edge: float, window: float) -> tuple[dict, Path, int]:
+    """``quadmodes compare`` (Q) of the case copy at ``edge``: its JSON, output folder and
+    the structure's number of vector DOFs."""
+    from quadmodes.structure.pipeline import structure_for_case
+
+    run = write_cases(folder, args.case, args.cone, edge, window)
+    out = folder / f"out-{edge}"
+    qm.compare(str(run), f"{window} s", formulations=("Q",), output_dir=out, plots=False)
+    n = structure_for_case(load_run_case(str(run)).model_case()).n
+    return json.loads((out / "comparison.json").read_text()), out, n
+
+
+def print_decay(summary: dict, out: Path) -> None:
+    """The comparison's figures and the decay rates of both models."""
+    import xarray as xr
+
+    q, full = summary["formulations"]["Q"], summary["full_order"]
+    with xr.open_dataset(out / "comparison.nc") as ds:
+        t, cone = ds.time.values, ds.cone_angle.values
+        e_d = ds.dissipated_energy.values[:, -1]
+    rates = [-log_slope(t, c) for c in cone]
+    print(f"cone {full['cone_angle_start_deg']:.4g} deg -> full {np.degrees(cone[0, -1]):.5g}, "
+          f"reduced {np.degrees(cone[1, -1]):.5g} deg over {t[-1]:.0f} s")  # fmt: skip
+    print(f"envelope error {_g(q['envelope_error'])}, cone angle error {_g(q['cone_angle_error'])}")
+    print(f"nutation decay rate, ln(cone) fit over the window: full {rates[0]:.5g} 1/s, reduced "
+          f"{rates[1]:.5g} 1/s, ratio {rates[1] / rates[0]:.4f}")  # fmt: skip
+    qs = summary["quasi_steady"]
+    print(f"quasi-steady ({qs['start_s']:.0f}–{qs['end_s']:.0f} s) cone growth ratio {q['cone_growth_ratio']}, dissipated power "
+          f"ratio {q['dissipated_power_ratio']}")  # fmt: skip
+    print(f"dissipated energy over the window: full {e_d[0]:.5g} J, reduced {e_d[1]:.5g} J, "
+          f"ratio {e_d[1] / e_d[0]:.4f}; full-order |H| drift {full['H_relative_drift']:.2g}")  # fmt: skip
+
+
+def _g(value) -> str:
+    """A figure to 3 digits, "—" for None (a comparison not scored)."""
+    return "—" if value is None else f"{value:.3g}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--case", default="ikaros-sail-nutation", help="run case")
+    ap.add_argument("--cone", type=float, default=0.05, help="initial cone (deg)")
+    ap.add_argument("--window", type=float, default=600.0, help="simulated window (s)")
+    ap.add_argument("--edges", default="0.7", help="mesh edge lengths (m), comma-separated")
+    ap.add_argument("--reduced-only", action="store_true",
+                    help="only the reduced run's own tension check (any cone, e.g. 5)")  # fmt: skip
+    ap.add_argument("--speed-window", type=float, default=60.0,
+                    help="window (s) of the meshes after the first (speed only)")  # fmt: skip
+    args = ap.parse_args()
+    edges = [float(e) for e in args.edges.split(",")]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        run = write_cases(Path(tmp), args.case, args.cone, edges[0], args.window)
+        ref, worst, least, when = reduced_tension(run)
+        print(f"reduced run's membrane (FE at its manifold point): not taut on {100 * ref:.1f} % "
+              f"at the reference, at most {100 * worst:.1f} % (t = {when:.1f} s); least minor "
+              f"resultant {least:.3g} N/m")  # fmt: skip
+        if args.reduced_only:
+            return
+        for i, edge in enumerate(edges):
+            window = args.window if i == 0 else args.speed_window
+            summary, out, n = compare_one(Path(tmp), args, edge, window)
+            if i == 0:
+                print_decay(summary, out)
+            full, q = summary["full_order"], summary["formulations"]["Q"]
+            rows.append((edge, n, summary["reduced_model"]["modes"], window, full, q))
+    print("\nwall time per simulated second (same process, one after the other):")
+    print("| edge (m) | DOFs | modes | window (s) | full order (s/s) | reduced (s/s) | ratio | "
+          "envelope error | cone error |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for edge, n_dofs, modes, window, full, q in rows:
+        print(f"| {edge} | {n_dofs} | {modes} | {window:.0f} | {full['wall_s'] / window:.4g} | "
+              f"{q['wall_s'] / window:.3g} | {full['wall_s'] / q['wall_s']:.0f} | "
+              f"{_g(q['envelope_error'])} | {_g(q['cone_angle_error'])} |")  # fmt: skip
+        if not full["complete"]:
+            print(f"  full order at {edge} m incomplete: {full['reason']}")
+
+
+if __name__ == "__main__":
+    main()
