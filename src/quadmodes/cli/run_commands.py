@@ -137,6 +137,18 @@ def _warn_validity(name: str, validity) -> None:
         )
 
 
+def _warn_path(name: str, path) -> None:
+    """Warn (stderr) when the run's path leaves its reduced model's range (the summary, the
+    report and results.nc say where, too)."""
+    if path is not None and path.left_at is not None:
+        err.print(
+            f"[bold yellow]warning:[/] {escape(name)}: {escape(path.message())}; past it the "
+            "results are outside the model's validity",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
 def _warn_stopped_early(name: str, result, target: Path) -> None:
     """Warn (stderr) that a run stopped before its end and wrote partial results."""
     err.print(
@@ -285,6 +297,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {stopped.where}{hint}", opts.exit_code) from None
         result = with_linear_answer(result)  # energy-sink time constant, stability at the spin
+        _warn_path(name, result.path)
         try:
             extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:
