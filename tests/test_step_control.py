@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_run import workdir  # noqa: F401  (fixture)
 
 from quadmodes.case import CaseError, RunIntegration
 from quadmodes.case.run_loading import run_case_from_toml
@@ -185,3 +186,27 @@ def test_a_controlled_step_needs_the_midpoint_and_a_tolerance_below_1(method, to
     with pytest.raises(CaseError, match="step_tolerance") as exc:
         run_case_from_toml(text)
     assert "\n" not in str(exc.value)
+
+
+def test_quadmodes_run_with_a_controlled_step(workdir):  # noqa: F811
+    """A run case with ``step_tolerance``: complete, |H| to round-off, the steps taken and the
+    probes' work in the summary and results.nc."""
+    import json
+
+    from test_run import run_toml
+    from typer.testing import CliRunner
+
+    from quadmodes.cli.app import app
+    from quadmodes.runs import results as res
+
+    text = run_toml(duration='"0.5 s"') + "step_tolerance = 1e-3\n"
+    (workdir / "c.toml").write_text(text, encoding="utf-8")
+    got = CliRunner().invoke(app, ["run", str(workdir / "c.toml"), "-o", str(workdir / "out"),
+                                   "--json", "--no-plots"])  # fmt: skip
+    assert got.exit_code == 0, got.output
+    summary = json.loads(got.stdout)["small-run"]
+    assert summary["complete"] and summary["step_tolerance"] == 1e-3
+    assert 0 < summary["dt_min_s"] <= summary["dt_max_s"] and summary["probe_steps"] > 0
+    assert summary["H_norm_relative_drift"] < 1e-12
+    ds = res.load_results(workdir / "out" / "small-run" / "results.nc")
+    assert ds.attrs["dt_max_units"] == "s" and ds.attrs["n_probe_steps"] > 0

@@ -117,7 +117,8 @@ def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=2
                          checkpoint=None, resume=None, event=None):  # fmt: skip
     """:func:`quadmodes.runs.chunked.integrate_in_chunks` with a controlled step (module
     docstring): same arguments, same :class:`~quadmodes.runs.chunked.ChunkedRun`; the merged
-    Solution has ``dt`` None and the stats count the probes' steps (``n_probe_steps``)."""
+    Solution has ``dt`` None; its stats count the probes' steps (``n_probe_steps``) and give
+    the shortest and longest step (``dt_min_s``, ``dt_max_s``, s) and ``n_chunks``."""
     chunk_time = min(integ.duration, max(integ.duration / max(1, int(max_chunks)),
                      PROBES_PER_CHUNK * sc.probe_time(system, np.asarray(y0, float))))  # fmt: skip
     if resume is None:
@@ -140,7 +141,10 @@ def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=2
     h = state.grid[-1][2] if state.grid else integ.dt
     if interrupted:
         _interrupted(system, y0, integ, state, h, checkpoint, wall)
-    return _finish(system, y0, integ, state, h, wall(), state.stop or _Stop(0, "ok", ""))
+    out = _finish(system, y0, integ, state, h, wall(), state.stop or _Stop(0, "ok", ""))
+    steps = [g[2] for g in state.grid] or [float(integ.dt)]
+    out.solution.stats.update(dt_min_s=min(steps), dt_max_s=max(steps), n_chunks=len(state.grid))
+    return out
 
 
 def integrate_run(system, y0, integ, progress=None, name="", max_chunks=200, *, checkpoint=None,
