@@ -62,7 +62,8 @@ def _report(label: str, result, wall: float) -> dict:
     e0 = float(d.E[0])
     bal = float(np.abs(d.E_balance - d.E_balance[0]).max() / e0)
     times = cone_times(d.t, d.cone_angle)
-    print(f"\n== {label}: {'complete' if result.complete else 'INCOMPLETE ' + result.reason}")
+    print(f"\n== {label}, N = {result.model.n_modes}: "
+          f"{'complete' if result.complete else 'INCOMPLETE ' + result.reason}")
     print(f"  integration wall {result.wall_s:.1f} s (all {wall:.1f} s); steps {st['n_steps']:,}"
           f" + probes {st.get('n_probe_steps', 0):,}; step {1e3 * st.get('dt_min_s', math.nan):.4g}"
           f" – {1e3 * st.get('dt_max_s', math.nan):.4g} ms")  # fmt: skip

@@ -120,7 +120,8 @@ class ChunkProgress:
     stop: _Stop | None = None
     event: object = None  # where an ``until`` event ended the run (quadmodes.runs.events)
     # a controlled step (quadmodes.runs.step_chunks): the time reached (s), the step proposed
-    # for the next chunk (s) and per chunk done (t start s, steps before, step s, estimate)
+    # for the next chunk (s) and per chunk done (t start s, steps before, step s, estimate, the
+    # energy balance's longest next step s)
     t_done: float | None = None
     h_next: float | None = None
     grid: tuple = ()

@@ -9,7 +9,7 @@ resolved), ``model_key`` (the reduced model's content key), ``y0`` (7+2N,) the i
 (J): the samples kept so far, ``y_last`` (7+2N,), ``e_d_offset`` (J), ``stat_<name>`` (work
 counters), ``wall_s`` (s of integration so far); a run with a controlled step
 (:mod:`quadmodes.runs.step_chunks`) adds ``t_done`` (s), ``h_next`` (s) and ``grid`` (chunks, 4:
-t start s, steps before, step s, estimate).
+t start s, steps before, step s, estimate, the energy balance's longest next step s).
 
 The same (run, model, initial state) is required to resume: a different one is refused with a
 message that names the settings that differ.
@@ -90,7 +90,7 @@ class RunCheckpoint:
             data[f"stat_{key}"] = int(progress.stats.get(key, 0))
         if progress.t_done is not None:  # a controlled step: where it stands, what comes next
             data.update(t_done=progress.t_done, h_next=progress.h_next,
-                        grid=np.array(progress.grid, float).reshape(-1, 4))  # fmt: skip
+                        grid=np.array(progress.grid, float).reshape(-1, 5))  # fmt: skip
         with atomic_path(self.path, fsync=True) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **data)
         self._last = time.monotonic()
@@ -138,7 +138,7 @@ class RunCheckpoint:
             y_last=data["y_last"].copy(), e_d_offset=float(data["e_d_offset"]),
             t_done=float(data["t_done"]) if controlled else None,
             h_next=float(data["h_next"]) if controlled else None,
-            grid=(tuple((float(a), int(b), float(c), float(d)) for a, b, c, d in data["grid"])
-                  if controlled else ()),
+            grid=(tuple((float(a), int(b), float(c), float(d), float(e))
+                        for a, b, c, d, e in data["grid"]) if controlled else ()),
         )  # fmt: skip
         return progress, float(data["wall_s"])

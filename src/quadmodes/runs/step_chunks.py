@@ -9,8 +9,13 @@ samples are every ``save_every`` steps, so their spacing follows the step); the 
 on the duration exactly (its step shortened to fit, never lengthened). A chunk whose Newton
 fails is integrated again at half the step (twice at most) before the run stops.
 
+After each chunk the next step is also bounded by the chunk's energy balance
+(:func:`quadmodes.rom.step_control.balance_step`: the drift of E + E_d over the chunk, from a
+straight line through its samples); the first chunk's step is at most the case's ``dt``.
+
 Resume-safe: the step proposed for the next chunk (``h_next``), the time reached (``t_done``)
-and the chunks' grid (t start, steps before, step, estimate) are in the
+and the chunks' grid (t start, steps before, step, estimate, the energy balance's longest next
+step) are in the
 :class:`~quadmodes.runs.chunked.ChunkProgress` a checkpoint holds; the probe depends on nothing
 else (the state and the proposal), so a resumed run takes the same steps, bit for bit.
 """
@@ -23,6 +28,7 @@ import time
 
 import numpy as np
 
+from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import step_control as sc
 from quadmodes.runs.chunked import (
     ChunkProgress,
@@ -74,11 +80,31 @@ def _chunk(system, state: ChunkProgress, integ, h: float, chunk_time: float):
     return sol, stop, n, hc, tb
 
 
-def _advance(system, state: ChunkProgress, integ, chunk_time: float) -> ChunkProgress:
+def _balance_step(system, before: ChunkProgress, after: ChunkProgress, h: float, e0: float,
+                  duration: float) -> float:
+    """:func:`quadmodes.rom.step_control.balance_step` of the chunk from ``before`` to
+    ``after`` (its step h, s): the change of E + E_d over it against :data:`~quadmodes.rom.
+    step_control.BALANCE` × max(energy dissipated, E₀ × its time / ``duration``)."""
+    t, y, e_d = after.t[-1], after.y[-1], after.e_d[-1]
+    if len(t) < 3:
+        return math.inf
+    balance = dyn.energy(system, y) + e_d
+    span = float(t[-1] - before.t_done)
+    # the drift over the chunk from a straight line through all its samples: the bounded
+    # oscillation of the energy error (as large as the drift over one chunk) averages out
+    defect = float(np.polyfit(t - t[0], balance - balance[0], 1)[0]) * span
+    dissipated = after.e_d_offset - before.e_d_offset
+    allowed = sc.BALANCE * max(dissipated, abs(e0) * span / duration)
+    return sc.balance_step(h, defect, allowed) if allowed > 0 else math.inf
+
+
+def _advance(system, state: ChunkProgress, integ, chunk_time: float, e0: float) -> ChunkProgress:
     """``state`` with the next chunk: probe, integrate, append (or stopped)."""
     tol = float(integ.step_tolerance)
+    # the last chunk's energy balance; the first chunk no longer than the case's step
+    cap = state.grid[-1][4] if state.grid else float(integ.dt)
     h, est, h_next, pstats = sc.choose_step(system, state.y_last, state.h_next, integ.dt, tol,
-                                            chunk_time)  # fmt: skip
+                                            chunk_time, h_cap=cap)  # fmt: skip
     state = dataclasses.replace(
         state, stats=dict(state.stats, n_probe_steps=state.stats["n_probe_steps"]
                           + pstats["n_steps"]))  # fmt: skip
@@ -89,18 +115,22 @@ def _advance(system, state: ChunkProgress, integ, chunk_time: float) -> ChunkPro
     new = state.add(sol, k0 + int(sol.stats.get("n_steps", 0)), hc, True)
     if hc < h:  # a retried chunk: propose from the step that worked
         h_next = min(h_next, 2.0 * hc)
+    cap = math.inf
+    if new.stop is None:  # the energy balance over the chunk bounds the next steps
+        cap = _balance_step(system, state, new, hc, e0, integ.duration)
+        h_next = min(h_next, cap)
     return dataclasses.replace(new, t_done=float(tb) if new.stop is None else ta,
                                h_next=float(h_next),
-                               grid=(*state.grid, (ta, k0, hc, float(est.err))))  # fmt: skip
+                               grid=(*state.grid, (ta, k0, hc, float(est.err), cap)))  # fmt: skip
 
 
-def _loop(system, integ, progress, name, state, checkpoint, wall, event, chunk_time):
+def _loop(system, integ, progress, name, state, checkpoint, wall, event, chunk_time, e0):
     """Chunk after chunk to the duration (the controlled form of ``chunked._loop``); returns
     (the last progress, True if Ctrl-C stopped it)."""
     end = integ.duration * (1.0 - 1e-12)
     try:
         while state.t_done < end and state.stop is None:
-            state = _advance(system, state, integ, chunk_time)
+            state = _advance(system, state, integ, chunk_time, e0)
             if event is not None and state.stop is None:
                 state = event.after_chunk(state, integ, state.grid[-1][2])
             if checkpoint is not None and state.stop is None:
@@ -136,8 +166,9 @@ def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=2
 
     if progress:
         progress(name, state.t_done / integ.duration)
+    e0 = float(dyn.energy(system, np.asarray(y0, float)[None, :])[0])  # the balance's scale
     state, interrupted = _loop(system, integ, progress, name, state, checkpoint, wall, event,
-                               chunk_time)  # fmt: skip
+                               chunk_time, e0)  # fmt: skip
     h = state.grid[-1][2] if state.grid else integ.dt
     if interrupted:
         _interrupted(system, y0, integ, state, h, checkpoint, wall)
