@@ -219,8 +219,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         'or "flat spin" (optionally "flat spin A deg": within A of the major axis)',
         "step_tolerance": "a controlled step (midpoint only): between chunks the step is chosen so "
         "that the step-doubling estimate of the relative error of the dissipated power (of the "
-        "body-frame state for an undamped body) stays below this; dt is then the first step "
-        "(docs/path-validity.md, \"A controlled step\")",
+        "body-frame state for an undamped body) stays below this, and E + E_d within 1e-6 of "
+        "the energy; dt is then the first step (docs/long-paths.md)",
     },
     "RunSpinup": {
         "omega_s": "final hub spin rate Ω_s",
