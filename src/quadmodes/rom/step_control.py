@@ -5,8 +5,9 @@ The midpoint step (:mod:`quadmodes.rom.midpoint`) is a map (ν₀, s₀, q₀) �
 step Δt: ``h₁ = exp(−Δt ω̂½) h₀`` and ``q₁ = q₀ ⊗ exp(Δt ω½/2)`` hold whatever the Δt of the
 step before, so R h, hence |H|, is conserved to round-off across a change of step too; the
 discrete energy balance ``E₁ − E₀ = −Δt ṡ½ᵀCṡ½`` (exact for the quadratic part) holds step by
-step; what a change of step moves is the bounded O(Δt²) energy error of the kinetic terms, from
-its level at one step to its level at the other (no drift).
+step; a change of step changes only the O(Δt²) energy error of the kinetic terms (bounded
+without damping, a drift with the dissipation: :func:`balance_step`) from its size at one step to
+its size at the other.
 
 The chunk loop stays compiled: each chunk is one call of the fixed-step kernel
 (:mod:`quadmodes.rom.midpoint_kernel`) at its own step. Before a chunk, its step h is **probed**

@@ -11,7 +11,8 @@ fails is integrated again at half the step (twice at most) before the run stops.
 
 After each chunk the next step is also bounded by the chunk's energy balance
 (:func:`quadmodes.rom.step_control.balance_step`: the drift of E + E_d over the chunk, from a
-straight line through its samples); the first chunk's step is at most the case's ``dt``.
+straight line through its samples, against the chunk's share of the budget plus half of what
+the run has not spent); the first chunk's step is at most the case's ``dt``.
 
 Resume-safe: the step proposed for the next chunk (``h_next``), the time reached (``t_done``)
 and the chunks' grid (t start, steps before, step, estimate, the energy balance's longest next
@@ -83,8 +84,9 @@ def _chunk(system, state: ChunkProgress, integ, h: float, chunk_time: float):
 def _balance_step(system, before: ChunkProgress, after: ChunkProgress, h: float, e0: float,
                   duration: float) -> float:
     """:func:`quadmodes.rom.step_control.balance_step` of the chunk from ``before`` to
-    ``after`` (its step h, s): the change of E + E_d over it against :data:`~quadmodes.rom.
-    step_control.BALANCE` × max(energy dissipated, E₀ × its time / ``duration``)."""
+    ``after`` (its step h, s): the drift of E + E_d over it against :data:`~quadmodes.rom.
+    step_control.BALANCE` × max(energy dissipated, E₀ × its time / ``duration``) plus half the
+    run's budget so far (BALANCE × (E_d + E₀ t / duration)) not yet spent."""
     t, y, e_d = after.t[-1], after.y[-1], after.e_d[-1]
     if len(t) < 3:
         return math.inf
@@ -95,6 +97,11 @@ def _balance_step(system, before: ChunkProgress, after: ChunkProgress, h: float,
     defect = float(np.polyfit(t - t[0], balance - balance[0], 1)[0]) * span
     dissipated = after.e_d_offset - before.e_d_offset
     allowed = sc.BALANCE * max(dissipated, abs(e0) * span / duration)
+    # half the budget the run has not used so far may be spent too (a chunk whose line is tilted
+    # by a slow oscillation of the energy error, not a drift, does not cut the step at once)
+    spent = abs(float(dyn.energy(system, before.y_last[None, :])[0]) + before.e_d_offset - e0)
+    budget = sc.BALANCE * (before.e_d_offset + abs(e0) * before.t_done / duration)
+    allowed += 0.5 * max(0.0, budget - spent)
     return sc.balance_step(h, defect, allowed) if allowed > 0 else math.inf
 
 
