@@ -210,3 +210,5 @@ def test_quadmodes_run_with_a_controlled_step(workdir):  # noqa: F811
     assert summary["H_norm_relative_drift"] < 1e-12
     ds = res.load_results(workdir / "out" / "small-run" / "results.nc")
     assert ds.attrs["dt_max_units"] == "s" and ds.attrs["n_probe_steps"] > 0
+    page = (workdir / "out" / "small-run" / "report.html").read_text(encoding="utf-8")
+    assert "step tolerance" in page and "step taken (ms)" in page
