@@ -201,10 +201,15 @@ def test_spin_sweep_on_a_local_cluster_and_resume(folder):
     growth = ds["energy_sink_growth_rate"].values
     assert np.all(growth > 0) and np.all(np.diff(growth) > 0)  # minor-axis spinner: grows faster
     assert np.all(ds["complete"].values == 1)
+    inside = ds["path_in_range"].values  # the path's validity per point, not only the start's
+    assert set(np.unique(inside)) <= {0.0, 1.0} and np.all(ds["path_valid"].values == 0)
+    assert np.all(np.isnan(ds["path_left_range_at"].values[inside == 1]))
+    assert np.all(ds["path_left_range_at"].values[inside == 0] > 0)
     assert ds.attrs["Conventions"].startswith("CF-") and ds["branch"].values[0] == 1
     assert_cf_file(folder / "out" / "sweep.nc")
     page = (folder / "out" / "report.html").read_text()  # self-contained: no external resource
     assert "Critical speeds" in page and "Headline numbers per point" in page
+    assert "time runs along their path" in page
     assert "data:image/png;base64," in page and "http://" not in page and "https://" not in page
     points = sorted((folder / "out" / "points").glob("point-*.json"))
     assert len(points) == 4

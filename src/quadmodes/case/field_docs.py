@@ -219,6 +219,10 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "until": "an event that ends the run before its duration, located to the step: "
         '"cone A deg" (cone angle θ reaches A), "spin W Hz" (spin rate reaches W), "time T s", '
         'or "flat spin" (optionally "flat spin A deg": within A of the major axis)',
+        "step_tolerance": "a controlled step (midpoint only): between chunks the step is chosen so "
+        "that the step-doubling estimate of the relative error of the dissipated power (of the "
+        "body-frame state for an undamped body) stays below this, and E + E_d within 1e-6 of "
+        "the energy; dt is then the first step (docs/long-paths.md)",
     },
     "RunSpinup": {
         "omega_0": "spin before the change (0: a clamped beam from rest); > 0: a spin change of a "

@@ -158,7 +158,9 @@ class RunIntegration(Section):
     """Time integration: method, step ``dt`` (s; the sampling step for "adaptive"), duration
     (s), keep every ``save_every``-th step, relative tolerance ``rtol`` ("adaptive" only);
     ``until`` (optional): an event that ends the run before its duration, e.g. "cone 60 deg"
-    (:mod:`quadmodes.case.run_events`)."""
+    (:mod:`quadmodes.case.run_events`); ``step_tolerance`` (optional, "midpoint" only): a step
+    controlled between chunks to this relative error estimate, ``dt`` the first step
+    (:mod:`quadmodes.rom.step_control`)."""
 
     method: choice("midpoint", "backward-euler", "adaptive") = "midpoint"
     dt: quantity("time", "0.5 ms", positive, "ms")
@@ -166,9 +168,17 @@ class RunIntegration(Section):
     save_every: integer(4, 1) = 1
     rtol: quantity("dimensionless", "1e-9", _rtol) = 1e-9
     until: Annotated[str | None, BeforeValidator(until_field), FieldMeta('"cone 60 deg"')] = None
+    step_tolerance: quantity("dimensionless", "1e-3", _rtol, optional=True) = None
 
     @model_validator(mode="after")
     def check_span(self) -> Self:
+        if self.step_tolerance is not None and self.method != "midpoint":
+            raise field_error(
+                "case_rule",
+                f'a controlled step needs method "midpoint", not "{self.method}"; drop '
+                "step_tolerance or use the midpoint",
+                "step_tolerance",
+            )
         if self.dt > self.duration:
             raise field_error(
                 "case_rule",

@@ -140,16 +140,13 @@ def _warn_validity(name: str, validity) -> None:
         )
 
 
-def _warn_slack(name: str, result) -> None:
-    """Warn (stderr) when the membrane of a spin-stiffened run loses tension along its path."""
-    path = getattr(result, "path", None)
-    if path is not None and path.slack_at is not None:
+def _warn_path(name: str, path) -> None:
+    """Warn (stderr) when the run's path leaves its reduced model's range (the summary, the
+    report and results.nc say where, too)."""
+    if path is not None and path.left_at is not None:
         err.print(
-            f"[bold yellow]warning:[/] {escape(name)}: the membrane loses tension from t = "
-            f"{path.slack_at:.6g} s where it is taut at its reference (least tension "
-            f"{path.least_tension:.3g} N/m, {100 * path.slack_area:.3g} % of that area slack): "
-            "beyond the taut model's range (valid: false); use a smaller initial cone or "
-            "deformation",
+            f"[bold yellow]warning:[/] {escape(name)}: {escape(path.message())}; past it the "
+            "results are outside the model's validity",
             highlight=False,
             soft_wrap=True,
         )
@@ -303,7 +300,7 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {stopped.where}{hint}", opts.exit_code) from None
         result = with_linear_answer(result)  # energy-sink time constant, stability at the spin
-        _warn_slack(name, result)
+        _warn_path(name, result.path)  # also a membrane's loss of tension (path.message)
         try:
             extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:

@@ -212,6 +212,10 @@ def write_run_report(folder: str | Path, summary: dict, result) -> Path:
     if run.integration is not None:
         extra += [("method", run.integration.method), ("dt (ms)", 1e3 * run.integration.dt),
                   ("duration (s)", run.integration.duration)]  # fmt: skip
+        if getattr(run.integration, "step_tolerance", None) is not None:  # a controlled step
+            extra += [("step tolerance", run.integration.step_tolerance),
+                      ("step taken (ms)", f"{1e3 * summary.get('dt_min_s', math.nan):.4g} – "
+                                          f"{1e3 * summary.get('dt_max_s', math.nan):.4g}")]  # fmt: skip
     span = float(summary.get("t_end_s") or 0.0)
     shown = [f for f in RUN_FIGURES  # the early times of a short run are the whole run
              if f[0] != "bending_mode_early.png" or early_window(span) < span]  # fmt: skip

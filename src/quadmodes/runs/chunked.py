@@ -119,6 +119,22 @@ class ChunkProgress:
     e_d_offset: float
     stop: _Stop | None = None
     event: object = None  # where an ``until`` event ended the run (quadmodes.runs.events)
+    # a controlled step (quadmodes.runs.step_chunks): the time reached (s), the step proposed
+    # for the next chunk (s) and per chunk done (t start s, steps before, step s, estimate, the
+    # energy balance's longest next step s)
+    t_done: float | None = None
+    h_next: float | None = None
+    grid: tuple = ()
+
+    def local_step(self, t: float, h: float) -> tuple[float, int]:
+        """(the step (s) of the chunk holding the interval that ends at t, the index of the
+        step ending at t): ``(h, round(t/h))`` on a fixed grid of step h."""
+        if not self.grid:
+            return h, int(round(t / h))
+        starts = np.array([g[0] for g in self.grid])
+        j = max(0, int(np.searchsorted(starts, t, side="left")) - 1)
+        t0, k0, hc = self.grid[j][:3]
+        return float(hc), int(k0) + int(round((t - t0) / hc))
 
     @classmethod
     def start(cls, y0: np.ndarray, chunk: int) -> ChunkProgress:
@@ -271,17 +287,18 @@ def integrate_in_chunks(
 
 def _finish(system, y0, integ, state: ChunkProgress, h, wall_s, stop: _Stop) -> ChunkedRun:
     """The :class:`ChunkedRun` of ``state`` ended by ``stop``."""
-    adaptive = integ.method == "adaptive"
+    fixed = integ.method != "adaptive" and not state.grid
     stats = dict(state.stats, wall_s=wall_s)
     t_all, y_all, ed_all = state.merged(y0, system.n_state)
     merged = Solution(t_all, y_all, integ.method, stats, stop.status, stop.message, ed_all,
-                      None if adaptive else h)  # fmt: skip
+                      h if fixed else None)  # fmt: skip
     return ChunkedRun(merged, stop.reason, wall_s, state.event)
 
 
 def _interrupted(system, y0, integ, state, h, checkpoint, wall) -> NoReturn:
     """Save ``state`` (if anything was integrated) and raise :class:`Interrupted`."""
-    reason = f"interrupted at t = {state.steps * h:.6g} s"
+    t = state.steps * h if state.t_done is None else state.t_done
+    reason = f"interrupted at t = {t:.6g} s"
     saved = False
     if checkpoint is not None and state.steps > 0:
         checkpoint.save(state, wall())

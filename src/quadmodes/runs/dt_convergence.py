@@ -120,7 +120,9 @@ def dt_convergence(
     ``dt_s``, ``steps``, ``complete``, ``t_end_s``, the :data:`QUANTITIES` and their
     ``rel_change_*`` from the previous row (None for the first row or a zero reference), the
     cone-growth rate's standard error and significance. ``save_every`` scales with the
-    refinement so the samples stay on the same times."""
+    refinement so the samples stay on the same times. A run with a controlled step
+    (``integration.step_tolerance``) is refined by its tolerance, divided by f² (its steps,
+    ∝ √tol for the second-order midpoint, by about f), and its first step by f."""
     run = setup.run
     if run.integration.method == "adaptive":
         raise CaseError(
@@ -133,9 +135,10 @@ def dt_convergence(
         if f == 1 and first is not None:
             result = first
         else:
-            integ = run.integration.model_copy(
-                update={"dt": run.integration.dt / f, "save_every": run.integration.save_every * f}
-            )
+            update = {"dt": run.integration.dt / f, "save_every": run.integration.save_every * f}
+            if run.integration.step_tolerance is not None:  # a controlled step: h ∝ √tol
+                update["step_tolerance"] = run.integration.step_tolerance / f**2
+            integ = run.integration.model_copy(update=update)
             sub = dataclasses.replace(setup, run=run.model_copy(update={"integration": integ}),
                                       fe_checks=False)  # the table needs the rates, not the path check
             result = execute(sub, progress)

@@ -131,11 +131,13 @@ class EventMonitor:
             ta, ya, ga = float(t_prev), y_prev, float(self.g(np.array([t_prev]), y_prev)[0])
         else:
             ta, ya, ga = float(t_new[j - 1]), y_new[j - 1], float(g[j - 1])
-        hit = self.locate(ta, ya, ga, float(t_new[j]), y_new[j], float(g[j]), integ, h)
+        h_loc, k_b = state.local_step(float(t_new[j]), h)  # a controlled step: that chunk's
+        k_a = k_b - int(round((float(t_new[j]) - ta) / h_loc))
+        hit = self.locate(ta, ya, ga, float(t_new[j]), y_new[j], float(g[j]), integ, h_loc, k_a)
         pieces = dict(t=(*state.t[:-1], t_new[: j + 1]), y=(*state.y[:-1], y_new[: j + 1]),
                       e_d=(*state.e_d[:-1], ed_new[: j + 1]))  # fmt: skip
         stop = _Stop(0, f"reached {self.text} at t = {hit.time:.6g} s", "")
-        return dataclasses.replace(state, steps=int(round(t_new[j] / h)), y_last=y_new[j].copy(),
+        return dataclasses.replace(state, steps=k_b, y_last=y_new[j].copy(),
                                    e_d_offset=float(ed_new[j]), stop=stop, event=hit, **pieces)  # fmt: skip
 
     def after_resume(self, state, integ, h: float):
@@ -147,10 +149,11 @@ class EventMonitor:
                   for name in ("t", "y", "e_d")}  # fmt: skip
         return self.after_chunk(dataclasses.replace(state, **merged), integ, h)
 
-    def locate(self, ta, ya, ga, tb, yb, gb, integ, h) -> EventHit:
+    def locate(self, ta, ya, ga, tb, yb, gb, integ, h, k_a=None) -> EventHit:
         """The :class:`EventHit` between the saved samples (ta, ya) and (tb, yb) (g = ga, gb):
-        the steps between them integrated again (fixed-step methods), the first step past the
-        level and the time interpolated linearly in g within it."""
+        the steps (of h, s) between them integrated again (fixed-step methods), the first step
+        past the level and the time interpolated linearly in g within it; ``k_a``: the index
+        of the step ending at ta (default ta/h, the fixed grid)."""
         if integ.method == "adaptive":  # no steps of its own to locate it to: the samples
             ts, ys, gs = np.array([ta, tb]), np.array([ya, yb]), np.array([ga, gb])
             k0, located = None, "sample"
@@ -161,7 +164,7 @@ class EventMonitor:
             ts = ta + h * np.arange(len(ts))  # the global grid (t = i·Δt)
             gs = self.g(ts, ys)
             gs[0] = ga
-            k0, located = int(round(ta / h)), "step"
+            k0, located = (int(round(ta / h)) if k_a is None else int(k_a)), "step"
         past = np.flatnonzero(self.reached(gs))
         k = int(past[0]) if len(past) and past[0] > 0 else len(ts) - 1
         frac = gs[k - 1] / (gs[k - 1] - gs[k]) if gs[k - 1] != gs[k] else 1.0

@@ -167,6 +167,11 @@ def _run_attrs(result, n: int) -> dict:
         attrs["bending_displacement_per_unit_units"] = "1"  # m per m of modal coordinate
     attrs.update(validity_attrs(getattr(result, "validity", None)))
     attrs.update(mode_choice_attrs(getattr(result, "mode_choice", None)))
+    if getattr(run.integration, "step_tolerance", None) is not None:  # runs.step_chunks
+        attrs.update(step_tolerance=float(run.integration.step_tolerance),
+                     dt_min=float(stats.get("dt_min_s", math.nan)), dt_min_units="s",
+                     dt_max=float(stats.get("dt_max_s", math.nan)), dt_max_units="s",
+                     n_probe_steps=int(stats.get("n_probe_steps", 0)))  # fmt: skip
     if not result.complete:
         attrs["incomplete_reason"] = result.reason
     if result.notes:
@@ -248,6 +253,11 @@ def summary(ds: xr.Dataset) -> dict:
         "dt_s": _float(ds.attrs.get("dt", float("nan"))),
         "t_end_s": _float(t[-1]) if len(t) else None,
         "steps": int(ds.attrs.get("n_steps", 0)),
+        **({"step_tolerance": _float(ds.attrs["step_tolerance"]),
+            "dt_min_s": _float(ds.attrs.get("dt_min", float("nan"))),
+            "dt_max_s": _float(ds.attrs.get("dt_max", float("nan"))),
+            "probe_steps": int(ds.attrs.get("n_probe_steps", 0))}
+           if "step_tolerance" in ds.attrs else {}),
         "wall_s": _float(ds.attrs.get("wall_s", float("nan"))),
         "H0_kg_m2_s": _float(h0),
         "H_relative_drift": _float(np.max(np.linalg.norm(h - h[0], axis=1)) / h0),

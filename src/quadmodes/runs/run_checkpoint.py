@@ -7,7 +7,9 @@ Entries (format :data:`CHECKPOINT_FORMAT`, version :data:`CHECKPOINT_VERSION`): 
 resolved), ``model_key`` (the reduced model's content key), ``y0`` (7+2N,) the initial state,
 ``steps``, ``chunk``, ``n_total`` (steps done, per chunk, in all), ``t`` (s), ``y``, ``e_d``
 (J): the samples kept so far, ``y_last`` (7+2N,), ``e_d_offset`` (J), ``stat_<name>`` (work
-counters), ``wall_s`` (s of integration so far).
+counters), ``wall_s`` (s of integration so far); a run with a controlled step
+(:mod:`quadmodes.runs.step_chunks`) adds ``t_done`` (s), ``h_next`` (s) and ``grid`` (chunks, 4:
+t start s, steps before, step s, estimate, the energy balance's longest next step s).
 
 The same (run, model, initial state) is required to resume: a different one is refused with a
 message that names the settings that differ.
@@ -32,7 +34,7 @@ CHECKPOINT_VERSION = 1
 #: Default wall time between two periodic checkpoints (s).
 CHECKPOINT_EVERY_S = 10.0
 
-_STATS = ("n_steps", "n_rhs", "n_newton", "n_jac")
+_STATS = ("n_steps", "n_rhs", "n_newton", "n_jac", "n_probe_steps")
 
 
 class CheckpointError(QuadmodesError, ValueError):
@@ -86,6 +88,9 @@ class RunCheckpoint:
         }  # fmt: skip
         for key in _STATS:
             data[f"stat_{key}"] = int(progress.stats.get(key, 0))
+        if progress.t_done is not None:  # a controlled step: where it stands, what comes next
+            data.update(t_done=progress.t_done, h_next=progress.h_next,
+                        grid=np.array(progress.grid, float).reshape(-1, 5))  # fmt: skip
         with atomic_path(self.path, fsync=True) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **data)
         self._last = time.monotonic()
@@ -123,9 +128,17 @@ class RunCheckpoint:
                 f"--resume: {self.path} was made for another run ({', '.join(differ)} "
                 f"{'differs' if len(differ) == 1 else 'differ'}); resume with the same case and options, or start again with --restart"
             )
+        controlled = "t_done" in data
+        stats = {k: int(data[f"stat_{k}"]) for k in _STATS if f"stat_{k}" in data}
+        if not controlled:
+            stats.pop("n_probe_steps", None)
         progress = ChunkProgress(
             steps=int(data["steps"]), chunk=int(data["chunk"]), t=(data["t"],), y=(data["y"],),
-            e_d=(data["e_d"],), stats={k: int(data[f"stat_{k}"]) for k in _STATS},
+            e_d=(data["e_d"],), stats=stats,
             y_last=data["y_last"].copy(), e_d_offset=float(data["e_d_offset"]),
+            t_done=float(data["t_done"]) if controlled else None,
+            h_next=float(data["h_next"]) if controlled else None,
+            grid=(tuple((float(a), int(b), float(c), float(d), float(e))
+                        for a, b, c, d, e in data["grid"]) if controlled else ()),
         )  # fmt: skip
         return progress, float(data["wall_s"])

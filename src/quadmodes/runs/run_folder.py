@@ -153,7 +153,9 @@ def resume_point(setup, folders: RunFolders, resume: bool, note: Note | None = N
     if not (resume and folders.has_checkpoint):
         return None
     start = RunCheckpoint(folders.checkpoint, setup).load()
-    t = start[0].steps * setup.run.integration.duration / setup.run.integration.n_steps
+    t = start[0].t_done  # a controlled step; else on the fixed grid
+    if t is None:
+        t = start[0].steps * setup.run.integration.duration / setup.run.integration.n_steps
     (note or log_note)(f"{setup.run.name}: resuming from {folders.checkpoint} at t = {t:.6g} s")
     return start
 

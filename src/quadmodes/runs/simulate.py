@@ -38,7 +38,6 @@ from quadmodes.runs.chunked import (
     Checkpointer,
     ChunkProgress,
     Interrupted,
-    integrate_in_chunks,
 )
 from quadmodes.runs.deformation_check import with_deformation_check
 from quadmodes.runs.events import EventHit, run_event
@@ -47,6 +46,7 @@ from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
 from quadmodes.runs.path_validity import PathValidity, run_path_validity
 from quadmodes.runs.resources import check_output_size
 from quadmodes.runs.run_checks import check_model_case, check_run_step
+from quadmodes.runs.step_chunks import integrate_run
 from quadmodes.runs.validity import Validity, initial_validity, rotating_validity
 from quadmodes.structure import pipeline
 
@@ -242,7 +242,7 @@ def execute(
     run, system, init = setup.run, setup.system, setup.initial
     warm_up_kernel(run, progress)  # the compile step is not part of the run's wall time
     try:
-        chunks = integrate_in_chunks(
+        chunks = integrate_run(  # the fixed step, or a controlled one (runs.step_chunks)
             system, init.y0, run.integration, progress, run.name, max_chunks,
             checkpoint=checkpoint, resume=resume, event=run_event(system, init, run),
         )  # fmt: skip

@@ -41,6 +41,12 @@ SCALARS = (
     ("cone_angle_end", "rad", "cone angle at the end of the time run"),
     ("complete", "1", "time run complete (1) or stopped early (0)"),
     ("valid", "1", "rotating-frame stiffness positive definite up to the spin (1) or not (0)"),
+    ("path_in_range", "1", "the time run's path stays in its reduced model's range (1: no check "
+     "made along the path fails) or leaves it (0)"),
+    ("path_left_range_at", "s", "time at which the time run's path leaves its reduced model's "
+     "range (NaN: it does not)"),
+    ("path_valid", "1", "the time run valid along its whole path: every check made and passed (a "
+     "sweep does not check the modal amplitudes against the FE model: 0 at every point)"),
     ("energy_sink_power", "W", "energy-sink estimate: mean power dissipated by the steady forced "
      "response to the rigid nutation at the given cone angle"),
     ("energy_sink_cone_rate", "rad/s", "energy-sink estimate of the cone-growth rate at the "

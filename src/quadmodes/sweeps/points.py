@@ -75,6 +75,19 @@ def _finite(x) -> float:
     return x if math.isfinite(x) else math.nan
 
 
+def _path_fields(path) -> dict:
+    """The time run's validity along its path (:mod:`quadmodes.runs.path_validity`): in range
+    (no check that ran failed), where it leaves the range (s, NaN), valid (every check ran and
+    passed: a sweep does not check the modal amplitudes against the FE model, so a point is in
+    range at best) and the checks not made."""
+    if path is None:
+        return {}
+    left = path.left_at
+    return {"path_in_range": left is None, "path_left_range_at": math.nan if left is None
+            else float(left), "path_valid": bool(path.valid),
+            "path_unchecked": ", ".join(path.unchecked)}  # fmt: skip
+
+
 def _time_run(setup: sim.RunSetup) -> dict:
     """Headline scalars of the time run of ``setup`` (secular fits over the quasi-steady part,
     :mod:`quadmodes.runs.secular`)."""
@@ -96,6 +109,7 @@ def _time_run(setup: sim.RunSetup) -> dict:
         "quasi_steady_start": float(q.start_s),
         "complete": bool(result.complete),
         "incomplete_reason": result.reason,
+        **_path_fields(result.path),
         "run_wall_s": float(result.wall_s),
     }
 

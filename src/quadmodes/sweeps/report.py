@@ -61,6 +61,24 @@ def _coning_row(ds: xr.Dataset) -> tuple[str, str, bool | None] | None:
     return ("coning (energy sink)", text, grows == 0)
 
 
+def _path_row(ds: xr.Dataset) -> tuple[str, str, bool | None] | None:
+    """The time runs' validity along their paths: at how many points the path stays in the
+    reduced model's range, and the earliest time one leaves it."""
+    if "path_in_range" not in ds:
+        return None
+    inside = np.asarray(ds["path_in_range"].values, float).ravel()
+    known = np.isfinite(inside)
+    if not known.any():
+        return None
+    left = np.asarray(ds["path_left_range_at"].values, float).ravel()
+    n_out = int(np.sum(inside[known] == 0))
+    text = f"in the model's range at {int(np.sum(inside[known] == 1))} of {int(known.sum())} points"
+    if n_out:
+        text += f"; leaves it at {n_out} (earliest at t = {np.nanmin(left):.4g} s)"
+    text += " (modal amplitudes not checked against the FE model in a sweep)"
+    return ("time runs along their path", text, n_out == 0)
+
+
 def _answer(ds: xr.Dataset, info: dict, u) -> rep.Section:
     """The box at the top: critical speeds, the coning verdict over the points, failures."""
     from quadmodes.io.verdict import verdict_box
@@ -69,7 +87,7 @@ def _answer(ds: xr.Dataset, info: dict, u) -> rep.Section:
     headline = (f"{len(crit)} critical speed(s) in the swept range: " + ", ".join(
         f"{u.from_hz(c['spin_hz']):.4g} {u.name} ({c['kind']}, {c['branch']})" for c in crit)
         if crit else "no critical speed in the swept range")  # fmt: skip
-    rows = [r for r in (_coning_row(ds),) if r is not None]
+    rows = [r for r in (_coning_row(ds), _path_row(ds)) if r is not None]
     rows.append(("points", f"{info['points']} ({info['failed']} failed)", info["failed"] == 0))
     kind = "stable" if rows[0][2] else "unstable" if rows[0][2] is False else ""
     return rep.Section("The answer", verdict_box(headline, rows, kind))
