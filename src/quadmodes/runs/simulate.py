@@ -89,6 +89,8 @@ class RunResult:
     # figures analyses above runs/ add: (file name, draw(path)) pairs, drawn with the run's
     # (quadmodes.analysis.run_campbell: the Campbell diagram of the run's model)
     figures: tuple = ()
+    # the switches of a reduced.path_model = "spin-family" run (quadmodes.runs.spin_family)
+    family: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,6 +243,15 @@ def execute(
     is the :class:`RunResult` up to the last whole chunk (``complete`` False)."""
     run, system, init = setup.run, setup.system, setup.initial
     warm_up_kernel(run, progress)  # the compile step is not part of the run's wall time
+    if run.reduced.path_model == "spin-family":  # a family of models along the path
+        from quadmodes.runs import spin_family
+
+        spin_family.check_family_run(run, resume)
+        fam = spin_family.run_family(setup, progress, max_chunks)
+        return RunResult(run, setup.model_case, setup.model, system, init, fam.solution,
+                         fam.diagnostics, not fam.last.reason, fam.last.reason, fam.wall_s,
+                         (*init.notes, *fam.notes), setup.validity, setup.mode_choice,
+                         event=fam.last.event, path=fam.path, family=fam.switches)  # fmt: skip
     try:
         chunks = integrate_in_chunks(
             system, init.y0, run.integration, progress, run.name, max_chunks,
