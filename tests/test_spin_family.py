@@ -115,3 +115,22 @@ def test_family_needs_a_spinning_reference(workdir):  # noqa: F811
     with pytest.raises(CaseError, match="path_model"):
         load_run_case(workdir / "bad.toml")
     _ = dataclasses  # (kept for symmetry with the other run tests)
+
+
+def test_compare_refuses_a_family_path(tmp_path):
+    """A results.nc of a spin-family run (samples in several members' charts) is not read as
+    the path of one model (one line naming --results)."""
+    import types
+
+    import xarray as xr
+
+    from quadmodes.analysis.path_point import results_point
+
+    path = tmp_path / "results.nc"
+    xr.Dataset({"quaternion": (("time", "quat"), np.zeros((2, 4)))},
+               attrs={"reduced_model_key": "k", "dt": 5e-4,
+                      "case_toml": '[reduced]\npath_model = "spin-family"\n'}).to_netcdf(path)  # fmt: skip
+    model = types.SimpleNamespace(provenance={"content_key": "k"})
+    run = types.SimpleNamespace(integration=types.SimpleNamespace(dt=5e-4))
+    with pytest.raises(CaseError, match="--results.*spin-family"):
+        results_point(path, run, None, model, "cone 10 deg")
