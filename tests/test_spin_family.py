@@ -134,3 +134,26 @@ def test_compare_refuses_a_family_path(tmp_path):
     run = types.SimpleNamespace(integration=types.SimpleNamespace(dt=5e-4))
     with pytest.raises(CaseError, match="--results.*spin-family"):
         results_point(path, run, None, model, "cone 10 deg")
+
+
+def test_ctrl_c_gives_the_family_path_so_far(workdir, monkeypatch):  # noqa: F811
+    """Ctrl-C in the second member's first chunk: Interrupted carrying the run result of the
+    path so far (incomplete), both members' samples in it."""
+    from quadmodes.runs.chunked import Interrupted
+
+    calls = []
+    original = sf.SwitchMonitor.after_chunk
+
+    def after_chunk(self, state, integ, h):
+        calls.append(state.steps)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return original(self, state, integ, h)
+
+    monkeypatch.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+    run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
+    with pytest.raises(Interrupted) as stop:
+        sim.simulate(run)
+    partial = stop.value.partial
+    assert isinstance(partial, sim.RunResult) and not partial.complete
+    assert len(partial.family) == 1 and partial.diagnostics.t[-1] > partial.family[0].time - 1e-12

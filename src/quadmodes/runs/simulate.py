@@ -200,6 +200,16 @@ def _result(setup: RunSetup, chunks) -> RunResult:
     )
 
 
+def _family_result(setup: RunSetup, fam) -> RunResult:
+    """The :class:`RunResult` of a spin-family run (:class:`~quadmodes.runs.spin_family.
+    FamilyRun`): ``model``/``system`` the first member's, the samples each in its member's."""
+    return RunResult(setup.run, setup.model_case, setup.model, setup.system, setup.initial,
+                     fam.solution, fam.diagnostics, not fam.last.reason, fam.last.reason,
+                     fam.wall_s, (*setup.initial.notes, *fam.notes), setup.validity,
+                     setup.mode_choice, event=fam.last.event, path=fam.path,
+                     family=fam.switches)  # fmt: skip
+
+
 _KERNEL_READY: list[bool] = []  # [True] once the compiled kernel is loaded in this process
 
 
@@ -247,11 +257,10 @@ def execute(
         from quadmodes.runs import spin_family
 
         spin_family.check_family_run(run, resume)
-        fam = spin_family.run_family(setup, progress, max_chunks)
-        return RunResult(run, setup.model_case, setup.model, system, init, fam.solution,
-                         fam.diagnostics, not fam.last.reason, fam.last.reason, fam.wall_s,
-                         (*init.notes, *fam.notes), setup.validity, setup.mode_choice,
-                         event=fam.last.event, path=fam.path, family=fam.switches)  # fmt: skip
+        try:
+            return _family_result(setup, spin_family.run_family(setup, progress, max_chunks))
+        except Interrupted as stop:
+            raise Interrupted(_family_result(setup, stop.partial), False, stop.reason) from None
     try:
         chunks = integrate_in_chunks(
             system, init.y0, run.integration, progress, run.name, max_chunks,

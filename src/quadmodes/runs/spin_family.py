@@ -234,8 +234,12 @@ def integrate_family(setup, tolerance: float = DEFAULT_TOLERANCE, progress=None,
         event = run_event(member.system, dataclasses.replace(member.initial, y0=y0), run)
         monitor = SwitchMonitor(member.system, tolerance, event)
         start = time.perf_counter()
-        part = chunked.integrate_in_chunks(member.system, y0, integ, progress, run.name,
-                                           max_chunks, resume=resume, event=monitor)  # fmt: skip
+        try:
+            part = chunked.integrate_in_chunks(member.system, y0, integ, progress, run.name,
+                                               max_chunks, resume=resume, event=monitor)  # fmt: skip
+        except chunked.Interrupted as stop:  # Ctrl-C: the path so far, raised by run_family
+            segments.append(Segment(member, stop.partial.solution, offset))
+            raise Stopped(segments, switches, stop.partial, wall, stop.reason) from None
         wall += time.perf_counter() - start
         segments.append(Segment(member, part.solution, offset))
         if monitor.spin is None or part.reason:
@@ -343,11 +347,30 @@ class FamilyRun:
     wall_s: float
 
 
+class Stopped(KeyboardInterrupt):
+    """Ctrl-C inside :func:`integrate_family`: the segments, switches, last ChunkedRun and
+    wall time (s) so far and the reason (turned into a
+    :class:`~quadmodes.runs.chunked.Interrupted` carrying the :class:`FamilyRun` by
+    :func:`run_family`)."""
+
+    def __init__(self, segments, switches, last, wall, reason: str):
+        super().__init__(reason)
+        self.parts = (segments, switches, last, wall)
+
+
 def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS) -> FamilyRun:
     """:func:`integrate_family` of a prepared run with the tolerance of its
-    ``reduced.path_switch``, merged (:class:`FamilyRun`)."""
+    ``reduced.path_switch``, merged (:class:`FamilyRun`). Ctrl-C raises
+    :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial`` is the :class:`FamilyRun`
+    so far (not checkpointed: a family run is not resumed yet)."""
     tolerance = setup.run.reduced.path_switch or DEFAULT_TOLERANCE
-    segments, switches, last, wall = integrate_family(setup, tolerance, progress, max_chunks)
+    try:
+        return _merged(setup, tolerance, *integrate_family(setup, tolerance, progress, max_chunks))
+    except Stopped as stop:
+        raise chunked.Interrupted(_merged(setup, tolerance, *stop.parts), False, str(stop)) from None
+
+
+def _merged(setup, tolerance, segments, switches, last, wall) -> FamilyRun:
     diag = merged_diagnostics(segments, setup.initial.spin_axis)
     spins = ", ".join(f"{seg.setup.model.reference_spin / (2 * math.pi):.5g}" for seg in segments)
     notes = [f"spin family (tolerance {100 * tolerance:.3g} % of the spin): {len(segments)} "
