@@ -315,14 +315,58 @@ def dynamic_rows(path: str, points: dict[float, str], candidates, case: str):
                              default=float), flush=True)  # fmt: skip
 
 
+#: The one-model path's spins (Hz) at its cone marks (the `compare --at` table of
+#: docs/path-validity.md), for rows printed without ``path_spin_hz``.
+POINT_SPIN_HZ = {12.0: 40.327, 15.0: 39.824, 20.0: 38.744}
+
+
+def figure(rows_files: list[str], out: str) -> None:
+    """Cone-growth ratio (reduced / full order) by candidate against the cone angle, and that of
+    the members (A) against their spin departure from the path's, from printed JSON rows."""
+    import matplotlib.pyplot as plt
+
+    rows = [json.loads(line) for f in rows_files for line in open(f) if '"point"' in line]
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
+    names = {"Q": "Q, one model (today)", "Q4": "Q4", "Q4c": "Q4 + centrifugal s³, s⁴",
+             "B": "B: re-expanded about s̄", "Bc": "Bc", "Q:20": "Q, 20 modes"}  # fmt: skip
+    for cand, label in names.items():
+        pts = sorted((r["point"], r["cone_growth_ratio"]) for r in rows if r["candidate"] == cand)
+        if pts:
+            ax.plot(*zip(*pts, strict=True), "o-", label=label)
+    at_spin = []
+    for r in rows:
+        if not r["candidate"].startswith("A:") and r["candidate"] != "Q":
+            continue  # (Q: the member about 41 Hz)
+        path_hz = r.get("path_spin_hz", POINT_SPIN_HZ[r["point"]])
+        dep = 100 * ((41.0 if r["candidate"] == "Q" else float(r["candidate"][2:])) / path_hz - 1.0)
+        bx.plot(dep, r["cone_growth_ratio"], "o", color={12.0: "C0", 15.0: "C1", 20.0: "C2"}[r["point"]])
+        if abs(dep) < 0.05:
+            at_spin.append((r["point"], r["cone_growth_ratio"]))
+    ax.plot(*zip(*sorted(at_spin), strict=True), "k*-", ms=10, label="A: member about the point's spin")
+    ax.axhspan(0.95, 1.05, color="0.9", zorder=0)
+    ax.set(xlabel="cone angle at the point (deg)", ylabel="cone growth, reduced / full order")
+    ax.legend(fontsize=7)
+    for p, c in ((12.0, "C0"), (15.0, "C1"), (20.0, "C2")):
+        bx.plot([], [], "o", color=c, label=f"{p:g}°")
+    bx.axhspan(0.95, 1.05, color="0.9", zorder=0)
+    bx.set(xlabel="member's spin above the path's (%)", ylabel="cone growth, reduced / full order")
+    bx.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("results")
+    ap.add_argument("results", nargs="?", default="")
     ap.add_argument("--points", default="")
     ap.add_argument("--candidates", default="Q,Q4")
     ap.add_argument("--case", default="paper-41hz-coarse", help="the comparisons' run case")
     ap.add_argument("--static", default="", help="cone marks (deg), e.g. 8,10,12,15,20")
+    ap.add_argument("--figure", default="", help="PNG of the rows in --rows (printed JSON lines)")
+    ap.add_argument("--rows", default="", help="comma-separated files of printed rows")
     args = ap.parse_args()
+    if args.figure:
+        figure(args.rows.split(","), args.figure)
     if args.static:
         static_rows(args.results, [float(v) for v in args.static.split(",")])
     if args.points:
