@@ -157,3 +157,14 @@ def test_ctrl_c_gives_the_family_path_so_far(workdir, monkeypatch):  # noqa: F81
     partial = stop.value.partial
     assert isinstance(partial, sim.RunResult) and not partial.complete
     assert len(partial.family) == 1 and partial.diagnostics.t[-1] > partial.family[0].time - 1e-12
+
+
+def test_member_spins_are_a_grid_and_the_nearest_point_integrates():
+    """Members at Ω₀(1 + spacing)^k: a spin maps to its nearest grid point (in ln Ω), the same
+    one over ±half a spacing, and the grid is anchored on Ω₀ whatever the path."""
+    w0, a = 2 * np.pi * 41.0, 0.0075
+    for k in (-7, -1, 0, 3):
+        centre = w0 * (1 + a) ** k
+        for f in (1.001 / np.sqrt(1 + a), 1.0, 0.999 * np.sqrt(1 + a)):
+            assert sf.grid_spin(centre * f, w0, a) == pytest.approx(centre, rel=2e-6)
+    assert sf.grid_spin(w0, w0, a) == pytest.approx(w0, rel=1e-12)

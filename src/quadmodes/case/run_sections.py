@@ -95,9 +95,9 @@ class RunReduced(Section):
     reference instead of in the modal coordinates.
 
     ``path_model``: ``"fixed"`` (default) integrates the whole path with the one model;
-    ``"spin-family"`` (with ``reference = "spinning"``) switches to the model about the spin
-    the path has reached whenever it departs by more than ``path_switch`` (a fraction of the
-    spin, default 0.0075) from its model's (:mod:`quadmodes.runs.spin_family`)."""
+    ``"spin-family"`` (with ``reference = "spinning"``) integrates it by the models about the
+    spins of a grid ``path_switch`` apart (a fraction, default 0.0075), switching to the one
+    nearest the path's spin as it changes (:mod:`quadmodes.runs.spin_family`)."""
 
     modes: Annotated[int | Literal["auto"], BeforeValidator(_modes),
                      FieldMeta("5", allowed='whole number ≥ 1, or "auto"')] = 5  # fmt: skip

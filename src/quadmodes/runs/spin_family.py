@@ -1,6 +1,7 @@
 """A family of reduced models along a run's path (issue 29 item 2, docs/path-validity.md): the
-run switches to the model of the same case and modes expanded about the spinning equilibrium at
-the spin it has reached whenever that spin departs from its member's by more than a tolerance.
+members are the models of the same case and modes expanded about the spinning equilibria at the
+spins of a geometric grid Ω₀(1 + spacing)^k (Ω₀ the run's reference spin, ``spacing`` its
+``reduced.path_switch``), and the run is integrated by the member nearest its spin.
 
 Why the spin (measured, ``benchmarks/studies/bench_path_model.py``): along the coning path of
 paper-41hz-coarse the reduced model's cone growth departs from the full order's by about 1.1 ×
@@ -8,11 +9,13 @@ the relative departure of the path's spin from the spin its model is expanded ab
 about the path's spin restores the model's own accuracy (× 0.976–0.979 at 12–20° against
 × 0.957–0.906 for the one 41 Hz model), where more modes or a higher-order potential do not.
 
-A switch, at the end of a chunk (a saved sample) where the mean spin about the member's axis over
-the chunk departs by more than ``tolerance`` (relative):
+A switch, at the first saved sample whose spin about the member's axis is nearer another grid
+point (by :data:`HYSTERESIS` × half a spacing: the spin departs from its member's by at most
+about 0.55 × the spacing, 0.41 % by default), the chunk cut there:
 
-* the new member: :func:`quadmodes.models.build.reduced_model_for` about that spin (rounded to
-  :data:`SPIN_RESOLUTION_HZ`, so paths share cached members), the same axis request and modes;
+* the new member: :func:`quadmodes.models.build.reduced_model_for` about that grid spin (rounded
+  to :data:`SPIN_RESOLUTION_HZ`; the grid makes members shared by paths, cached), the same axis
+  request and modes;
 * the state (:func:`mapped_state`): the attitude kept; the displacement field of the old chart,
   X₀ + Φ₀s + Σ s_m s_n g₀^{mn}, matched on the new chart in the least-squares sense (lumped mass
   norm, Gauss–Newton); the deformation velocity Φ₀ṡ + 2Σ s_m ṡ_n g₀^{mn} fitted the same way on
@@ -47,12 +50,14 @@ from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
 from quadmodes.runs import chunked
 
-#: Default switching tolerance: the relative departure of the spin about the member's axis
-#: (0.75 %: the centrifugal load then departs by 1.5 %, inside the path check's 2 %, and the
-#: cone growth by at most about 0.8 %, docs/path-validity.md).
+#: Default spacing of the members' spins (relative): 0.75 %, so the spin departs from its
+#: member's by at most about 0.41 % (the centrifugal load by 0.83 %, inside the path check's
+#: 2 %; the cone growth by about 0.45 %, docs/path-validity.md).
 DEFAULT_TOLERANCE = 0.0075
 #: Members are expanded about spins rounded to this (Hz), so that paths share cached members.
 SPIN_RESOLUTION_HZ = 1e-4
+#: A switch waits until the spin is nearer another grid point by this factor on half a spacing.
+HYSTERESIS = 1.1
 #: Gauss–Newton iterations of the chart fit (the charts are 1 % apart: 3 reach round-off).
 FIT_ITERATIONS = 8
 
@@ -143,14 +148,25 @@ def member_spin(system, y: np.ndarray) -> np.ndarray:
     return rsys.split_state(system, np.atleast_2d(y))[1] @ (w_ref / np.linalg.norm(w_ref))
 
 
+def grid_spin(spin: float, spin0: float, spacing: float) -> float:
+    """The member spin (rad/s) for ``spin``: the point of the geometric grid
+    Ω₀(1 + spacing)^k nearest it (in ln Ω), rounded to :data:`SPIN_RESOLUTION_HZ`."""
+    k = round(math.log(spin / spin0) / math.log1p(spacing))
+    return 2 * math.pi * member_hz(spin0 * (1.0 + spacing) ** k)
+
+
 class SwitchMonitor:
     """``after_chunk`` of :func:`quadmodes.runs.chunked.integrate_in_chunks`: the run's
-    ``until`` event first (``event``, or None), then the switch: the chunk's mean spin about the
-    member's axis departing by more than ``tolerance`` stops the segment (``spin`` set)."""
+    ``until`` event first (``event``, or None), then the switch: at the first new sample whose
+    spin about the member's axis is nearer another point of the grid of member spins
+    (:func:`grid_spin`; by :data:`HYSTERESIS` × half a spacing, so a spin hovering at a midpoint
+    does not switch back and forth) the chunk is cut there and the segment stopped
+    (``spin``: the new member's)."""
 
-    def __init__(self, system, tolerance: float, event=None):
-        self.system, self.tolerance, self.event = system, tolerance, event
+    def __init__(self, system, spin0: float, spacing: float, event=None):
+        self.system, self.spin0, self.spacing, self.event = system, spin0, spacing, event
         self.spin_ref = float(np.linalg.norm(system.reference_omega))
+        self.limit = HYSTERESIS * 0.5 * math.log1p(spacing)
         self.spin: float | None = None
 
     def after_resume(self, state, integ, h: float):
@@ -163,13 +179,21 @@ class SwitchMonitor:
                 return state
         if not state.t or not len(state.y[-1]):
             return state
-        spin = float(np.mean(member_spin(self.system, state.y[-1])))
-        if abs(spin / self.spin_ref - 1.0) <= self.tolerance:
+        t_new, y_new, ed_new = state.t[-1], state.y[-1], state.e_d[-1]
+        spins = member_spin(self.system, y_new)
+        hits = np.flatnonzero(np.abs(np.log(spins / self.spin_ref)) > self.limit)
+        if not len(hits):
             return state
-        if abs(member_hz(spin) - member_hz(self.spin_ref)) < 0.5 * SPIN_RESOLUTION_HZ:
+        j = int(hits[0])
+        target = grid_spin(float(spins[j]), self.spin0, self.spacing)
+        if abs(target - self.spin_ref) < 0.5 * 2 * math.pi * SPIN_RESOLUTION_HZ:
             return state  # the member about that spin is this one
-        self.spin = spin
-        return state.stopped(chunked._Stop(0, "switch", ""))
+        self.spin = target
+        pieces = dict(t=(*state.t[:-1], t_new[: j + 1]), y=(*state.y[:-1], y_new[: j + 1]),
+                      e_d=(*state.e_d[:-1], ed_new[: j + 1]))  # fmt: skip
+        return dataclasses.replace(state, steps=int(round(t_new[j] / h)), y_last=y_new[j].copy(),
+                                   e_d_offset=float(ed_new[j]), stop=chunked._Stop(0, "switch", ""),
+                                   **pieces)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------
@@ -187,11 +211,10 @@ class Segment:
 
 
 def _member(setup, spin: float, progress=None):
-    """The setup of the member of ``setup``'s run about ``spin`` (rad/s; rounded)."""
+    """The setup of the member of ``setup``'s run about the grid spin ``spin`` (rad/s)."""
     from quadmodes.models.build import reduced_model_for
 
     run = setup.run
-    spin = 2 * math.pi * member_hz(spin)
     model = reduced_model_for(setup.model_case, run.reduced.modes, progress, spin=spin,
                               axis=run.reference_axis)  # fmt: skip
     system = rsys.reduced_system(model, run.reduced.formulation)
@@ -232,7 +255,7 @@ def integrate_family(setup, tolerance: float = DEFAULT_TOLERANCE, progress=None,
     member, y0, offset, pi_k = setup, setup.initial.y0, 0.0, pi0
     while True:
         event = run_event(member.system, dataclasses.replace(member.initial, y0=y0), run)
-        monitor = SwitchMonitor(member.system, tolerance, event)
+        monitor = SwitchMonitor(member.system, setup.model.reference_spin, tolerance, event)
         start = time.perf_counter()
         try:
             part = chunked.integrate_in_chunks(member.system, y0, integ, progress, run.name,
@@ -373,7 +396,7 @@ def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS) -> Fa
 def _merged(setup, tolerance, segments, switches, last, wall) -> FamilyRun:
     diag = merged_diagnostics(segments, setup.initial.spin_axis)
     spins = ", ".join(f"{seg.setup.model.reference_spin / (2 * math.pi):.5g}" for seg in segments)
-    notes = [f"spin family (tolerance {100 * tolerance:.3g} % of the spin): {len(segments)} "
+    notes = [f"spin family (members {100 * tolerance:.3g} % apart in spin): {len(segments)} "
              f"members about {spins} Hz"]  # fmt: skip
     if switches:
         worst_h = max(sw.h_change for sw in switches)
