@@ -163,7 +163,12 @@ def prepare_path_comparison(run, window: float, at: str, *, results=None,
     results.nc of the run, if given) and that
     :class:`~quadmodes.analysis.path_point.PathPoint`."""
     from quadmodes.analysis.path_point import full_order_setup_at, path_point
+    from quadmodes.case import CaseError
 
+    if run.reduced.path_model != "fixed":  # its samples are in the charts of several models
+        raise CaseError('--at: the path of a reduced.path_model = "spin-family" run is not read '
+                        "yet (benchmarks/studies/bench_path_family.py starts the full order from "
+                        'it); use path_model = "fixed" here', field="--at")  # fmt: skip
     run_w, setup0 = prepare_comparison(run, window, damping_cutoff, progress)
     point = path_point(run_w, at, model=setup0.model, results=results, progress=progress)
     return run_w, full_order_setup_at(setup0, point), point

@@ -175,6 +175,10 @@ def results_point(results: Path, run: RunCase, system, model, at: str) -> PathPo
         if "quaternion" not in ds or str(ds.attrs.get("reduced_model_key", "")) != key:
             raise CaseError(f"--results: {results} is not a run of this run case's reduced model "
                             f"(key {key}); run it again or drop --results", field="--results")  # fmt: skip
+        if 'path_model = "spin-family"' in str(ds.attrs.get("case_toml", "")):
+            raise CaseError(f"--results: {results} is a spin-family path (its samples are in "
+                            "the charts of several models), not read yet; drop --results",
+                            field="--results")  # fmt: skip
         if float(ds.attrs.get("dt", math.nan)) != float(run.integration.dt):
             raise CaseError(f"--results: {results} was run at another time step; drop --results",
                             field="--results")  # fmt: skip

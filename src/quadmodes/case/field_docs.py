@@ -200,6 +200,10 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "frequency (default 2.5 about rest, 3.2 about the spinning state)",
         "reference": "the state the reduced model is expanded about: rest (the inflated state, "
         "as the seed) or spinning (the centrifugal equilibrium at the initial spin)",
+        "path_model": "fixed: one model for the whole path; spin-family: models about spins "
+        "path_switch apart, the one nearest the path's spin integrating (reference spinning)",
+        "path_switch": "with path_model = \"spin-family\": the spacing of the members' spins "
+        "(a fraction of the spin; default 0.0075: departures up to about 0.41 %)",
     },
     "RunInitial": {
         "spin_rate": "initial spin rate Ω about the spin axis",

@@ -67,6 +67,11 @@ def _margin(x: float) -> str | None:
     return None if x >= 1.0 else "must be at least 1 (modes up to mode_margin × spin frequency)"
 
 
+def _switch(x: float) -> str | None:
+    """in (0, 0.05]"""
+    return None if 0.0 < x <= 0.05 else "must be in (0, 0.05] (a fraction of the spin, e.g. 0.0075)"
+
+
 class RunReduced(Section):
     """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
     formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
@@ -87,13 +92,20 @@ class RunReduced(Section):
     principal axis; a flat membrane: its normal), with the modes
     of its rotating-frame stiffness and the modal damping projected from the modes at rest
     (:mod:`quadmodes.rom.spinning_reduction`); the steady centrifugal stretch is then in the
-    reference instead of in the modal coordinates."""
+    reference instead of in the modal coordinates.
+
+    ``path_model``: ``"fixed"`` (default) integrates the whole path with the one model;
+    ``"spin-family"`` (with ``reference = "spinning"``) integrates it by the models about the
+    spins of a grid ``path_switch`` apart (a fraction, default 0.0075), switching to the one
+    nearest the path's spin as it changes (:mod:`quadmodes.runs.spin_family`)."""
 
     modes: Annotated[int | Literal["auto"], BeforeValidator(_modes),
                      FieldMeta("5", allowed='whole number ≥ 1, or "auto"')] = 5  # fmt: skip
     formulation: choice("Q", "P", "L", "rigid", "Q4") = "Q"
     mode_margin: quantity("dimensionless", "2.5", _margin, optional=True) = None
     reference: choice("rest", "spinning") = "rest"
+    path_model: choice("fixed", "spin-family") = "fixed"
+    path_switch: quantity("dimensionless", "0.0075", _switch, optional=True) = None
 
     @model_validator(mode="after")
     def check_margin(self) -> Self:
@@ -103,6 +115,24 @@ class RunReduced(Section):
                 f'is used only with modes = "auto" (modes = {self.modes}); remove it or set '
                 'modes = "auto"',
                 "mode_margin",
+            )
+        return self
+
+    @model_validator(mode="after")
+    def check_path_model(self) -> Self:
+        if self.path_model == "spin-family" and (self.reference != "spinning"
+                                                 or self.formulation not in ("Q", "P", "L")):  # fmt: skip
+            raise field_error(
+                "case_rule",
+                'needs reference = "spinning" and formulation Q, P or L (the members are '
+                'expanded about spinning states); set them, or path_model = "fixed"',
+                "path_model",
+            )
+        if self.path_switch is not None and self.path_model != "spin-family":
+            raise field_error(
+                "case_rule",
+                'is used only with path_model = "spin-family"; remove it or set that',
+                "path_switch",
             )
         return self
 

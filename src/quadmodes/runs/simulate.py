@@ -89,6 +89,8 @@ class RunResult:
     # figures analyses above runs/ add: (file name, draw(path)) pairs, drawn with the run's
     # (quadmodes.analysis.run_campbell: the Campbell diagram of the run's model)
     figures: tuple = ()
+    # the switches of a reduced.path_model = "spin-family" run (quadmodes.runs.spin_family)
+    family: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,6 +200,16 @@ def _result(setup: RunSetup, chunks) -> RunResult:
     )
 
 
+def _family_result(setup: RunSetup, fam) -> RunResult:
+    """The :class:`RunResult` of a spin-family run (:class:`~quadmodes.runs.spin_family.
+    FamilyRun`): ``model``/``system`` the first member's, the samples each in its member's."""
+    return RunResult(setup.run, setup.model_case, setup.model, setup.system, setup.initial,
+                     fam.solution, fam.diagnostics, not fam.last.reason, fam.last.reason,
+                     fam.wall_s, (*setup.initial.notes, *fam.notes), setup.validity,
+                     setup.mode_choice, event=fam.last.event, path=fam.path,
+                     family=fam.switches)  # fmt: skip
+
+
 _KERNEL_READY: list[bool] = []  # [True] once the compiled kernel is loaded in this process
 
 
@@ -241,6 +253,14 @@ def execute(
     is the :class:`RunResult` up to the last whole chunk (``complete`` False)."""
     run, system, init = setup.run, setup.system, setup.initial
     warm_up_kernel(run, progress)  # the compile step is not part of the run's wall time
+    if run.reduced.path_model == "spin-family":  # a family of models along the path
+        from quadmodes.runs import spin_family
+
+        spin_family.check_family_run(run, resume)
+        try:
+            return _family_result(setup, spin_family.run_family(setup, progress, max_chunks))
+        except Interrupted as stop:
+            raise Interrupted(_family_result(setup, stop.partial), False, stop.reason) from None
     try:
         chunks = integrate_run(  # the fixed step, or a controlled one (runs.step_chunks)
             system, init.y0, run.integration, progress, run.name, max_chunks,
