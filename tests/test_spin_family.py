@@ -117,6 +117,18 @@ def test_family_needs_a_spinning_reference(workdir):  # noqa: F811
     _ = dataclasses  # (kept for symmetry with the other run tests)
 
 
+def test_family_refuses_a_controlled_step(workdir):  # noqa: F811
+    """The family's members step at the fixed dt: a step_tolerance would be silently ignored,
+    so the case is refused, naming the field."""
+    run = _family_run(workdir, '\npath_model = "spin-family"')
+    text = (workdir / "fam.toml").read_text(encoding="utf-8")
+    (workdir / "fam.toml").write_text(text.replace("[integration]", "[integration]\nstep_tolerance = 1e-3"),
+                                      encoding="utf-8")  # fmt: skip
+    assert run.reduced.path_model == "spin-family"
+    with pytest.raises(CaseError, match="integration.step_tolerance"):
+        load_run_case(workdir / "fam.toml")
+
+
 def test_compare_refuses_a_family_path(tmp_path):
     """A results.nc of a spin-family run (samples in several members' charts) is not read as
     the path of one model (one line naming --results)."""
