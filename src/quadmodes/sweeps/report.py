@@ -29,8 +29,21 @@ def _label(da: xr.DataArray) -> str:
     return f"{da.attrs.get('long_name', da.name)} [{da.attrs.get('units', '1')}]"
 
 
-def _point_table(ds: xr.Dataset) -> str:
-    """The headline variables against the single swept dimension ("" for maps)."""
+def _column(da: xr.DataArray, u) -> tuple[str, np.ndarray]:
+    """A table column's header and values: a spin rate (rad/s in the files) in ``u``, a cone
+    angle's rate in deg/s (as ``run`` prints it), anything else in the files' unit."""
+    values = np.asarray(da.values, dtype=float)
+    name = f"{da.attrs.get('long_name', da.name)}"
+    if da.attrs.get("units") == "rad/s" and "spin" in str(da.name):
+        return f"{name} [{u.name}]", u.from_rad_s(values)
+    if da.attrs.get("units") == "rad/s" and "cone" in str(da.name):
+        return f"{name} [deg/s]", np.degrees(values)
+    return _label(da), values
+
+
+def _point_table(ds: xr.Dataset, u) -> str:
+    """The headline variables against the single swept dimension ("" for maps); angular rates
+    in ``u`` (a FrequencyUnit), the rest in the files' units."""
     dims = [d for d in ds.dims if d in ds.coords and ds[d].attrs.get("long_name", "")
             .endswith("(swept)")]  # fmt: skip
     if len(dims) != 1:
@@ -38,10 +51,9 @@ def _point_table(ds: xr.Dataset) -> str:
     dim = dims[0]
     names = [n for n, v in ds.data_vars.items() if v.dims == (dim,)
              and any(h in n for h in _HEADLINE)]  # fmt: skip
-    header = [_label(ds[dim])] + [_label(ds[n]) for n in names]
-    rows = [[float(x)] + [float(ds[n].values[i]) for n in names]
-            for i, x in enumerate(np.asarray(ds[dim].values))]  # fmt: skip
-    return rep.table(header, rows)
+    columns = [_column(ds[dim], u)] + [_column(ds[n], u) for n in names]
+    rows = [[float(c[1][i]) for c in columns] for i in range(ds[dim].size)]
+    return rep.table([c[0] for c in columns], rows)
 
 
 def _coning_row(ds: xr.Dataset) -> tuple[str, str, bool | None] | None:
@@ -114,7 +126,7 @@ def write_sweep_report(directory: Path, ds: xr.Dataset, info: dict, command: str
         rep.Section("Critical speeds", crit_body),
         rep.Section("Sweep", rep.key_values(counts) + rep.key_values(swept, "swept parameters")),
     ]
-    table = _point_table(ds)
+    table = _point_table(ds, u)
     if table:
         sections.append(rep.Section("Headline numbers per point", table))
     full = [[u.from_hz(spin["spin_hz"]), r["branch"], u.from_hz(r["frequency_hz"]),
