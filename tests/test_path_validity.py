@@ -274,3 +274,50 @@ def test_a_planar_body_is_not_out_of_range_by_its_rigid_tilt(monkeypatch):
     monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(abs(w @ E1)), 0.0))
     still = pv.with_measured_range(path_validity(tall, sol, diag), tall, sol, diag)
     assert still.left_at == 0.0 and "tilted by 9.92 deg" in still.left_reason
+
+
+@pytest.fixture(scope="module")
+def capsule_models(small_modal_model):
+    """The small capsule about 300, 309 and 304.5 rad/s, N = 5."""
+    from test_spinning_reference import spinning_model
+
+    return tuple(spinning_model(small_modal_model, 5, f * 300.0) for f in (1.0, 1.03, 1.015))
+
+
+@pytest.mark.parametrize("spin", [300.0, 309.0])
+def test_coning_rate_is_the_energy_sink_estimate(capsule_models, spin):
+    """The path check's coning rate (restated on the model layer) is the energy-sink estimate
+    of quadmodes.analysis (its relative equilibrium, forced response and power) to 1e-9, on the
+    model about 300 rad/s at its own spin and 3 % off it."""
+    from quadmodes.analysis.energy_sink import energy_sink
+    from quadmodes.analysis.reduced_linearisation import relative_equilibrium
+    from quadmodes.runs.spin_check import coning_rate
+
+    model = capsule_models[0]
+    sys = rsys.reduced_system(model, "Q")
+    e = np.asarray(model.reference_axis, float)
+    w0, s_eq, _ = relative_equilibrium(sys, spin, e)
+    want = energy_sink(sys, s_eq, w0, 0.1).growth_rate
+    assert want != 0.0
+    assert coning_rate(sys, spin, e, 0.1) == pytest.approx(want, rel=1e-9)
+
+
+def test_a_model_about_the_paths_spin_has_no_coning_rate_error(capsule_models, monkeypatch):
+    """sink_error compares the run's model with the model rebuilt about the spin: the model
+    about 309 rad/s against itself there is exact (a run that does not depart), the model about
+    300 rad/s at 309 rad/s (3 %) is not; at half the departure the error is about half (first
+    order in the departure, which the interpolation of spin_limit assumes)."""
+    from quadmodes.runs import spin_check
+
+    m300, m309, m304 = capsule_models
+    by_spin = {300.0: m300, 309.0: m309, 304.5: m304}
+    monkeypatch.setattr(spin_check, "_rebuilt", lambda s, spin: (None, rsys.reduced_system(
+        by_spin[round(spin, 6)], "Q")))  # fmt: skip
+    e = np.asarray(m300.reference_axis, float)
+    own = SimpleNamespace(system=rsys.reduced_system(m309, "Q"))
+    assert spin_check.sink_error(own, 309.0 * e, 0.1) == 0.0
+    run = SimpleNamespace(system=rsys.reduced_system(m300, "Q"))
+    full = spin_check.sink_error(run, 309.0 * e, 0.1)
+    half = spin_check.sink_error(run, 304.5 * e, 0.1)
+    assert full > 0.0 and math.isfinite(full)
+    assert 1.6 <= full / half <= 2.4, (full, half)

@@ -44,11 +44,12 @@ import numpy as np
 
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
+from quadmodes.runs import spin_check
 from quadmodes.runs.validity import DEFORMATION_ENERGY_TOLERANCE
 
 #: Relative frequency error the reduced models are held to (every rotating-frame branch within
 #: 1 % of the full order on the paper models, docs/full-order.md).
-FREQUENCY_TOLERANCE = 0.01
+FREQUENCY_TOLERANCE = spin_check.FREQUENCY_TOLERANCE
 #: Largest departure δ of the centrifugal load from the model's: 2 × the frequency tolerance
 #: (δ bounds the relative error of the squared frequencies, module docstring).
 CENTRIFUGAL_LIMIT = 2.0 * FREQUENCY_TOLERANCE

@@ -17,8 +17,8 @@ nutation frequency, near the rotating-frame branches, and its amplitude follows 
 detuning a spin change makes (in the prestress, the reference shape, the forcing), so the cone
 growth moves 10–40 × more than the frequencies (docs/path-validity.md, item 2). Hence a second
 measure with the same rebuilt model (:func:`sink_error`): the energy-sink coning rate θ̇/θ
-(:mod:`quadmodes.analysis.energy_sink`: the forced response at the nutation frequency and the
-power it dissipates) of the run's model linearised about its relative equilibrium at the
+(:func:`coning_rate`, the estimate of :mod:`quadmodes.analysis.energy_sink` restated on the
+model layer: the forced response at the nutation frequency and the power it dissipates) of the run's model linearised about its relative equilibrium at the
 path's spin, against the rebuilt model's about its own reference, held to
 :data:`SINK_TOLERANCE`. Where it fails, :func:`spin_limit` measures once more at the departure
 the first measurement predicts (a second model build), so the limit is interpolated, not
@@ -32,9 +32,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
-from quadmodes.runs.path_validity import FREQUENCY_TOLERANCE
+from quadmodes.rom.spin_axis import equilibrium_direction, in_degenerate_eigenspace
+
+#: The models' frequency tolerance (:data:`quadmodes.runs.path_validity.FREQUENCY_TOLERANCE`,
+#: which is this one).
+FREQUENCY_TOLERANCE = 0.01
 
 
 def rotating_frequencies(system: rsys.ReducedSystem, omega: np.ndarray) -> np.ndarray:
@@ -94,27 +99,74 @@ def _rebuilt(setup, spin: float):
     return model, rsys.reduced_system(model, setup.run.reduced.formulation)
 
 
+def _equilibrium(sys: rsys.ReducedSystem, spin: float, e: np.ndarray, iterations: int = 50):
+    """(ω0 (3,) rad/s, s* (N,)) of the relative equilibrium at ``spin`` about the principal axis
+    nearest ``e``: ``(Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω − F1``, the fixed point of
+    :func:`quadmodes.analysis.reduced_linearisation.relative_equilibrium` for a potential
+    without quartic or nonlinear terms (the runs may not import the analysis layer)."""
+    keep = in_degenerate_eigenspace(sys.J0, e)
+    w, s = spin * e, np.zeros(sys.n_modes)
+    for _ in range(iterations):
+        k = rf.rotating_frame_matrices(sys, w)[2]
+        s_new = np.linalg.solve(k, 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w) - sys.F1)
+        w_new = spin * equilibrium_direction(dy.inertia_tensor(sys, s_new, "rot"), e, keep)
+        done = np.allclose(s_new, s, rtol=1e-13, atol=1e-300) and np.allclose(w_new, w, rtol=1e-13)
+        w, s = w_new, s_new
+        if done:
+            break
+    return w, s
+
+
+def coning_rate(sys: rsys.ReducedSystem, spin: float, axis: np.ndarray, cone: float) -> float:
+    """θ̇/θ (1/s) of the energy-sink law (:func:`quadmodes.analysis.energy_sink.energy_sink`,
+    its ``growth_rate``: the steady modal response to the coning forced at the nutation
+    frequency ν, the power the modal damping dissipates, the rigid body's cone growth at
+    constant H) of ``sys`` about its relative equilibrium at ``spin`` (rad/s) near ``axis``
+    (3,), at the cone angle ``cone`` (rad, > 0). NaN for a quartic or nonlinear potential."""
+    if sys.nonlinear or sys.n_modes == 0:
+        return math.nan
+    e = np.asarray(axis, float) / np.linalg.norm(axis)
+    w0, s_eq = _equilibrium(sys, spin, e)
+    lam, vec = np.linalg.eigh(dy.inertia_tensor(sys, s_eq))
+    j = int(np.argmax(np.abs(vec.T @ w0)))
+    others = [i for i in range(3) if i != j]
+    i_a, i_t = float(lam[j]), float(np.mean(lam[others]))
+    e_a = w0 / np.linalg.norm(w0)
+    e1 = vec[:, others[0]] - (vec[:, others[0]] @ e_a) * e_a
+    e1 /= np.linalg.norm(e1)
+    nu = (i_a - i_t) / i_t * spin
+    w_hat = i_a / i_t * spin * math.tan(cone) * (e1 - 1j * np.cross(e_a, e1))
+    n = sys.n_modes
+
+    def row(x):  # μ × the modal row at (s, ṡ, ω, ω̇): polynomial, so central differences are exact
+        y = np.concatenate([x[:n], x[n : 2 * n]])
+        w, wd = x[2 * n : 2 * n + 3], x[2 * n + 3 :]
+        return sys.mu @ dy.prescribed_rhs(sys, 0.0, y, lambda t: w, lambda t: wd)[n:]
+
+    base = np.concatenate([s_eq, np.zeros(n), w0, np.zeros(3)])
+    h = np.concatenate([np.full(2 * n, max(np.linalg.norm(s_eq), 1e-6)), np.full(6, max(spin, 1.0))]) * 1e-6
+    jac = np.stack([(row(base + h[i] * d) - row(base - h[i] * d)) / (2 * h[i])
+                    for i, d in enumerate(np.eye(base.size))], axis=1)  # fmt: skip
+    force = (jac[:, 2 * n : 2 * n + 3] + 1j * nu * jac[:, 2 * n + 3 :]) @ w_hat
+    s_hat = np.linalg.solve(-jac[:, :n] - 1j * nu * jac[:, n : 2 * n] - nu**2 * sys.mu, force)
+    power = 0.5 * nu**2 * float(np.real(s_hat.conj() @ sys.C @ s_hat))
+    theta_dot = power * i_t * math.cos(cone) / (i_a * spin**2 * math.sin(cone) * (i_t - i_a))
+    return theta_dot / cone
+
+
 def sink_error(setup, omega: np.ndarray, cone: float) -> float:
     """|θ̇/θ of the run's model / that of the model rebuilt about the spin − 1| at the angular
     velocity ``omega`` (3,) rad/s along the reference axis and the cone angle ``cone`` (rad):
-    the energy-sink coning rates (:func:`quadmodes.analysis.energy_sink.energy_sink`), each
-    model linearised about its relative equilibrium at that spin
-    (:func:`quadmodes.analysis.run_answer.spin_roots`). NaN where it cannot be measured (no
-    relative equilibrium, no dissipation)."""
-    from quadmodes.analysis.energy_sink import energy_sink
-    from quadmodes.analysis.run_answer import spin_roots
-
+    the energy-sink coning rates (:func:`coning_rate`), each model about its relative
+    equilibrium at that spin. NaN where it cannot be measured (a quartic or nonlinear
+    potential, no relative equilibrium, no dissipation)."""
     spin = float(np.linalg.norm(omega))
-    run = setup.run
-    moved = run.model_copy(update={"initial": run.initial.model_copy(
-        update={"spin_rate": spin, "cone_angle": max(float(cone), 1e-3)})})  # fmt: skip
-    rates = []
+    axis = np.asarray(omega, float) / spin
+    cone = max(float(cone), 1e-3)  # the ratio has a limit at θ → 0
     try:
-        for model, system in ((setup.model, setup.system), _rebuilt(setup, spin)):
-            roots = spin_roots(moved, model)
-            rates.append(energy_sink(system, roots["_s_eq"], roots["_omega0"],
-                                     max(float(cone), 1e-3)).growth_rate)  # fmt: skip
-    except (ValueError, ArithmeticError, KeyError, np.linalg.LinAlgError):
+        rates = [coning_rate(setup.system, spin, axis, cone),
+                 coning_rate(_rebuilt(setup, spin)[1], spin, axis, cone)]  # fmt: skip
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
         return math.nan
     if not (math.isfinite(rates[0]) and math.isfinite(rates[1]) and rates[1] != 0.0):
         return math.nan
