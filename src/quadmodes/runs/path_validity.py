@@ -21,7 +21,9 @@ saved sample of the path:
   leaves out, far from tight (the 41 Hz model of paper-41hz-coarse at 37.7 Hz is within 0.09 %
   of the model rebuilt there, docs/validation.md); where a path passes it and the run checks its
   path against the FE model (``quadmodes run``), the range is measured instead
-  (:func:`with_measured_range`, :mod:`quadmodes.runs.spin_check`).
+  (:func:`with_measured_range`, :mod:`quadmodes.runs.spin_check`): the frequencies and, what
+  the run's answer is made of, the energy-sink coning rate (300 × more sensitive to the spin
+  than the frequencies on paper-41hz-coarse), each against the model rebuilt about the spin.
 * **Rotating-frame stiffness**: Λ − ωᵀJ2ω positive definite at the path's angular velocities
   (on at most :data:`STIFFNESS_SAMPLES` samples and the one of largest |ω|), the check
   :mod:`quadmodes.runs.validity` makes at the initial spin.

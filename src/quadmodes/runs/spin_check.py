@@ -15,11 +15,13 @@ from the reference: on paper-41hz-coarse it grows more slowly, docs/validation.m
 The frequencies are not what a run's answer is made of. The coning response is forced at the
 nutation frequency, near the rotating-frame branches, and its amplitude follows the small
 detuning a spin change makes (in the prestress, the reference shape, the forcing), so the cone
-growth moves 10–40 × more than the frequencies (docs/path-validity.md, item 2). Hence a second
-measure with the same rebuilt model (:func:`sink_error`): the energy-sink coning rate θ̇/θ
-(:func:`coning_rate`, the estimate of :mod:`quadmodes.analysis.energy_sink` restated on the
-model layer: the forced response at the nutation frequency and the power it dissipates) of the run's model linearised about its relative equilibrium at the
-path's spin, against the rebuilt model's about its own reference, held to
+growth moves 10–300 × more than the frequencies (paper-41hz-coarse: 1.25 % per 1 % of spin,
+docs/path-validity.md). Hence a second measure with the same rebuilt model
+(:func:`sink_error`): the energy-sink coning rate θ̇/θ (:func:`coning_rate`, the estimate of
+:mod:`quadmodes.analysis.energy_sink` restated on the model layer: the forced response at the
+nutation frequency and the power it dissipates) of the run's model linearised about its
+relative equilibrium at the path's spin, against the rebuilt model's about its own reference,
+held to
 :data:`SINK_TOLERANCE`. Where it fails, :func:`spin_limit` measures once more at the departure
 the first measurement predicts (a second model build), so the limit is interpolated, not
 extrapolated.
