@@ -123,6 +123,7 @@ def test_measured_range_replaces_the_bound(monkeypatch, eps):
     sol, setup = SimpleNamespace(t=t, y=y), SimpleNamespace(system=sys)
     diag = SimpleNamespace(spin_rate=(1 - fall) * 50.0, cone_angle=np.zeros(len(t)))
     monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(w @ E1), eps))
+    monkeypatch.setattr(spin_check, "sink_error", lambda s, w, c: 0.0)  # the frequencies decide
     bound = path_validity(setup, sol, diag)
     assert bound.left_at == 2.0  # a 1 % spin fall is δ = 1.99 % ≤ 2 %, 2 % is past it
     out = pv.with_measured_range(bound, setup, sol, diag)
@@ -135,6 +136,65 @@ def test_measured_range_replaces_the_bound(monkeypatch, eps):
         assert out.centrifugal_limit == pytest.approx(limit)
         k = int(np.argmax(1 - (1 - fall) ** 2 > limit))
         assert out.left_at == t[k] and "measured" in out.left_reason
+
+
+def _falling_spin(fall_end: float, n: int = 41):
+    """A rigid path about 50 rad/s along E1 whose spin falls linearly by ``fall_end`` (fraction)."""
+    sys = dataclasses.replace(rigid_system(), reference_omega=50.0 * E1)
+    fall = np.linspace(0.0, fall_end, n)
+    y = np.array([rsys.pack_state(sys, omega=(1 - f) * 50.0 * E1) for f in fall])
+    t = np.arange(n, dtype=float)
+    diag = SimpleNamespace(spin_rate=(1 - fall) * 50.0, cone_angle=np.full(n, 0.2))
+    return SimpleNamespace(system=sys), SimpleNamespace(t=t, y=y), diag, fall
+
+
+def test_coning_rate_flags_a_spin_departure_the_frequencies_pass(monkeypatch):
+    """A path whose spin falls by 5 %: the rebuilt model's frequencies agree within 0.1 %
+    (passes), its energy-sink coning rate moves by 1.1 × the spin's relative change (the
+    sensitivity measured on paper-41hz-coarse). The path leaves its range where that reaches
+    2 %: a spin fall of 2 / 1.1 %, in Ω² 1 − (1 − 0.02/1.1)², located by the second measurement
+    (interpolated between the two measured spins in δ ∝ Ω², to the curvature of Ω² over that
+    interval: 1e-3). Without the coning rate (not measurable) the frequencies pass it."""
+    from quadmodes.runs import path_validity as pv
+    from quadmodes.runs import spin_check
+
+    setup, sol, diag, fall = _falling_spin(0.05)
+    spins = []
+    monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(w @ E1), 1e-3))
+
+    def sink(s, w, cone):
+        spins.append(float(np.linalg.norm(w)))
+        return 1.1 * abs(1.0 - float(np.linalg.norm(w)) / 50.0)
+
+    monkeypatch.setattr(spin_check, "sink_error", sink)
+    bound = path_validity(setup, sol, diag)
+    out = pv.with_measured_range(bound, setup, sol, diag)
+    assert len(spins) == 2 and spins[0] == pytest.approx(0.95 * 50.0)  # two rebuilt models
+    expect = 1.0 - (1.0 - 0.02 / 1.1) ** 2
+    assert out.centrifugal_limit == pytest.approx(expect, rel=1e-3)
+    k = int(np.argmax(1 - (1 - fall) ** 2 > expect))
+    assert out.left_at == sol.t[k] and "coning rate" in out.left_reason and not out.valid
+    assert out.measured_error == 1e-3  # the second spin: the first sample past the prediction
+    assert out.measured_sink_error == pytest.approx(spin_check.SINK_TOLERANCE, rel=0.05)
+    monkeypatch.setattr(spin_check, "sink_error", lambda s, w, c: math.nan)
+    freq_only = pv.with_measured_range(bound, setup, sol, diag)
+    assert freq_only.left_at is None and math.isnan(freq_only.measured_sink_error)
+
+
+def test_a_path_within_the_bound_is_not_measured(monkeypatch):
+    """A spin falling by 0.5 % (δ ≤ 1 %, inside the a-priori 2 %): no model is rebuilt and the
+    centrifugal check passes (a spin-family member's departure is at most 0.41 %)."""
+    from quadmodes.runs import path_validity as pv
+    from quadmodes.runs import spin_check
+
+    def never(*_):
+        raise AssertionError("no rebuilt model inside the a-priori bound")
+
+    monkeypatch.setattr(spin_check, "measured_error", never)
+    monkeypatch.setattr(spin_check, "sink_error", never)
+    setup, sol, diag, _ = _falling_spin(0.005)
+    out = pv.with_measured_range(path_validity(setup, sol, diag), setup, sol, diag)
+    assert out.left_at is None and math.isnan(out.measured_sink_error)
 
 
 def test_api_simulate_until(workdir):  # noqa: F811
@@ -201,6 +261,7 @@ def test_a_planar_body_is_not_out_of_range_by_its_rigid_tilt(monkeypatch):
     assert out.left_at == 0.0 and "in the body's plane" not in out.left_reason
 
     setup, sol, diag = _nutating(PLANAR, 9.92)
+    monkeypatch.setattr(spin_check, "sink_error", lambda s, w, c: 0.0)  # the frequencies decide
     bound = path_validity(setup, sol, diag)
     assert bound.left_at == 0.0 and "in the body's plane" in bound.left_reason
     monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(np.linalg.norm(w)), 1e-9))
@@ -213,3 +274,50 @@ def test_a_planar_body_is_not_out_of_range_by_its_rigid_tilt(monkeypatch):
     monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(abs(w @ E1)), 0.0))
     still = pv.with_measured_range(path_validity(tall, sol, diag), tall, sol, diag)
     assert still.left_at == 0.0 and "tilted by 9.92 deg" in still.left_reason
+
+
+@pytest.fixture(scope="module")
+def capsule_models(small_modal_model):
+    """The small capsule about 300, 309 and 304.5 rad/s, N = 5."""
+    from test_spinning_reference import spinning_model
+
+    return tuple(spinning_model(small_modal_model, 5, f * 300.0) for f in (1.0, 1.03, 1.015))
+
+
+@pytest.mark.parametrize("spin", [300.0, 309.0])
+def test_coning_rate_is_the_energy_sink_estimate(capsule_models, spin):
+    """The path check's coning rate (restated on the model layer) is the energy-sink estimate
+    of quadmodes.analysis (its relative equilibrium, forced response and power) to 1e-9, on the
+    model about 300 rad/s at its own spin and 3 % off it."""
+    from quadmodes.analysis.energy_sink import energy_sink
+    from quadmodes.analysis.reduced_linearisation import relative_equilibrium
+    from quadmodes.runs.spin_check import coning_rate
+
+    model = capsule_models[0]
+    sys = rsys.reduced_system(model, "Q")
+    e = np.asarray(model.reference_axis, float)
+    w0, s_eq, _ = relative_equilibrium(sys, spin, e)
+    want = energy_sink(sys, s_eq, w0, 0.1).growth_rate
+    assert want != 0.0
+    assert coning_rate(sys, spin, e, 0.1) == pytest.approx(want, rel=1e-9)
+
+
+def test_a_model_about_the_paths_spin_has_no_coning_rate_error(capsule_models, monkeypatch):
+    """sink_error compares the run's model with the model rebuilt about the spin: the model
+    about 309 rad/s against itself there is exact (a run that does not depart), the model about
+    300 rad/s at 309 rad/s (3 %) is not; at half the departure the error is about half (first
+    order in the departure, which the interpolation of spin_limit assumes)."""
+    from quadmodes.runs import spin_check
+
+    m300, m309, m304 = capsule_models
+    by_spin = {300.0: m300, 309.0: m309, 304.5: m304}
+    monkeypatch.setattr(spin_check, "_rebuilt", lambda s, spin: (None, rsys.reduced_system(
+        by_spin[round(spin, 6)], "Q")))  # fmt: skip
+    e = np.asarray(m300.reference_axis, float)
+    own = SimpleNamespace(system=rsys.reduced_system(m309, "Q"))
+    assert spin_check.sink_error(own, 309.0 * e, 0.1) == 0.0
+    run = SimpleNamespace(system=rsys.reduced_system(m300, "Q"))
+    full = spin_check.sink_error(run, 309.0 * e, 0.1)
+    half = spin_check.sink_error(run, 304.5 * e, 0.1)
+    assert full > 0.0 and math.isfinite(full)
+    assert 1.6 <= full / half <= 2.4, (full, half)

@@ -44,9 +44,13 @@ def main() -> None:
     print(f"{run.name}: t = 0 … {t[-1]:.6g} s, spin {diag.spin_rate[0] / (2 * math.pi):.5g} → "
           f"{diag.spin_rate[-1] / (2 * math.pi):.5g} Hz, cone {math.degrees(diag.cone_angle[0]):.4g}"
           f" → {math.degrees(diag.cone_angle[-1]):.4g} deg; checks {time.perf_counter() - start:.1f} s")  # fmt: skip
-    out = {f.name: getattr(path, f.name) for f in dataclasses.fields(path)}
+    out = {f.name: getattr(path, f.name) for f in dataclasses.fields(path)
+           if f.name != "tension_samples"}  # (arrays)
     out["spin_range_hz"] = [v / (2 * math.pi) for v in path.spin_range]
     out["measured_spin_hz"] = path.measured_spin / (2 * math.pi)
+    out["measured_sink_spin_hz"] = path.measured_sink_spin / (2 * math.pi)
+    k = int(np.argmax(t >= path.left_at)) if path.left_at is not None else -1
+    out["left_cone_deg"] = math.degrees(diag.cone_angle[k]) if k >= 0 else None
     print(json.dumps(out, indent=1, default=float))
     print("valid:", path.valid, "|", path.message())
 

@@ -91,6 +91,9 @@ def path_attrs(result) -> dict:
             centrifugal_measured_spin_rate=float(path.measured_spin),
             centrifugal_measured_spin_rate_units="rad/s",
             centrifugal_measured_frequency_error=float(path.measured_error),
+            centrifugal_measured_sink_spin_rate=float(path.measured_sink_spin),
+            centrifugal_measured_sink_spin_rate_units="rad/s",
+            centrifugal_measured_sink_error=float(path.measured_sink_error),
         )  # fmt: skip
     until = result.run.integration.until if result.run.integration is not None else None
     if until:
@@ -141,6 +144,8 @@ def path_summary(ds: xr.Dataset) -> dict:
             "taut": {1: True, 0: False}.get(int(ds.attrs.get("path_taut", -1))),
             "centrifugal_measured_at_spin_hz": _hz(_f(ds, "centrifugal_measured_spin_rate")),
             "centrifugal_measured_frequency_error": _f(ds, "centrifugal_measured_frequency_error"),
+            "centrifugal_measured_sink_at_spin_hz": _hz(_f(ds, "centrifugal_measured_sink_spin_rate")),
+            "centrifugal_measured_sink_error": _f(ds, "centrifugal_measured_sink_error"),
             "message": str(ds.attrs.get("path_message", "")),
         })  # fmt: skip
     if "until" in ds.attrs:

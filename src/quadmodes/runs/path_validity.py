@@ -21,7 +21,9 @@ saved sample of the path:
   leaves out, far from tight (the 41 Hz model of paper-41hz-coarse at 37.7 Hz is within 0.09 %
   of the model rebuilt there, docs/validation.md); where a path passes it and the run checks its
   path against the FE model (``quadmodes run``), the range is measured instead
-  (:func:`with_measured_range`, :mod:`quadmodes.runs.spin_check`).
+  (:func:`with_measured_range`, :mod:`quadmodes.runs.spin_check`): the frequencies and, what
+  the run's answer is made of, the energy-sink coning rate (300 × more sensitive to the spin
+  than the frequencies on paper-41hz-coarse), each against the model rebuilt about the spin.
 * **Rotating-frame stiffness**: Λ − ωᵀJ2ω positive definite at the path's angular velocities
   (on at most :data:`STIFFNESS_SAMPLES` samples and the one of largest |ω|), the check
   :mod:`quadmodes.runs.validity` makes at the initial spin.
@@ -44,11 +46,12 @@ import numpy as np
 
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
+from quadmodes.runs import spin_check
 from quadmodes.runs.validity import DEFORMATION_ENERGY_TOLERANCE
 
 #: Relative frequency error the reduced models are held to (every rotating-frame branch within
 #: 1 % of the full order on the paper models, docs/full-order.md).
-FREQUENCY_TOLERANCE = 0.01
+FREQUENCY_TOLERANCE = spin_check.FREQUENCY_TOLERANCE
 #: Largest departure δ of the centrifugal load from the model's: 2 × the frequency tolerance
 #: (δ bounds the relative error of the squared frequencies, module docstring).
 CENTRIFUGAL_LIMIT = 2.0 * FREQUENCY_TOLERANCE
@@ -72,6 +75,9 @@ class PathValidity:
     measured_spin (rad/s) and measured_error: where the centrifugal range was measured against a
     model rebuilt about that spin and the largest relative difference of the rotating-frame
     frequencies there (NaN: not measured; then centrifugal_limit is the a-priori bound);
+    measured_sink_spin (rad/s) and measured_sink_error: the last spin where the energy-sink
+    coning rates of the run's and the rebuilt model were compared and their relative
+    difference (NaN: not measured, :func:`quadmodes.runs.spin_check.spin_limit`);
     least_tension (N/m): the smallest minor principal resultant of the membrane elements taut at
     the reference on the checked samples, slack_area the largest fraction of their area slack,
     reference_slack_area the reference's own slack area (NaN: no tension check,
@@ -97,6 +103,8 @@ class PathValidity:
     amplitude_slack_fraction: float = math.inf
     measured_spin: float = math.nan
     measured_error: float = math.nan
+    measured_sink_spin: float = math.nan
+    measured_sink_error: float = math.nan
     least_tension: float = math.nan
     slack_area: float = math.nan
     reference_slack_area: float = math.nan
@@ -424,13 +432,15 @@ def run_path_validity(setup, solution, diag) -> PathValidity:
 
 
 def with_measured_range(path: PathValidity, setup, solution, diag) -> PathValidity:
-    """``path`` with its spin range measured (:mod:`quadmodes.runs.spin_check`) when the path
-    passes the a-priori bound: the model rebuilt about the spin of the sample of largest spin
-    departure, the rotating-frame frequencies of both compared there (a pure spin about the
-    reference axis); the limit of the spin part of δ becomes that departure if they agree within
-    :data:`FREQUENCY_TOLERANCE`, else departure · tolerance / ε. The tilt keeps the a-priori
-    bound (a tilted steady spin is no state a model is built about)."""
-    from quadmodes.runs.spin_check import measured_error
+    """``path`` with its spin range measured (:func:`quadmodes.runs.spin_check.spin_limit`)
+    when the path passes the a-priori bound: the model rebuilt about the spin of the sample of
+    largest spin departure (a pure spin about the reference axis), its rotating-frame
+    frequencies (within :data:`FREQUENCY_TOLERANCE`) and its energy-sink coning rate (within
+    :data:`~quadmodes.runs.spin_check.SINK_TOLERANCE`: what the run's answer is made of) against
+    the run's model's there; the limit of the spin part of δ is that departure if both agree,
+    else where the worse reaches its tolerance. The tilt keeps the a-priori bound (a tilted
+    steady spin is no state a model is built about)."""
+    from quadmodes.runs.spin_check import spin_limit
 
     if not path.reference_spin or not path.centrifugal_max > path.centrifugal_limit:
         return path
@@ -439,18 +449,14 @@ def with_measured_range(path: PathValidity, setup, solution, diag) -> PathValidi
     e = w_ref / np.linalg.norm(w_ref)
     if is_planar(setup.system):  # the spin, about e or whole, of the largest in-plane departure
         spin = plane_departure(w, w_ref)
-        k = int(np.argmax(spin))
-        rates = (abs(float(w[k] @ e)), float(np.linalg.norm(w[k])))
-        rate_k = max(rates, key=lambda r: abs(r * r - float(w_ref @ w_ref)))
+        axial, whole = np.abs(w @ e), np.linalg.norm(w, axis=1)
+        rate = np.where(np.abs(axial**2 - w_ref @ w_ref) >= np.abs(whole**2 - w_ref @ w_ref),
+                        axial, whole)  # fmt: skip
     else:
-        spin = spin_and_tilt(w, w_ref)[0]
-        k = int(np.argmax(spin))
-        rate_k = float(w[k] @ e)
-    rate, eps = measured_error(setup, rate_k * e)
-    ok = eps <= FREQUENCY_TOLERANCE
-    limit = float(spin[k]) if ok else float(spin[k]) * FREQUENCY_TOLERANCE / eps
-    basis = (f"measured: the model rebuilt about {rate / (2 * math.pi):.5g} Hz differs by "
-             f"{100 * eps:.2g} % in its rotating-frame frequencies there"
-             + ("" if ok else ", taken linear in the departure"))  # fmt: skip
-    measured = path_validity(setup, solution, diag, limit, basis)
-    return dataclasses.replace(measured, measured_spin=rate, measured_error=eps)
+        spin, rate = spin_and_tilt(w, w_ref)[0], w @ e
+    found = spin_limit(setup, spin, rate, np.asarray(diag.cone_angle, float), e)
+    measured = path_validity(setup, solution, diag, found.limit, found.basis)
+    return dataclasses.replace(measured, measured_spin=found.spin,
+                               measured_error=found.frequency_error,
+                               measured_sink_spin=found.sink_spin,
+                               measured_sink_error=found.sink_error)  # fmt: skip
