@@ -253,3 +253,27 @@ def test_largest_nodal_resultant_of_the_spinning_disc_is_the_closed_forms():
     spin = modes_summary(build_modal_model(load_case("spinning-disc")))["spinning_reference"]
     exact = (3.3 / 8) * 1420.0 * 1.0**2 * 5.0**2 * 7.5e-6
     assert spin["stress_resultant_max_nodal_n_per_m"] == pytest.approx(exact, rel=5e-3)
+
+
+# ------------------------------------------- built-in nutation runs inside the taut range (item 6)
+
+
+@pytest.mark.parametrize("name, duration", [("ikaros-sail-nutation", "60 s"),
+                                            ("spinning-annulus-nutation", "10 s")])  # fmt: skip
+def test_builtin_nutation_runs_start_inside_the_taut_range(name, duration):
+    """The shipped nutation runs start inside the taut range (the exact slack check finds no
+    element slack along the path and the onset lies beyond the path's largest state; the tilt
+    and modal-amplitude checks pass: `valid`); their 5° starts are the `-large` cases, whose
+    descriptions say they are outside it."""
+    from quadmodes.case import load_run_case
+    from quadmodes.case.editing import edit
+
+    run = load_run_case(name)
+    assert 0 < run.initial.cone_angle < np.radians(0.1)
+    s = qm.summary(qm.simulate(edit(run, {"integration.duration": duration}, "test")))
+    path = s["path_validity"]
+    assert s["valid"] and path["valid"] and path["taut"], path["message"]
+    assert path["slack_area_fraction"] == 0 and path["slack_onset_fraction_of_peak"] > 1.2
+    large = load_run_case(f"{name}-large")
+    assert large.initial.cone_angle == pytest.approx(np.radians(5.0))
+    assert "outside the taut range" in large.description
