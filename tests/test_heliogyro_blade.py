@@ -42,7 +42,7 @@ def _model(edge: float, spin: float = 1.0, count: int = 12):
 
 def test_flap_against_the_string():
     """The alternating flap pattern (no net force or moment on the hub) within 0.05 % of the
-    string with centrifugal tension, first and second flap, on the built-in mesh; ω/Ω the same at
+    string with centrifugal tension, first and second flap, on the 0.25 m mesh; ω/Ω the same at
     1 and 3 rad/s."""
     g = load_case("heliogyro-blade").geometry
     ref = flap_ratios(0.5 * g.inner_diameter, g.length, 2)

@@ -61,12 +61,12 @@ def test_spinning_state_and_corners(sail):
 
 @pytest.fixture(scope="module")
 def nutation():
-    """The built-in run case (reduced, about the spinning state, 2 % membrane damping) on 8
-    modes for 150 s, with the path's checks of `quadmodes run`."""
+    """The built-in run case from 5° (reduced, about the spinning state, 2 % membrane damping;
+    outside the taut range) on 8 modes for 150 s, with the path's checks of `quadmodes run`."""
     import quadmodes as qm
 
-    run = edit(load_run_case("ikaros-sail-nutation"), {"reduced.modes": 8,
-                                                       "integration.duration": "150 s"}, "test")  # fmt: skip
+    run = edit(load_run_case("ikaros-sail-nutation-large"), {"reduced.modes": 8,
+                                                             "integration.duration": "150 s"}, "test")  # fmt: skip
     return qm.simulate(run)
 
 

@@ -121,7 +121,9 @@ def _undamped(model):
 def test_paper_run_cases_load_and_validate():
     names = ["paper-0.5hz", "paper-0.5hz-large", "paper-41hz", "paper-41hz-coarse",
              "paper-41hz-seed"]
-    assert builtin_run_case_names() == ["ikaros-sail-nutation", *names, "spinning-annulus-nutation",
+    assert builtin_run_case_names() == ["ikaros-sail-nutation", "ikaros-sail-nutation-large", *names,
+                                        "spinning-annulus-nutation",
+                                        "spinning-annulus-nutation-large",
                                         "spinning-disc-nutation"]  # fmt: skip
     coarse = load_run_case("paper-41hz-coarse")
     assert coarse.model == "paper-membrane-coarse" and coarse.initial.spin_rate > 0

@@ -2,8 +2,8 @@
 "Full-order comparisons in time on the hub-mounted bodies"): the membrane's loss of tension,
 measured step by step, and the Newton matrix where it fails.
 
-Runs the full order of a run case (default ``spinning-annulus-nutation``, independent damping)
-with every step sampled and prints, every ``--every`` steps: the largest out-of-plane
+Runs the full order of a run case (default ``spinning-annulus-nutation-large``, 5°, independent
+damping) with every step sampled and prints, every ``--every`` steps: the largest out-of-plane
 deflection of the membrane relative to the hub (in the hub's frame), the share of elements in
 compression, the least and largest principal stress resultants. On the Newton failure it prints
 the error and, at the last state reached: cond(A) of the step matrix ``A = M + (Δt²/2)K``, the
@@ -15,7 +15,7 @@ penalty's round-off). Nothing is asserted. Usage (~15 s)::
 
     OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_newton
     OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_newton --dt 0.01 --window 8 --every 25
-    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_newton --case ikaros-sail-nutation --dt 0.2
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_sail_newton --case ikaros-sail-nutation-large --dt 0.2
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ class SplitLog:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--case", default="spinning-annulus-nutation")
+    ap.add_argument("--case", default="spinning-annulus-nutation-large")
     ap.add_argument("--dt", type=float, default=0.05, help="full-order step (s)")
     ap.add_argument("--window", type=float, default=3.0, help="simulated window (s)")
     ap.add_argument("--every", type=int, default=1, help="print every so many steps")
