@@ -61,3 +61,21 @@ def test_run_writes_the_ratio_with_units_and_reads_it_back(tmp_path):
     # the reduced run's cone growth is the law's for its dissipated power (measured 1.0004 at
     # 41 Hz: the energy into the elastic response and the inertia's change are left out)
     assert 0.995 < sink["ratio_min"] <= sink["ratio_max"] < 1.005
+
+
+def test_a_run_that_does_not_resolve_a_cone_growth_is_not_judged():
+    """paper-0.5hz's cone wobbles with its bending vibration and grows with a 2.7e10 s time
+    constant: straight lines through short windows have 'significant' slopes of either sign
+    (ratios −164 … 161), but the run's own secular fit is within 2 standard errors of 0 —
+    then neither the summary row nor the report gives a range of ratios."""
+    from quadmodes.cli.path_rows import _sink
+    from quadmodes.io.path_report import sink_parts
+
+    sink = {"windows": 2, "window_start_s": [1.0, 2.0], "window_end_s": [2.0, 3.0],
+            "ratio": [-163.8, 160.9], "ratio_se": [10.0, 10.0], "windows_resolved": 2,
+            "ratio_min": -163.8, "ratio_max": 160.9, "rule": "r"}  # fmt: skip
+    wobble = {"energy_sink_consistency": sink, "cone_growth_significant": False}
+    assert _sink(wobble).startswith("— (the run does not resolve a cone growth")
+    assert "not judged" in "".join(sink_parts(sink, resolved=False))
+    grows = {"energy_sink_consistency": sink, "cone_growth_significant": True}
+    assert _sink(grows).startswith("-163.80000 – 160.90000 over 2 of 2 windows")

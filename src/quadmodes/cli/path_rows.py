@@ -85,6 +85,8 @@ def _sink(summary: dict) -> str | None:
     sink = summary.get("energy_sink_consistency")
     if not sink:
         return None
+    if summary.get("cone_growth_significant") is False:  # window slopes of a wobbling cone
+        return "— (the run does not resolve a cone growth: its secular fit is within 2 standard errors of 0)"
     if sink.get("ratio_min") is None:
         return "— (the cone's growth is within 2 standard errors of 0 in every window)"
     resolved = sink.get("windows_resolved", sink["windows"])

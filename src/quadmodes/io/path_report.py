@@ -54,14 +54,21 @@ def path_parts(summary: dict) -> list[str]:
         rows = [(f"{mark} deg", format_value(t)) for mark, t in times.items()]
         parts.append(table(("cone angle", "first reached at t (s)"), rows,
                            "times to cone angles (interpolated between saved samples)"))  # fmt: skip
-    return parts + sink_parts(summary.get("energy_sink_consistency"))
+    return parts + sink_parts(summary.get("energy_sink_consistency"),
+                              summary.get("cone_growth_significant") is not False)
 
 
-def sink_parts(sink: dict | None) -> list[str]:
+def sink_parts(sink: dict | None, resolved: bool = True) -> list[str]:
     """The energy-sink law against the run along its path (``energy_sink_consistency`` of the
-    summary, :mod:`quadmodes.runs.sink_consistency`): one row a window."""
+    summary, :mod:`quadmodes.runs.sink_consistency`): one row a window; a paragraph only when
+    the run does not resolve a cone growth (``resolved`` False: its secular fit is within 2
+    standard errors of 0, so window ratios are ratios of noise)."""
     if not sink or not sink.get("windows"):
         return []
+    if not resolved:
+        return [paragraph("energy-sink consistency along the path: not judged — the run does "
+                          "not resolve a cone growth (its secular fit is within 2 standard "
+                          "errors of 0)")]  # fmt: skip
     rows = [(format_value(a, ".5g"), format_value(b, ".5g"), format_value(r, ".5g"),
              format_value(se, ".2g"))
             for a, b, r, se in zip(sink["window_start_s"], sink["window_end_s"], sink["ratio"],
