@@ -54,7 +54,8 @@ def _taut(summary: dict) -> str | None:
     apart = f"; {100 * rest:.2g} % slack at the reference, not judged" if rest else ""
     if least is None:
         return f"True (no deformation above round-off){apart}"
-    verdict = {True: "True", False: "False", None: "recorded"}[path.get("taut")]
+    verdict = {True: "True", False: "False",  # None: a pressurised membrane (its energy check judges)
+               None: "recorded, not judged for a pressurised membrane"}[path.get("taut")]
     return (f"{verdict}: least tension {least:.3g} N/m, {100 * path['slack_area_fraction']:.3g} % "
             f"of the taut area slack; the largest |s| is "
             f"{_times(path.get('slack_onset_fraction_of_peak'))} the onset{apart}")  # fmt: skip
