@@ -289,8 +289,8 @@ def test_coning_rate_is_the_energy_sink_estimate(capsule_models, spin):
     """The path check's coning rate (restated on the model layer) is the energy-sink estimate
     of quadmodes.analysis (its relative equilibrium, forced response and power) to 1e-9, on the
     model about 300 rad/s at its own spin and 3 % off it."""
-    from quadmodes.analysis.energy_sink import energy_sink
     from quadmodes.analysis.reduced_linearisation import relative_equilibrium
+    from quadmodes.rom.energy_sink import energy_sink
     from quadmodes.runs.spin_check import coning_rate
 
     model = capsule_models[0]

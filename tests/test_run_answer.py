@@ -10,10 +10,10 @@ import pytest
 from conftest import SMALL_CAPSULE
 from test_run import run_toml
 
-from quadmodes.analysis.energy_sink import EnergySink, energy_sink_cone_rate
 from quadmodes.analysis.run_answer import verdict, with_linear_answer
 from quadmodes.case import load_run_case, run_case_from_toml
 from quadmodes.io import cf
+from quadmodes.rom.energy_sink import EnergySink, energy_sink_cone_rate
 from quadmodes.runs import results, simulate
 from quadmodes.runs.deformation_check import deformation_structure, initial_slack_onset
 from quadmodes.signals import log_decrement

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from quadmodes.analysis.energy_sink import energy_sink_cone_rate
+from quadmodes.rom.energy_sink import energy_sink_cone_rate
 from quadmodes.runs import sink_consistency as sc
 
 I_A, I_T, H = 0.2, 11.4, 320.0  # kg m², kg m², kg m²/s: a prolate minor-axis spinner

@@ -23,11 +23,11 @@ import xarray as xr
 from conftest import SMALL_CAPSULE, assert_cf_file
 from typer.testing import CliRunner
 
-from quadmodes.analysis import energy_sink as es
 from quadmodes.case import load_case, load_run_case
 from quadmodes.cli.app import app
 from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact
+from quadmodes.rom import energy_sink as es
 from quadmodes.rom import system as rsys
 from quadmodes.sweeps.engine import plan_sweep
 from quadmodes.sweeps.params import SweepError, grid, parse_param

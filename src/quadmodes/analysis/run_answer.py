@@ -5,7 +5,7 @@ Stages::
     run case + reduced model ──spin_roots──▶ rotating-frame roots at the run's spin (undamped and
                                              damped) and the relative equilibrium (s*, ω0)
                              ──linear_answer──▶ LinearAnswer: the energy-sink estimate
-                                             (:mod:`quadmodes.analysis.energy_sink`) at the run's
+                                             (:mod:`quadmodes.rom.energy_sink`) at the run's
                                              cone angle, the nutation root, the stability verdict
 
 ``quadmodes sweep`` stores the same numbers per point (``sweeps.points`` calls
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from quadmodes.analysis.campbell import campbell
-from quadmodes.analysis.energy_sink import EnergySink, energy_sink
+from quadmodes.rom.energy_sink import EnergySink, energy_sink
 from quadmodes.runs import secular
 
 #: The rule of :attr:`LinearAnswer.stability` in words (stored with the outputs).

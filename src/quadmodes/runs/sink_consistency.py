@@ -1,7 +1,7 @@
 """Energy-sink consistency along a run's path (issue 29 item 5): does the energy-sink law,
 applied to the power the run itself dissipates, predict the cone growth the run itself shows?
 
-The law (:mod:`quadmodes.analysis.energy_sink`, docs/sweeps.md): a torque-free body keeps its
+The law (:mod:`quadmodes.rom.energy_sink`, docs/sweeps.md): a torque-free body keeps its
 angular momentum H while its kinetic energy T = H²/2 (cos²θ/I_a + sin²θ/I_t) falls by the
 dissipated power P, so
 

@@ -18,7 +18,7 @@ detuning a spin change makes (in the prestress, the reference shape, the forcing
 growth moves 10–300 × more than the frequencies (paper-41hz-coarse: 1.25 % per 1 % of spin,
 docs/path-validity.md). Hence a second measure with the same rebuilt model
 (:func:`sink_error`): the energy-sink coning rate θ̇/θ (:func:`coning_rate`, the estimate of
-:mod:`quadmodes.analysis.energy_sink` restated on the model layer: the forced response at the
+:mod:`quadmodes.rom.energy_sink` restated on the model layer: the forced response at the
 nutation frequency and the power it dissipates) of the run's model linearised about its
 relative equilibrium at the path's spin, against the rebuilt model's about its own reference,
 held to
@@ -37,6 +37,7 @@ import numpy as np
 from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
+from quadmodes.rom.energy_sink import energy_sink
 from quadmodes.rom.spin_axis import equilibrium_direction, in_degenerate_eigenspace
 
 #: The models' frequency tolerance (:data:`quadmodes.runs.path_validity.FREQUENCY_TOLERANCE`,
@@ -120,40 +121,13 @@ def _equilibrium(sys: rsys.ReducedSystem, spin: float, e: np.ndarray, iterations
 
 
 def coning_rate(sys: rsys.ReducedSystem, spin: float, axis: np.ndarray, cone: float) -> float:
-    """θ̇/θ (1/s) of the energy-sink law (:func:`quadmodes.analysis.energy_sink.energy_sink`,
-    its ``growth_rate``: the steady modal response to the coning forced at the nutation
-    frequency ν, the power the modal damping dissipates, the rigid body's cone growth at
-    constant H) of ``sys`` about its relative equilibrium at ``spin`` (rad/s) near ``axis``
+    """θ̇/θ (1/s) of the energy-sink law (:func:`quadmodes.rom.energy_sink.energy_sink`, its
+    ``growth_rate``) of ``sys`` about its relative equilibrium at ``spin`` (rad/s) near ``axis``
     (3,), at the cone angle ``cone`` (rad, > 0). NaN for a quartic or nonlinear potential."""
     if sys.nonlinear or sys.n_modes == 0:
         return math.nan
-    e = np.asarray(axis, float) / np.linalg.norm(axis)
-    w0, s_eq = _equilibrium(sys, spin, e)
-    lam, vec = np.linalg.eigh(dy.inertia_tensor(sys, s_eq))
-    j = int(np.argmax(np.abs(vec.T @ w0)))
-    others = [i for i in range(3) if i != j]
-    i_a, i_t = float(lam[j]), float(np.mean(lam[others]))
-    e_a = w0 / np.linalg.norm(w0)
-    e1 = vec[:, others[0]] - (vec[:, others[0]] @ e_a) * e_a
-    e1 /= np.linalg.norm(e1)
-    nu = (i_a - i_t) / i_t * spin
-    w_hat = i_a / i_t * spin * math.tan(cone) * (e1 - 1j * np.cross(e_a, e1))
-    n = sys.n_modes
-
-    def row(x):  # μ × the modal row at (s, ṡ, ω, ω̇): polynomial, so central differences are exact
-        y = np.concatenate([x[:n], x[n : 2 * n]])
-        w, wd = x[2 * n : 2 * n + 3], x[2 * n + 3 :]
-        return sys.mu @ dy.prescribed_rhs(sys, 0.0, y, lambda t: w, lambda t: wd)[n:]
-
-    base = np.concatenate([s_eq, np.zeros(n), w0, np.zeros(3)])
-    h = np.concatenate([np.full(2 * n, max(np.linalg.norm(s_eq), 1e-6)), np.full(6, max(spin, 1.0))]) * 1e-6
-    jac = np.stack([(row(base + h[i] * d) - row(base - h[i] * d)) / (2 * h[i])
-                    for i, d in enumerate(np.eye(base.size))], axis=1)  # fmt: skip
-    force = (jac[:, 2 * n : 2 * n + 3] + 1j * nu * jac[:, 2 * n + 3 :]) @ w_hat
-    s_hat = np.linalg.solve(-jac[:, :n] - 1j * nu * jac[:, n : 2 * n] - nu**2 * sys.mu, force)
-    power = 0.5 * nu**2 * float(np.real(s_hat.conj() @ sys.C @ s_hat))
-    theta_dot = power * i_t * math.cos(cone) / (i_a * spin**2 * math.sin(cone) * (i_t - i_a))
-    return theta_dot / cone
+    w0, s_eq = _equilibrium(sys, spin, np.asarray(axis, float) / np.linalg.norm(axis))
+    return float(energy_sink(sys, s_eq, w0, cone).growth_rate)
 
 
 def sink_error(setup, omega: np.ndarray, cone: float) -> float:

@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 
-from quadmodes.analysis.energy_sink import energy_sink
 from quadmodes.analysis.run_answer import spin_roots
 from quadmodes.case import RunCase
 from quadmodes.models.build import reduced_model_for
 from quadmodes.rom import reduced as red
 from quadmodes.rom import system as rsys
+from quadmodes.rom.energy_sink import energy_sink
 from quadmodes.runs import secular
 from quadmodes.runs import simulate as sim
 from quadmodes.runs.mode_choice import resolve_modes
