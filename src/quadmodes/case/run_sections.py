@@ -34,7 +34,7 @@ def _cone(theta: float) -> str | None:
 
 def _rtol(x: float) -> str | None:
     """0 < value < 1"""
-    return None if 0.0 < x < 1.0 else "must satisfy 0 < rtol < 1"
+    return None if 0.0 < x < 1.0 else "must satisfy 0 < value < 1"
 
 
 #: Default of ``reduced.mode_margin``: with ``modes = "auto"`` every elastic mode up to 2.5 times

@@ -1,5 +1,6 @@
 """The rows of a run's summary table about its path (the model's validity along it, the
-``--until`` event, the times to cone angles) and the ``--until`` option of ``quadmodes run``."""
+``--until`` event, the times to cone angles) and the ``--until`` and ``--step-tolerance``
+options of ``quadmodes run``."""
 
 from __future__ import annotations
 
@@ -13,6 +14,14 @@ UntilOption = Annotated[
         "--until",
         help='end the run on an event: "cone 60 deg", "spin 30 Hz", "time 10 s" or "flat spin" '
         "(located to the step; --duration stays the longest it may run)",
+    ),
+]
+StepToleranceOption = Annotated[
+    str | None,
+    typer.Option(
+        "--step-tolerance",
+        help='a step controlled between chunks to this relative error, e.g. "1e-4" (midpoint; '
+        "sets integration.step_tolerance, --dt the first step; docs/long-paths.md)",
     ),
 ]
 

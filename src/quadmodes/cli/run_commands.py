@@ -407,7 +407,8 @@ def run_command(
             "reduced.mode_margin (default 2.5) × the spin frequency, pairs whole"
         ),
     ] = None,
-    until: path_rows.UntilOption = None, dt_convergence: DtConvergenceFlag = False,  # fmt: skip
+    until: path_rows.UntilOption = None, step_tolerance: path_rows.StepToleranceOption = None,
+    dt_convergence: DtConvergenceFlag = False,
     mode_convergence: ModeConvergenceFlag = False,
     plots: RunPlotsFlag = True,
     resume: RunResumeFlag = False,
@@ -436,7 +437,8 @@ def run_command(
 
     names = [case] if case is not None else list(simulate.PAPER_RUN_CASES)
     overrides = dict(method=method, dt=dt, duration=duration, formulation=formulation,
-                     spin_rate=spin_rate, modes=modes, axis=axis, until=until)  # fmt: skip
+                     spin_rate=spin_rate, modes=modes, axis=axis, until=until,
+                     step_tolerance=step_tolerance)  # fmt: skip
     flags = {"--dt-convergence": dt_convergence, "--mode-convergence": mode_convergence,
              "--no-plots": not plots}  # fmt: skip
     with sigterm_as_interrupt() as signals:

@@ -293,10 +293,10 @@ def simulate(
 
 
 def _spinup_overrides(method, dt, duration, formulation, save_every, spin_rate,
-                      until=None) -> list:  # fmt: skip
+                      until=None, step_tolerance=None) -> list:  # fmt: skip
     """The (field, value) changes of command-line overrides to a spin-up run (``[spinup]``)."""
     for option, value in (("method", method), ("dt", dt), ("save_every", save_every),
-                          ("until", until)):  # fmt: skip
+                          ("until", until), ("step_tolerance", step_tolerance)):  # fmt: skip
         if value is not None:
             raise CaseError(
                 f"--{option.replace('_', '-')}: not used by a hub-driven spin-up ([spinup] "
@@ -308,9 +308,10 @@ def _spinup_overrides(method, dt, duration, formulation, save_every, spin_rate,
 
 
 def _free_body_overrides(method, dt, duration, formulation, save_every, spin_rate,
-                         until=None) -> list:  # fmt: skip
+                         until=None, step_tolerance=None) -> list:  # fmt: skip
     """The (field, value) changes of command-line overrides to a free-body run."""
-    return [("integration.until", until), ("initial.spin_rate", spin_rate), ("integration.method", method),
+    return [("integration.until", until), ("integration.step_tolerance", step_tolerance),
+            ("initial.spin_rate", spin_rate), ("integration.method", method),
             ("integration.dt", dt), ("integration.duration", duration),
             ("integration.save_every", save_every), ("reduced.formulation", formulation)]  # fmt: skip
 
@@ -338,6 +339,7 @@ def apply_overrides(
     modes: int | str | None = None,
     axis: str | None = None,
     until: str | None = None,
+    step_tolerance: str | float | None = None,
 ) -> RunCase:
     """``run`` with command-line overrides (quantity strings such as ``"0.25 ms"``), validated
     like the case file (:func:`quadmodes.case.editing.edit`); raises :class:`CaseError` naming
@@ -347,10 +349,11 @@ def apply_overrides(
     ``duration`` sets ``integration.duration`` or ``spinup.duration``; ``modes`` (a whole
     number, or "auto" for a free-body run) sets ``reduced.modes`` (a whole number drops
     ``reduced.mode_margin``); ``axis`` (a name or "a,b,c") sets ``initial.spin_axis`` of a
-    free-body run; ``until`` (e.g. "cone 60 deg") sets ``integration.until``."""
+    free-body run; ``until`` (e.g. "cone 60 deg") sets ``integration.until``;
+    ``step_tolerance`` (e.g. "1e-4") sets ``integration.step_tolerance`` (a controlled step)."""
     from quadmodes.case.editing import edit
 
-    values = (method, dt, duration, formulation, save_every, spin_rate, until)
+    values = (method, dt, duration, formulation, save_every, spin_rate, until, step_tolerance)
     if all(v is None for v in values) and modes is None and axis is None:
         return run
     if axis is not None and run.spinup is not None:
