@@ -7,8 +7,10 @@ integrated from the same state beside it; scored as ``quadmodes compare`` scores
     OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_path_family \\
         benchmarks/cases/path-41hz-coarse-family.toml --points 15,20 --window 2 --full-dt 0.25e-3
 
-The point is the first saved sample of the path at or past the cone angle (a sample every
-50 ms: within 0.002° of it). Prints the path's summary, its switches, then one JSON line a point.
+The point is located to the step in the chart of its member, as ``quadmodes compare RUN --at``
+locates it (:mod:`quadmodes.analysis.family_point`; until that command read family paths, the
+first saved sample at or past the cone angle). Prints the path's summary, its switches, then one
+JSON line a point.
 """
 
 from __future__ import annotations
@@ -22,11 +24,13 @@ import numpy as np
 
 from quadmodes.analysis import compare as cmp
 from quadmodes.analysis.comparison_run import prepare_comparison
+from quadmodes.analysis.family_point import family_point_on_samples
 from quadmodes.analysis.full_order_runs import full_order_for_run
-from quadmodes.analysis.path_point import PathPoint, full_order_setup_at, reduced_run_from
+from quadmodes.analysis.path_point import full_order_setup_at, reduced_run_from
 from quadmodes.case import load_run_case
 from quadmodes.runs import secular
 from quadmodes.runs import simulate as sim
+from quadmodes.runs.family_samples import Members, member_run, sample_member_spins
 
 
 def family_path(case: str, until_deg: float):
@@ -47,45 +51,33 @@ def family_path(case: str, until_deg: float):
     return result
 
 
-def member_at(result, t: float) -> float:
-    """Spin (rad/s) of the member that integrated the sample at ``t`` (a switch's own sample
-    belongs to the member before it)."""
-    spin = float(result.model.reference_spin)
-    for sw in result.family:
-        if sw.time < t - 1e-12:
-            spin = sw.spin_to
-    return spin
-
-
-def point_row(result, cone_deg: float, window: float, full_dt: float, case: str) -> dict:
+def point_row(result, cone_deg: float, window: float, full_dt: float) -> dict:
+    """The full order and the member from the family path's point at ``cone_deg``: the point
+    located to the step in its member's chart, the member's run and full-order setup, as
+    ``quadmodes compare --at`` makes them (quadmodes.analysis.family_point)."""
     d = result.diagnostics
-    j = int(np.argmax(np.degrees(d.cone_angle) >= cone_deg))
-    spin = member_at(result, float(d.t[j]))
-    run = load_run_case(case)
-    n = result.system.n_modes
-    reduced = run.reduced.model_copy(update={"modes": n, "path_model": "fixed", "path_switch": None})
-    init = run.initial.model_copy(update={"spin_rate": spin})
-    integ = run.integration.model_copy(update={"until": None, "save_every": 2})
-    run_m = run.model_copy(update={"reduced": reduced, "initial": init, "integration": integ})
+    spins = sample_member_spins(d.t, float(result.model.reference_spin), result.family)
+    point = family_point_on_samples(Members(result.run, result.model_case), result.run.integration,
+                                    f"cone {cone_deg:g} deg", d.t, result.solution.y, d.E_d, spins,
+                                    result.initial.spin_axis, "family path")  # fmt: skip
+    run_m = member_run(result.run, point.member_spin)
+    run_m = run_m.model_copy(update={"integration": run_m.integration.model_copy(update={"save_every": 2})})
     run_w, setup0 = prepare_comparison(run_m, window)
-    y = np.asarray(result.solution.y[j], float)
-    dt = float(run.integration.dt)
-    point = PathPoint(f"cone {cone_deg:g} deg", "cone", float(d.t[j]), int(round(d.t[j] / dt)), y,
-                      float(d.E_d[j]), float(d.cone_angle[j]), float(d.spin_rate[j]), "family path")  # fmt: skip
     start = time.perf_counter()
     full_sol = full_order_for_run(run_w, dt=full_dt, setup=full_order_setup_at(setup0, point))
     full_wall = time.perf_counter() - start
     full = cmp.series_from_full_order(full_sol)
-    red = cmp.series_from_run("member", reduced_run_from(run_w, setup0.model, y))
-    model = setup0.model
+    red = cmp.series_from_run("member", reduced_run_from(run_w, setup0.model, point.y))
+    model, n = setup0.model, run_w.reduced.modes
     f_low = float(np.min(model.frequencies_hz[:n]))
     tau = secular.decay_time(model.frequencies_hz[:n], model.damping_ratio[:n])
     row = cmp.errors(red, full, 1.0 / f_low)
     row.update(secular.score(full, {"member": red}, secular.quasi_steady_interval(window, tau)).row("member"))
     np.savez(f"family-full-{cone_deg:g}deg.npz", t=full.t, amplitude=full.amplitude, cone=full.cone_angle,
              spin=full.spin_rate, E_d=full.E_d, H=full.H_norm)  # fmt: skip
-    return {"point_deg": cone_deg, "t_s": float(d.t[j]), "cone_deg": math.degrees(d.cone_angle[j]),
-            "path_spin_hz": d.spin_rate[j] / (2 * math.pi), "member_hz": spin / (2 * math.pi),
+    return {"point_deg": cone_deg, "t_s": point.time, "step": point.step,
+            "cone_deg": math.degrees(point.cone_angle), "path_spin_hz": point.spin_rate / (2 * math.pi),
+            "member_hz": point.member_spin / (2 * math.pi),
             "full_wall_s": full_wall, "full_H_drift": float(np.max(np.abs(full.H_norm - full.H_norm[0])) / full.H_norm[0]),
             **{k: row.get(k) for k in ("envelope_error", "cone_growth_ratio", "dissipated_power_ratio",
                                        "spin_rate_change_ratio")}}  # fmt: skip
@@ -101,7 +93,7 @@ def main() -> None:
     points = [float(v) for v in args.points.split(",")]
     result = family_path(args.case, max(points) + 0.01)
     for c in points:
-        print(json.dumps(point_row(result, c, args.window, args.full_dt, args.case), default=float), flush=True)
+        print(json.dumps(point_row(result, c, args.window, args.full_dt), default=float), flush=True)
 
 
 if __name__ == "__main__":

@@ -161,17 +161,36 @@ def prepare_path_comparison(run, window: float, at: str, *, results=None,
     """``(run, setup, point)``: the run cut to ``window`` (s) with its modes resolved, the full
     order's setup started at the point ``at`` of its reduced path (read from ``results``, a
     results.nc of the run, if given) and that
-    :class:`~quadmodes.analysis.path_point.PathPoint`."""
+    :class:`~quadmodes.analysis.path_point.PathPoint`. A spin-family path
+    (:func:`prepare_family_comparison`): the run is its member's at the point."""
     from quadmodes.analysis.path_point import full_order_setup_at, path_point
-    from quadmodes.case import CaseError
 
-    if run.reduced.path_model != "fixed":  # its samples are in the charts of several models
-        raise CaseError('--at: the path of a reduced.path_model = "spin-family" run is not read '
-                        "yet (benchmarks/studies/bench_path_family.py starts the full order from "
-                        'it); use path_model = "fixed" here', field="--at")  # fmt: skip
+    if run.reduced.path_model == "spin-family":  # its samples are in the charts of its members
+        return prepare_family_comparison(run, window, at, results=results,
+                                         damping_cutoff=damping_cutoff, progress=progress)  # fmt: skip
     run_w, setup0 = prepare_comparison(run, window, damping_cutoff, progress)
     point = path_point(run_w, at, model=setup0.model, results=results, progress=progress)
     return run_w, full_order_setup_at(setup0, point), point
+
+
+def prepare_family_comparison(run, window: float, at: str, *, results=None,
+                              damping_cutoff=None, progress=None):  # fmt: skip
+    """:func:`prepare_path_comparison` of a spin-family run: the point on the family path
+    (:func:`quadmodes.analysis.family_point.family_path_point`, in its member's chart), then
+    the run of that member (:func:`quadmodes.runs.family_samples.member_run`: its model from
+    the cache entry the path used) cut to ``window``, and the full order's setup of that run
+    started at the point."""
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.analysis.family_point import family_path_point
+    from quadmodes.analysis.path_point import full_order_setup_at
+    from quadmodes.runs.family_samples import member_run
+    from quadmodes.runs.mode_choice import resolve_modes
+
+    run_w, _ = resolve_modes(cmp.window_run(run, window), progress=progress)
+    point = family_path_point(run_w, at, results=results, progress=progress)
+    run_m, setup0 = prepare_comparison(member_run(run_w, point.member_spin), window,
+                                       damping_cutoff, progress)  # fmt: skip
+    return run_m, full_order_setup_at(setup0, point), point
 
 
 def full_order_recorder(animation: Animation | None, setup, window_s: float, dt_s: float):

@@ -61,6 +61,7 @@ class PathPoint:
     source: str
     path_valid: bool | None = None
     path_message: str = ""  # the checks made up to it, or why the path left the range
+    member_spin: float | None = None  # rad/s: a spin-family path's member at the point (y in its chart)
 
     def describe(self) -> str:
         """One line: where the full order starts (and that the path had left its model's range
@@ -69,6 +70,9 @@ class PathPoint:
                 f"{self.step}), cone {math.degrees(self.cone_angle):.4g} deg, spin "
                 f"{self.spin_rate / (2 * math.pi):.5g} Hz, dissipated {self.dissipated:.5g} J "
                 f"({self.source})")  # fmt: skip
+        if self.member_spin is not None:
+            text += (f"; spin-family member about {self.member_spin / (2 * math.pi):.6g} Hz "
+                     "(the reduced and full-order windows use its model)")  # fmt: skip
         if self.path_valid is False:
             text += f"; beyond the reduced model's range: {self.path_message}"
         return text
@@ -78,7 +82,9 @@ class PathPoint:
                 "cone_angle_deg": math.degrees(self.cone_angle),
                 "spin_rate_hz": self.spin_rate / (2 * math.pi), "dissipated_J": self.dissipated,
                 "source": self.source, "path_valid": self.path_valid,
-                "path_message": self.path_message}  # fmt: skip
+                "path_message": self.path_message,
+                "member_spin_hz": None if self.member_spin is None
+                else self.member_spin / (2 * math.pi)}  # fmt: skip
 
 
 def path_run(run: RunCase, at: str) -> RunCase:
@@ -117,25 +123,47 @@ def point_on_samples(system, integ, at: str, t, y, e_d, spin_axis, source: str) 
     7+2N), ``e_d`` (k,) J of a run of ``system`` with integration settings ``integ`` (fixed
     step) about the nominal axis ``spin_axis`` (3,); ValueError when the samples do not reach
     it."""
-    from quadmodes.runs.events import state_measures
-
-    if integ.method == "adaptive":
-        raise ValueError("--at: a path point needs a fixed-step method (midpoint, "
-                         "backward_euler); the adaptive method has no steps to locate it to")  # fmt: skip
+    check_fixed_step(integ)
     t, y, e_d = np.asarray(t, float), np.asarray(y, float), np.asarray(e_d, float)
     mon = event_monitor(system, y[0], at, spin_axis)
     g = mon.g(t, y)
+    j = first_reached(mon, t, g, at)
+    return located_point(mon, integ, (t[j - 1], y[j - 1], g[j - 1]), (t[j], y[j], g[j]),
+                         float(e_d[j - 1]), source)  # fmt: skip
+
+
+def check_fixed_step(integ) -> None:
+    """ValueError (naming --at) for a method without steps of its own to locate a point to."""
+    if integ.method == "adaptive":
+        raise ValueError("--at: a path point needs a fixed-step method (midpoint, "
+                         "backward_euler); the adaptive method has no steps to locate it to")  # fmt: skip
+
+
+def first_reached(mon, t: np.ndarray, g: np.ndarray, at: str) -> int:
+    """The index (> 0) of the first sample past the event of monitor ``mon`` (g (k,) at the
+    samples' times ``t`` (k,) s); ValueError when none is."""
     hits = np.flatnonzero(mon.reached(g))
     hits = hits[hits > 0]
     if not len(hits):
         raise ValueError(f"--at: the reduced path does not reach {at!r} by t = {t[-1]:.6g} s")
-    j = int(hits[0])
+    return int(hits[0])
+
+
+def located_point(mon, integ, before, past, dissipated: float, source: str,
+                  member_spin: float | None = None) -> PathPoint:  # fmt: skip
+    """The :class:`PathPoint` of the event of ``mon`` between the samples ``before`` and
+    ``past`` ((t s, y (7+2N,), g) each, both in the chart of ``mon.system``): located to the
+    step (the run's own steps from ``before``), the state there, ``dissipated`` (J, up to
+    ``before``) plus what the steps to it dissipated."""
+    from quadmodes.runs.events import state_measures
+
+    (ta, ya, ga), (tb, yb, gb) = before, past
     h = float(integ.dt)
-    hit = mon.locate(t[j - 1], y[j - 1], g[j - 1], t[j], y[j], g[j], integ, h)
-    y_at, extra = state_at_step(system, integ, t[j - 1], y[j - 1], hit.step)
-    m = state_measures(system, y_at[None, :], mon.axis0)
-    return PathPoint(at, hit.kind, hit.step * h, hit.step, y_at, float(e_d[j - 1]) + extra,
-                     float(m["cone"][0]), float(m["spin"][0]), source)  # fmt: skip
+    hit = mon.locate(float(ta), ya, float(ga), float(tb), yb, float(gb), integ, h)
+    y_at, extra = state_at_step(mon.system, integ, float(ta), ya, hit.step)
+    m = state_measures(mon.system, y_at[None, :], mon.axis0)
+    return PathPoint(mon.text, hit.kind, hit.step * h, hit.step, y_at, dissipated + extra,
+                     float(m["cone"][0]), float(m["spin"][0]), source, member_spin=member_spin)  # fmt: skip
 
 
 def integrated_point(run: RunCase, at: str, model=None, progress=None) -> PathPoint:
@@ -177,8 +205,8 @@ def results_point(results: Path, run: RunCase, system, model, at: str) -> PathPo
                             f"(key {key}); run it again or drop --results", field="--results")  # fmt: skip
         if 'path_model = "spin-family"' in str(ds.attrs.get("case_toml", "")):
             raise CaseError(f"--results: {results} is a spin-family path (its samples are in "
-                            "the charts of several models), not read yet; drop --results",
-                            field="--results")  # fmt: skip
+                            "the charts of several models); compare the run case it was made "
+                            'with (reduced.path_model = "spin-family")', field="--results")  # fmt: skip
         if float(ds.attrs.get("dt", math.nan)) != float(run.integration.dt):
             raise CaseError(f"--results: {results} was run at another time step; drop --results",
                             field="--results")  # fmt: skip
@@ -264,5 +292,8 @@ def start_attributes(start: dict | None) -> dict:
             "start_cone_angle_units": "rad",
             "start_spin_rate": 2 * math.pi * start["spin_rate_hz"],
             "start_spin_rate_units": "rad/s", "start_dissipated_energy": start["dissipated_J"],
-            "start_dissipated_energy_units": "J", "start_source": start["source"]}  # fmt: skip
+            "start_dissipated_energy_units": "J", "start_source": start["source"],
+            **({} if start.get("member_spin_hz") is None else {
+                "start_member_spin": 2 * math.pi * start["member_spin_hz"],
+                "start_member_spin_units": "rad/s"})}  # fmt: skip
 

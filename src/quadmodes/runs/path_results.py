@@ -3,8 +3,10 @@ and the summary (:mod:`quadmodes.runs.results` calls these; the summary is read 
 dataset alone, as the rest of it).
 
 Variables: ``modal_amplitude`` (time; m for modes of 1 kg modal mass), ``centrifugal_departure``
-(time; 1; about a spinning state), ``model_in_range`` (time; 1 until the path leaves the model's
-range, then 0), ``time_to_cone`` (cone_mark; s, NaN if not reached) on the coordinate
+(time; 1; about a spinning state: the sample's own model's, a spin-family path's member),
+``model_reference_spin`` (time; rad/s; a spin-family path: the spin of the member that integrated
+each sample, :mod:`quadmodes.runs.family_samples`), ``model_in_range`` (time; 1 until the path
+leaves the model's range, then 0), ``time_to_cone`` (cone_mark; s, NaN if not reached) on the coordinate
 ``cone_mark`` (degree). Attributes: ``path_*`` (:class:`~quadmodes.runs.path_validity.PathValidity`)
 and ``until_*`` (:class:`~quadmodes.runs.events.EventHit`), units in ``*_units`` attributes.
 """
@@ -19,7 +21,18 @@ import xarray as xr
 from quadmodes.io import cf
 from quadmodes.rom import system as rsys
 from quadmodes.runs.events import cone_times
-from quadmodes.runs.path_validity import is_planar, load_departure
+from quadmodes.runs.family_samples import (
+    MEMBER_SPIN_LONG_NAME,
+    MEMBER_SPIN_VARIABLE,
+    is_family,
+    sample_member_spins,
+)
+from quadmodes.runs.path_validity import (
+    centrifugal_departure,
+    is_planar,
+    load_departure,
+    plane_departure,
+)
 
 
 def path_variables(result) -> tuple[dict, dict]:
@@ -34,8 +47,11 @@ def path_variables(result) -> tuple[dict, dict]:
     if np.any(w_ref):
         plane = " (its in-plane block: a planar body)" if is_planar(result.system) else ""
         data["centrifugal_departure"] = cf.variable(
-            ("time",), load_departure(result.system, w), "1", "departure of the centrifugal load "
+            ("time",), _departure(result, w), "1", "departure of the centrifugal load "
             f"from the reduced model's reference, |C(omega) - C(omega_ref)|_2 / Omega_ref^2{plane}")  # fmt: skip
+    if is_family(result.run):  # which member's chart each sample is in
+        data[MEMBER_SPIN_VARIABLE] = cf.variable(
+            ("time",), _member_spins(result), "rad/s", MEMBER_SPIN_LONG_NAME)
     path = getattr(result, "path", None)
     if path is not None and path.tension_samples:
         when, least = path.tension_samples
@@ -56,6 +72,28 @@ def path_variables(result) -> tuple[dict, dict]:
     data["time_to_cone"] = cf.variable(("cone_mark",), np.array(list(marks.values()), float), "s",
                                        "first time the cone angle reaches the mark (NaN: not reached)")  # fmt: skip
     return data, coords
+
+
+def _member_spins(result) -> np.ndarray:
+    """(k,) rad/s: the spin of the model that integrated each sample (one model: its own)."""
+    return sample_member_spins(result.solution.t, float(result.model.reference_spin),
+                               getattr(result, "family", ()))  # fmt: skip
+
+
+def _departure(result, w: np.ndarray) -> np.ndarray:
+    """δ (k,) of the angular velocities ``w`` (k,3): against the sample's own model's reference
+    (a spin-family path: each member's spin about the reference axis)."""
+    if not is_family(result.run):
+        return load_departure(result.system, w)
+    w_ref = np.asarray(result.system.reference_omega, float)
+    e = w_ref / np.linalg.norm(w_ref)
+    spins = _member_spins(result)
+    out = np.empty(len(w))
+    for spin in np.unique(spins):
+        k = spins == spin
+        ref = spin * e
+        out[k] = plane_departure(w[k], ref) if is_planar(result.system) else centrifugal_departure(w[k], ref)
+    return out
 
 
 def _nan(x) -> float:
