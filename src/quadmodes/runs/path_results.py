@@ -8,7 +8,8 @@ Variables: ``modal_amplitude`` (time; m for modes of 1 kg modal mass), ``centrif
 each sample, :mod:`quadmodes.runs.family_samples`), ``model_in_range`` (time; 1 until the path
 leaves the model's range, then 0), ``time_to_cone`` (cone_mark; s, NaN if not reached) on the coordinate
 ``cone_mark`` (degree). Attributes: ``path_*`` (:class:`~quadmodes.runs.path_validity.PathValidity`)
-and ``until_*`` (:class:`~quadmodes.runs.events.EventHit`), units in ``*_units`` attributes.
+(every failing check: ``path_failure_times`` s and ``path_failure_reasons``, one a line) and
+``until_*`` (:class:`~quadmodes.runs.events.EventHit`), units in ``*_units`` attributes.
 """
 
 from __future__ import annotations
@@ -133,6 +134,10 @@ def path_attrs(result) -> dict:
             centrifugal_measured_sink_spin_rate_units="rad/s",
             centrifugal_measured_sink_error=float(path.measured_sink_error),
         )  # fmt: skip
+        if path.failures:  # every failing check (the first is path_left_*)
+            attrs.update(path_failure_times=np.asarray([when for when, _ in path.failures], float),
+                         path_failure_times_units="s",
+                         path_failure_reasons="\n".join(reason for _, reason in path.failures))  # fmt: skip
     until = result.run.integration.until if result.run.integration is not None else None
     if until:
         hit = getattr(result, "event", None)
@@ -184,6 +189,7 @@ def path_summary(ds: xr.Dataset) -> dict:
             "centrifugal_measured_frequency_error": _f(ds, "centrifugal_measured_frequency_error"),
             "centrifugal_measured_sink_at_spin_hz": _hz(_f(ds, "centrifugal_measured_sink_spin_rate")),
             "centrifugal_measured_sink_error": _f(ds, "centrifugal_measured_sink_error"),
+            "failures": _failures(ds),
             "message": str(ds.attrs.get("path_message", "")),
         })  # fmt: skip
     if "until" in ds.attrs:
@@ -195,6 +201,14 @@ def path_summary(ds: xr.Dataset) -> dict:
                                 spin_rate_hz=_hz(_f(ds, "until_spin_rate")),
                                 located=str(ds.attrs.get("until_located", "")))  # fmt: skip
     return out
+
+
+def _failures(ds: xr.Dataset) -> list[dict]:
+    """Every failing check of the path: [{"time_s": its first failing sample, "reason"}]."""
+    times = np.atleast_1d(ds.attrs.get("path_failure_times", []))
+    reasons = [r for r in str(ds.attrs.get("path_failure_reasons", "")).split("\n") if r]
+    return [{"time_s": float(when), "reason": reason}
+            for when, reason in zip(times, reasons, strict=False)]  # fmt: skip
 
 
 def _f_value(v) -> float | None:

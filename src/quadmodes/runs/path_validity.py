@@ -84,7 +84,9 @@ class PathValidity:
     :mod:`quadmodes.runs.taut_path`); slack_at (s): the first checked sample where one is slack
     (None: none, or not judged); slack_judged: the loss of tension is judged (a membrane held
     taut by its spin alone), else recorded only; tension_samples: ``(times (s), least tension
-    (N/m))`` arrays of the checked samples (empty: no tension check)."""
+    (N/m))`` arrays of the checked samples (empty: no tension check); failures: every failing
+    check's ``(time (s) of its first failing sample, reason)``, in time order (the first is
+    left_at / left_reason)."""
 
     reference_spin: float
     centrifugal_max: float
@@ -111,6 +113,7 @@ class PathValidity:
     slack_at: float | None = None
     slack_judged: bool = False
     tension_samples: tuple = ()
+    failures: tuple = ()
 
     @property
     def valid(self) -> bool:
@@ -125,13 +128,15 @@ class PathValidity:
         return self.slack_at is None
 
     def message(self) -> str:
-        """One line ("" when valid)."""
+        """One line ("" when valid): where the path leaves, and every check that fails."""
         if self.left_at is not None:
-            also = ""
-            if self.slack_at is not None and "loses tension" not in self.left_reason:
-                also = (f"; the membrane also loses tension from t = {self.slack_at:.6g} s "
-                        f"(least tension {self.least_tension:.3g} N/m, "
-                        f"{100 * self.slack_area:.3g} % of its taut area slack)")  # fmt: skip
+            others = [f"{reason} (from t = {when:.6g} s)" for when, reason in self.failures
+                      if reason != self.left_reason]  # fmt: skip
+            also = f"; also failing: {'; '.join(others)}" if others else ""
+            if self.slack_at is not None and not any("loses tension" in r for _, r in self.failures):
+                also += (f"; the membrane also loses tension from t = {self.slack_at:.6g} s "
+                         f"(least tension {self.least_tension:.3g} N/m, "
+                         f"{100 * self.slack_area:.3g} % of its taut area slack)")  # fmt: skip
             return (f"the run leaves its reduced model's range at t = {self.left_at:.6g} s "
                     f"(spin {self.left_spin / (2 * math.pi):.5g} Hz, cone "
                     f"{math.degrees(self.left_cone):.4g} deg): {self.left_reason}{also}")  # fmt: skip
@@ -304,9 +309,12 @@ def path_validity(setup, solution, diag, spin_limit: float | None = None,
 
 
 def _with_failures(path: PathValidity, fails: list, t, diag) -> PathValidity:
-    """``path`` with its first failure (sample index, reason) of ``fails`` as where it leaves."""
+    """``path`` with the failures (sample index, reason) of ``fails`` added to its
+    ``failures``; it leaves the range at the earliest of them all."""
     if not fails:
         return path
+    listed = sorted({*path.failures, *((float(t[k]), reason) for k, reason in fails)})
+    path = dataclasses.replace(path, failures=tuple(listed))
     k, reason = min(fails, key=lambda f: f[0])
     if path.left_at is not None and path.left_at <= t[k]:
         return path

@@ -325,7 +325,14 @@ class _Setup:
 def _measured(path, setup, solution, diag, w, e):
     """``path`` with its spin range measured against the model rebuilt about the spin of the
     path's largest departure (when past the a-priori bound), as
-    :func:`~quadmodes.runs.path_validity.with_measured_range` for a free-body run."""
+    :func:`~quadmodes.runs.path_validity.with_measured_range` for a free-body run, by the
+    rotating-frame frequencies only. The free-body run's second measure, the energy-sink coning
+    rate (:func:`~quadmodes.runs.spin_check.sink_error`), is no measure of a spin change: its
+    angular velocity stays on the axis (the hub's torque is along it; no cone to grow), and its
+    driven modes (a flat rotor's in-plane lag) are not forced by a cone: by the mirror symmetry
+    of the plane their J1 has no axial–in-plane component, so the coning dissipates nothing
+    through them (θ̇/θ = 0 for both models; docs/sails.md). What the lag answer is made of is the
+    driven modes' frequencies (the quasi-static lag ∝ 1/ω², its settling their period)."""
     from quadmodes.runs import path_validity as pv
     from quadmodes.runs.spin_check import frequency_difference, rotating_frequencies
 
@@ -342,7 +349,9 @@ def _measured(path, setup, solution, diag, w, e):
     limit = float(spin[k]) if ok else float(spin[k]) * pv.FREQUENCY_TOLERANCE / eps
     basis = (f"measured: the model rebuilt about {rate / (2 * math.pi):.5g} Hz differs by "
              f"{100 * eps:.2g} % in its rotating-frame frequencies there"
-             + ("" if ok else ", taken linear in the departure"))  # fmt: skip
+             + ("" if ok else ", taken linear in the departure")
+             + "; no energy-sink coning rate: a spin change has no cone, and its driven modes "
+             "are not forced by one")  # fmt: skip
     measured = pv.path_validity(setup, solution, diag, limit, basis)
     return replace(measured, measured_spin=rate, measured_error=eps)
 
