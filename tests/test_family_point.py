@@ -181,3 +181,16 @@ def test_compare_at_names_the_member(family, tmp_path):
     # both sides start at the point: the same modal amplitude
     q = payload["formulations"]["Q"]
     assert q["complete"]
+
+
+def test_one_models_reader_refuses_a_family_path(family):
+    """path_point reads one model's path; given a family run it says which reader to use (one
+    line, --at) rather than locate the point in the wrong chart."""
+    from quadmodes.analysis.path_point import path_point
+    from quadmodes.case import CaseError
+
+    _, result, nc = family
+    for source in (None, nc):
+        with pytest.raises(CaseError, match="--at: .*family_path_point") as exc:
+            path_point(result.run, AT, results=source)
+        assert "\n" not in str(exc.value)

@@ -229,9 +229,15 @@ def path_point(run: RunCase, at: str, *, model=None, results: Path | None = None
     """The state of ``run``'s reduced path at the event ``at`` (e.g. "cone 10 deg", "time 100
     s"): integrated to it, or read from ``results`` (a results.nc of the same run and model).
     ``run`` must have its modes resolved (a whole ``reduced.modes``). Raises
-    :class:`~quadmodes.case.CaseError` (field ``--at``) for an event the path does not reach."""
+    :class:`~quadmodes.case.CaseError` (field ``--at``) for an event the path does not reach.
+    A spin-family run's samples are in several members' charts: its point is
+    :func:`quadmodes.analysis.family_point.family_path_point`'s (refused here)."""
     from quadmodes.rom import system as rsys
 
+    if run.reduced.path_model == "spin-family":
+        raise CaseError('--at: a reduced.path_model = "spin-family" path is read by '
+                        "quadmodes.analysis.family_point.family_path_point (as compare --at "
+                        "does), not as one model's", field="--at")  # fmt: skip
     try:
         if results is None:
             return integrated_point(run, at, model, progress)

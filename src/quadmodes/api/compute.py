@@ -319,7 +319,9 @@ def compare(
         "cone 10 deg", "time 100 s", as ``compare --at``): the reduced run integrated to it, or
         its samples read from ``results`` (a results.nc of the same run); the full order from
         the reduced state there with the part outside the retained modes relaxed
-        (:mod:`quadmodes.analysis.path_point`, docs/path-validity.md).
+        (:mod:`quadmodes.analysis.path_point`, docs/path-validity.md). A run with
+        ``reduced.path_model = "spin-family"``: both windows with the member at the point
+        (:mod:`quadmodes.analysis.family_point`; ``start["member_spin_hz"]``).
     damping_cutoff
         The full order's damping: every FE mode below this frequency (e.g. "150 Hz"; bare
         floats are Hz; default 3 × max(spin, highest retained mode)).
