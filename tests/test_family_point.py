@@ -12,6 +12,7 @@ stretch outside the retained modes); the comparison names the member."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -194,3 +195,18 @@ def test_one_models_reader_refuses_a_family_path(family):
         with pytest.raises(CaseError, match="--at: .*family_path_point") as exc:
             path_point(result.run, AT, results=source)
         assert "\n" not in str(exc.value)
+
+
+def test_a_member_without_samples_is_checked(family, tmp_path):
+    """Members 1e-6 apart, below the resolution members' spins are rounded to (1e-4 Hz: 2e-6
+    of 47.7 Hz): a new member can switch on its first sample and leave the path no sample of
+    its own. The path check then runs (it crashed on the empty segment) and |H| is kept."""
+    name, _, _ = family
+    text = open(name, encoding="utf-8").read().replace("path_switch = 1e-5", "path_switch = 1e-6")
+    (tmp_path / "fam6.toml").write_text(text.replace('model = "small.toml"',
+                                                     f'model = "{Path(name).parent / "small.toml"}"'),
+                                        encoding="utf-8")  # fmt: skip
+    result = sim.simulate(load_run_case(tmp_path / "fam6.toml"))
+    assert result.complete and len(result.family) >= 3 and result.path is not None
+    h = result.diagnostics.H_norm
+    assert np.max(np.abs(h / h[0] - 1.0)) <= 1e-12

@@ -169,6 +169,8 @@ def _stiffness(system: rsys.ReducedSystem, w: np.ndarray) -> tuple[np.ndarray, n
     """(sample indices, smallest eigenvalue of Λ − ωᵀJ2ω there (s⁻²)) on at most
     :data:`STIFFNESS_SAMPLES` samples of ω (k,3) and the sample of largest |ω|."""
     k = len(w)
+    if k == 0:  # no sample (a family member that switched on its first)
+        return np.zeros(0, int), np.zeros(0)
     idx = np.unique(np.r_[np.linspace(0, k - 1, min(k, STIFFNESS_SAMPLES)).astype(int),
                           int(np.argmax(np.linalg.norm(w, axis=1)))])  # fmt: skip
     if system.n_modes == 0:
@@ -299,7 +301,7 @@ def path_validity(setup, solution, diag, spin_limit: float | None = None,
                       f"positive definite (smallest eigenvalue {kmin[bad[0]]:.4g} s⁻²)"))  # fmt: skip
     amp = np.linalg.norm(s, axis=1) if s.shape[1] else np.zeros(len(t))
     peak = int(np.argmax(amp)) if len(amp) else 0
-    unchecked = ("modal amplitudes",) if s.shape[1] and amp[peak] > 0 else ()
+    unchecked = ("modal amplitudes",) if s.shape[1] and len(amp) and amp[peak] > 0 else ()
     path = PathValidity(spin_ref, dmax, limit,
                         spin_range(spin_ref, limit) if spin_ref else (math.nan, math.nan),
                         float(kmin.min()) if len(kmin) else math.inf,
