@@ -79,6 +79,45 @@ def test_compare_into_the_current_folder_keeps_the_users_pictures(tmp_path, monk
     assert not list(tmp_path.parent.glob(f".{tmp_path.name}.fullorder*"))
 
 
+def test_output_into_the_current_folder_stages_inside_it(tmp_path, monkeypatch):
+    """``-o .``: the scratch folder is inside ``.``, never in its parent (not named by the user:
+    its entries and time stamp stay as they were), whether the command succeeds or fails; a
+    new folder that fails is removed again. Through the CLI too (``campbell -o .``)."""
+    from quadmodes.io.staging import staged_output
+
+    here = tmp_path / "here"
+    here.mkdir()
+    (here / "mine.txt").write_text("mine")
+    monkeypatch.chdir(here)
+    before = (sorted(p.name for p in tmp_path.iterdir()), tmp_path.stat().st_mtime_ns)
+
+    def parent_untouched():
+        assert (sorted(p.name for p in tmp_path.iterdir()), tmp_path.stat().st_mtime_ns) == before
+
+    with staged_output(Path(".")) as scratch:
+        assert scratch.parent == here and scratch.name.startswith(".here.partial-")
+        parent_untouched()
+        (scratch / "campbell.nc").write_text("data")
+    parent_untouched()
+    assert sorted(p.name for p in here.iterdir()) == sorted(["mine.txt", "campbell.nc",
+                                                             outputs.MANIFEST])  # fmt: skip
+    with pytest.raises(RuntimeError):
+        with staged_output(Path(".")) as scratch:
+            (scratch / "campbell.png").write_text("half")
+            raise RuntimeError("failed mid-way")
+    parent_untouched()
+    assert "campbell.png" not in {p.name for p in here.iterdir()}
+    with pytest.raises(RuntimeError):
+        with staged_output(Path("new")):
+            raise RuntimeError("failed mid-way")
+    assert not (here / "new").exists()
+    cli = _cli("campbell", "kane-beam", "--spin-max", "1 rad/s", "--points", "2", "-o", ".")
+    assert cli.exit_code == 0, cli.output
+    parent_untouched()
+    assert (here / "campbell.nc").is_file() and (here / "mine.txt").read_text() == "mine"
+    assert not [p for p in here.iterdir() if ".partial-" in p.name]
+
+
 def test_staging_never_writes_through_a_link_nor_over_a_users_file(tmp_path):
     from quadmodes.io.staging import staged_output
 
