@@ -245,6 +245,40 @@ def test_compare_resume_after_the_case_was_edited_is_refused(tmp_path):
         runner.check_checkpoint_key(path, edited)
 
 
+def test_compare_resumes_from_a_checkpoint_of_the_earlier_layout(tmp_path, monkeypatch):
+    """An old-style ``.OUT.fullorder-checkpoint.npz`` beside OUT is moved into OUT (one note)
+    and resumed as any checkpoint: its own key still checks it; without --resume it is not
+    silently dropped; where both exist the one inside is used and the old one named."""
+    from types import SimpleNamespace
+
+    from quadmodes.analysis.full_order_runs import checkpoint_key
+
+    setup = SimpleNamespace(run=load_run_case("paper-41hz-coarse"),
+                            model=SimpleNamespace(provenance={"content_key": "0123"}))  # fmt: skip
+    out = tmp_path / "cmp"
+    old = tmp_path / ".cmp.fullorder-checkpoint.npz"
+    np.savez(old, version=1, step=7, key=checkpoint_key(setup))
+    saved = old.read_bytes()
+    notes: list[str] = []
+    monkeypatch.chdir(tmp_path)
+    path = runner.check_checkpoint(runner.checkpoint_beside(Path("cmp")), resume=True,
+                                   restart=False, note=notes.append)  # fmt: skip
+    assert path == out / ".fullorder-checkpoint.npz" and path.read_bytes() == saved
+    assert not old.exists() and len(notes) == 1 and "moved" in notes[0] and str(old) in notes[0]
+    runner.check_checkpoint_key(path, setup)  # the same comparison: resumed
+    path.unlink()
+    np.savez(old, version=1, step=7, key=checkpoint_key(setup))
+    monkeypatch.chdir(out)  # compare -o . inside the folder: the old file is in its parent
+    with pytest.raises(runner.CheckpointError, match="--resume"):
+        runner.check_checkpoint(runner.checkpoint_beside(Path(".")), resume=False, restart=False,
+                                note=notes.append)  # fmt: skip
+    np.savez(old, version=1, step=9, key=checkpoint_key(setup))  # both exist now
+    runner.check_checkpoint(runner.checkpoint_beside(Path(".")), resume=True, restart=False,
+                            note=notes.append)  # fmt: skip
+    assert "ignored" in notes[-1] and old.is_file()
+    assert int(np.load(out / ".fullorder-checkpoint.npz")["step"]) == 7
+
+
 def _seeded(folder: Path, model) -> tuple:
     case = load_case(folder / "small.toml")
     path = model_cache.cache_path(case, 5)
