@@ -128,6 +128,33 @@ def test_campbell_cli_in_rpm_keeps_its_files_si(runner, tmp_path):
     assert bad.exit_code == 2 and "--units" in bad.stderr
 
 
+def test_library_campbell_shows_the_cli_numbers_in_the_same_units(runner):
+    """qm.campbell(units=) and campbell --units: the same table (one function makes both), its
+    numbers the SI result's by the units' definitions (1 rad/s = 60/2π rpm)."""
+    import quadmodes as qm
+
+    lib = qm.campbell("kane-beam", "0 rad/s", "6 rad/s", points=3, units="rpm")
+    tab = lib.table
+    assert tab.unit == "rpm" and tab.title == "kane-beam: rotating-frame (rpm)"
+    np.testing.assert_allclose(tab.spin, np.asarray(lib.spin) * 60 / (2 * math.pi), rtol=1e-14)
+    np.testing.assert_allclose(tab.frequency, np.asarray(lib.frequency)[:, :6] * 60 / (2 * math.pi),
+                               rtol=1e-14)  # fmt: skip
+    crossings = engine_order_crossings(lib)
+    assert crossings and [w for w, _, _ in tab.critical] == pytest.approx(
+        [c.spin * 60 / (2 * math.pi) for c in crossings], rel=1e-14)
+    cli = runner.invoke(app, ["campbell", "kane-beam", "--spin-max", "6 rad/s", "--points", "3",
+                              "--units", "rpm"], env={"COLUMNS": "200"})  # fmt: skip
+    assert cli.exit_code == 0, cli.output
+    lines = [[c.strip() for c in line.split("│")[1:-1]] for line in cli.stdout.splitlines()]
+    assert all(row in lines for row in tab.cells())  # every row, cell by cell
+    for w, lab, k in tab.critical:
+        assert [f"{w:.4g}", lab, f"{k}Ω"] in lines
+    si = qm.campbell("kane-beam", "0 rad/s", "6 rad/s", points=3, units="rad/s").table
+    np.testing.assert_array_equal(si.spin, lib.spin)
+    with pytest.raises(qm.QuadmodesError, match="units"):
+        qm.campbell("kane-beam", "0 rad/s", "6 rad/s", points=3, units="deg/s")
+
+
 def test_rotating_table_in_rad_s(runner, tmp_path):
     """rotating.md in rad/s is 2π times the JSON's Hz, row by row."""
     result = runner.invoke(app, ["rotating", "paper-membrane-coarse", "--spin-rate", "0 Hz",

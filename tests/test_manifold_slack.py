@@ -8,6 +8,8 @@ constant-strain triangles it is represented exactly (for w = b X² the element s
 twice the column's mid-x, which is the closed form's slope there).
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -123,3 +125,59 @@ def test_reference_slack_is_reported_apart(square):
     u = np.c_[np.zeros((len(X), 2)), 0.05 * X[:, 0] ** 2]  # stretches only
     onset = manifold_slack_onset(structure, x0, u)
     assert onset.fraction == np.inf and onset.reference_slack_area == taut.reference_slack_area
+
+
+def test_a_bonded_stiffener_pushed_into_the_membrane_slackens_its_seam(square):
+    """A rigid stiffener bonded along the line X = 0 (an end body's patch: group "attach:…")
+    moved by δ along x: the seam column on its right (X in [0, h]) has u_x = δ(1 − X/h), so
+    F11 = λ' − δ/h, F22 = λ', no shear; its 2nd PK S11 ∝ E11 + ν E22 vanishes at
+    (λ' − δ/h)² = 1 − ν(λ'² − 1). Only the seam can lose tension (nothing else moves), and the
+    run's row names it."""
+    from quadmodes.structure.tension_margin import slack_place
+
+    structure, membrane, X = square
+    h = L / CELLS
+    on_line = np.flatnonzero(np.isclose(X[:, 0], 0.0))
+    structure = dataclasses.replace(structure, groups={"attach:stiffener": on_line})
+    x0 = (1 + LAM) * X
+    stretch = 1 + LAM
+    expected = h * (stretch - np.sqrt(1 - NU * (stretch**2 - 1)))
+    delta = 4 * LAM * h  # the direction given: a = 1 is this push
+    u = np.zeros_like(X)
+    u[on_line, 0] = delta
+    onset = manifold_slack_onset(structure, x0, u)
+    assert onset.fraction * delta == pytest.approx(expected, rel=1e-9)
+    assert 0.0 < onset.position[0] < h  # the seam column ahead of the stiffener
+    taut = taut_set(structure, x0)
+    slack = taut.tensions(x0 + u) <= 0.0
+    mid_x = x0[membrane.conn, 0].mean(axis=1)
+    np.testing.assert_array_equal(slack, (mid_x > 0) & (mid_x < h * stretch))  # that column only
+    # the farthest slack centroid from a stiffener node: (2h/3, h/3) off, h√5/3
+    nearest = 1e3 * h * np.sqrt(5) / 3 * (1 + LAM)
+    assert slack_place(structure, taut, x0, slack) == (
+        f"at the seam of end body 'stiffener' (within {nearest:.3g} mm of the bonded patch)")
+
+
+def test_slack_off_a_compact_patch_is_said_to_be_off_the_seam(square):
+    """A bonded block of 3 × 3 nodes at the centre (radius h√2): the seam is the elements with
+    a node on it or whose centroid lies within h√2 of one of its nodes; a uniform contraction below the stress-free
+    size slackens every element, the place names the seam and counts the others."""
+    from quadmodes.structure.tension_margin import seam_bodies, slack_place
+
+    structure, membrane, X = square
+    h = L / CELLS
+    block = np.flatnonzero((np.abs(X[:, 0]) < 1.01 * h) & (np.abs(X[:, 1]) < 1.01 * h))
+    structure = dataclasses.replace(structure, groups={"attach:hub": block})
+    x0 = (1 + LAM) * X
+    taut = taut_set(structure, x0)
+    body, _ = seam_bodies(structure, taut, x0)
+    centroid = x0[membrane.conn].mean(axis=1)
+    gap = np.min(np.linalg.norm(centroid[:, None] - x0[block][None], axis=2), axis=1)
+    bonded = np.isin(membrane.conn, block).all(axis=1)
+    touching = np.isin(membrane.conn, block).any(axis=1) & ~bonded
+    np.testing.assert_array_equal(body == "hub", ~bonded & (touching | (gap <= np.sqrt(2) * h * (1 + LAM))))
+    everywhere = taut.tensions((1 - LAM) * X) <= 0.0
+    assert everywhere[taut.judged].all()
+    off = int(np.sum(taut.judged & (body == "")))
+    assert 0 < off < len(body) and slack_place(structure, taut, x0, everywhere & taut.judged).endswith(
+        f"of the bonded patch) and {off} elements off the seams")

@@ -286,17 +286,22 @@ def capsule_models(small_modal_model):
 
 @pytest.mark.parametrize("spin", [300.0, 309.0])
 def test_coning_rate_is_the_energy_sink_estimate(capsule_models, spin):
-    """The path check's coning rate (restated on the model layer) is the energy-sink estimate
-    of quadmodes.analysis (its relative equilibrium, forced response and power) to 1e-9, on the
-    model about 300 rad/s at its own spin and 3 % off it."""
-    from quadmodes.analysis.reduced_linearisation import relative_equilibrium
+    """The path check's coning rate is the energy-sink estimate (its relative equilibrium,
+    forced response and power) to 1e-9, on the model about 300 rad/s at its own spin and 3 %
+    off it; the relative equilibrium is one function (rom.steady_spin) for the runs and the
+    analyses, and a steady state of the body-frame equations (residual ≤ 1e-9 of Ω²)."""
+    from quadmodes.analysis import reduced_linearisation
     from quadmodes.rom.energy_sink import energy_sink
+    from quadmodes.rom.steady_spin import relative_equilibrium
+    from quadmodes.runs import spin_check
     from quadmodes.runs.spin_check import coning_rate
 
+    assert spin_check.relative_equilibrium is reduced_linearisation.relative_equilibrium
     model = capsule_models[0]
     sys = rsys.reduced_system(model, "Q")
     e = np.asarray(model.reference_axis, float)
-    w0, s_eq, _ = relative_equilibrium(sys, spin, e)
+    w0, s_eq, residual = relative_equilibrium(sys, spin, e)
+    assert residual <= 1e-9 and np.linalg.norm(w0) == pytest.approx(spin, rel=1e-12)
     want = energy_sink(sys, s_eq, w0, 0.1).growth_rate
     assert want != 0.0
     assert coning_rate(sys, spin, e, 0.1) == pytest.approx(want, rel=1e-9)

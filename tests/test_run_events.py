@@ -147,6 +147,22 @@ def test_a_time_event_is_exact_and_flat_spin_is_not_reached_by_a_rigid_body(body
     sys, y0 = body
     hit = run(sys, y0, integ("time 0.1234 s")).event
     assert hit.time == 0.1234 and hit.step == 124
+
+
+def test_the_steps_reported_end_on_the_event_step(body):
+    """The steps of a run that ended on an event count to the event's step (its time / Δt for a
+    time on the grid), not to the end of the chunk that passed it (150 steps a chunk here);
+    also resumed from a checkpoint of a run past the event."""
+    sys, y0 = body
+    timed = run(sys, y0, integ("time 0.25 s"))
+    assert timed.solution.stats["n_steps"] == round(0.25 / 1e-3) == timed.event.step
+    coned = run(sys, y0, integ("cone 40 deg"))
+    assert coned.solution.stats["n_steps"] == coned.event.step
+    assert coned.event.step * 1e-3 == pytest.approx(coned.event.time, abs=1e-3)
+    past = Keep()
+    run(sys, y0, integ(None), checkpoint=past)  # 3000 steps saved
+    late = run(sys, y0, integ("time 0.25 s"), resume=(past.saved[-1], 0.0))
+    assert late.solution.stats["n_steps"] == 250
     # torque-free and rigid: the angle to the major axis never falls (no dissipation)
     out = run(sys, y0, integ("flat spin", duration="0.5 s"))
     assert out.event is None and out.solution.t[-1] == pytest.approx(0.5)

@@ -79,6 +79,45 @@ def test_compare_into_the_current_folder_keeps_the_users_pictures(tmp_path, monk
     assert not list(tmp_path.parent.glob(f".{tmp_path.name}.fullorder*"))
 
 
+def test_output_into_the_current_folder_stages_inside_it(tmp_path, monkeypatch):
+    """``-o .``: the scratch folder is inside ``.``, never in its parent (not named by the user:
+    its entries and time stamp stay as they were), whether the command succeeds or fails; a
+    new folder that fails is removed again. Through the CLI too (``campbell -o .``)."""
+    from quadmodes.io.staging import staged_output
+
+    here = tmp_path / "here"
+    here.mkdir()
+    (here / "mine.txt").write_text("mine")
+    monkeypatch.chdir(here)
+    before = (sorted(p.name for p in tmp_path.iterdir()), tmp_path.stat().st_mtime_ns)
+
+    def parent_untouched():
+        assert (sorted(p.name for p in tmp_path.iterdir()), tmp_path.stat().st_mtime_ns) == before
+
+    with staged_output(Path(".")) as scratch:
+        assert scratch.parent == here and scratch.name.startswith(".here.partial-")
+        parent_untouched()
+        (scratch / "campbell.nc").write_text("data")
+    parent_untouched()
+    assert sorted(p.name for p in here.iterdir()) == sorted(["mine.txt", "campbell.nc",
+                                                             outputs.MANIFEST])  # fmt: skip
+    with pytest.raises(RuntimeError):
+        with staged_output(Path(".")) as scratch:
+            (scratch / "campbell.png").write_text("half")
+            raise RuntimeError("failed mid-way")
+    parent_untouched()
+    assert "campbell.png" not in {p.name for p in here.iterdir()}
+    with pytest.raises(RuntimeError):
+        with staged_output(Path("new")):
+            raise RuntimeError("failed mid-way")
+    assert not (here / "new").exists()
+    cli = _cli("campbell", "kane-beam", "--spin-max", "1 rad/s", "--points", "2", "-o", ".")
+    assert cli.exit_code == 0, cli.output
+    parent_untouched()
+    assert (here / "campbell.nc").is_file() and (here / "mine.txt").read_text() == "mine"
+    assert not [p for p in here.iterdir() if ".partial-" in p.name]
+
+
 def test_staging_never_writes_through_a_link_nor_over_a_users_file(tmp_path):
     from quadmodes.io.staging import staged_output
 
@@ -204,6 +243,40 @@ def test_compare_resume_after_the_case_was_edited_is_refused(tmp_path):
     edited = SimpleNamespace(run=edit(run, {"initial.cone_angle": "20 deg"}, "test"), model=model)
     with pytest.raises(runner.CheckpointError, match="edited"):
         runner.check_checkpoint_key(path, edited)
+
+
+def test_compare_resumes_from_a_checkpoint_of_the_earlier_layout(tmp_path, monkeypatch):
+    """An old-style ``.OUT.fullorder-checkpoint.npz`` beside OUT is moved into OUT (one note)
+    and resumed as any checkpoint: its own key still checks it; without --resume it is not
+    silently dropped; where both exist the one inside is used and the old one named."""
+    from types import SimpleNamespace
+
+    from quadmodes.analysis.full_order_runs import checkpoint_key
+
+    setup = SimpleNamespace(run=load_run_case("paper-41hz-coarse"),
+                            model=SimpleNamespace(provenance={"content_key": "0123"}))  # fmt: skip
+    out = tmp_path / "cmp"
+    old = tmp_path / ".cmp.fullorder-checkpoint.npz"
+    np.savez(old, version=1, step=7, key=checkpoint_key(setup))
+    saved = old.read_bytes()
+    notes: list[str] = []
+    monkeypatch.chdir(tmp_path)
+    path = runner.check_checkpoint(runner.checkpoint_beside(Path("cmp")), resume=True,
+                                   restart=False, note=notes.append)  # fmt: skip
+    assert path == out / ".fullorder-checkpoint.npz" and path.read_bytes() == saved
+    assert not old.exists() and len(notes) == 1 and "moved" in notes[0] and str(old) in notes[0]
+    runner.check_checkpoint_key(path, setup)  # the same comparison: resumed
+    path.unlink()
+    np.savez(old, version=1, step=7, key=checkpoint_key(setup))
+    monkeypatch.chdir(out)  # compare -o . inside the folder: the old file is in its parent
+    with pytest.raises(runner.CheckpointError, match="--resume"):
+        runner.check_checkpoint(runner.checkpoint_beside(Path(".")), resume=False, restart=False,
+                                note=notes.append)  # fmt: skip
+    np.savez(old, version=1, step=9, key=checkpoint_key(setup))  # both exist now
+    runner.check_checkpoint(runner.checkpoint_beside(Path(".")), resume=True, restart=False,
+                            note=notes.append)  # fmt: skip
+    assert "ignored" in notes[-1] and old.is_file()
+    assert int(np.load(out / ".fullorder-checkpoint.npz")["step"]) == 7
 
 
 def _seeded(folder: Path, model) -> tuple:

@@ -58,6 +58,8 @@ class CampbellResult:
     branch ends at the last point before it and the roots after it start new branches.
     notes: what the sweep changed from the request (e.g. the start of a body without stiffness
     at rest, :func:`quadmodes.analysis.campbell_output.sweep_spins`).
+    table: the :class:`~quadmodes.analysis.campbell_table.CampbellTable` printed by ``quadmodes
+    campbell`` in the unit asked for (``--units``, ``qm.campbell(units=)``; None: not made).
     """
 
     spin: np.ndarray
@@ -76,6 +78,7 @@ class CampbellResult:
     start: np.ndarray | None = None
     divergence: np.ndarray = field(default_factory=lambda: np.zeros(0))
     notes: tuple[str, ...] = ()
+    table: object = field(default=None, repr=False)
 
     @property
     def frequency_hz(self) -> np.ndarray:

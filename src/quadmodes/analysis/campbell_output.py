@@ -14,6 +14,7 @@ import numpy as np
 
 from quadmodes.analysis.campbell import CampbellResult, campbell, stiffless_at_rest
 from quadmodes.analysis.campbell_figure import branch_starts, plot_campbell
+from quadmodes.analysis.campbell_table import campbell_table
 from quadmodes.analysis.full_order_markers import (
     FullOrderMarkers,
     full_order_markers,
@@ -293,8 +294,9 @@ def campbell_with_full_order(
     """:func:`campbell_main` and, at ``full_order_spins`` (rad/s; a free-body case, not a bare
     model), the full-order model linearised about its spinning equilibrium about the diagram's
     axis, its roots matched to the branches (:mod:`quadmodes.analysis.full_order_markers`),
-    drawn on ``campbell.png`` and stored in ``campbell.nc``; ``unit`` that of the figure ("Hz",
-    "rpm", "rad/s"). Returns ``(result, markers or None, paths)``."""
+    drawn on ``campbell.png`` and stored in ``campbell.nc``; ``unit`` that of the figure and of
+    the result's ``table`` ("Hz", "rpm", "rad/s"; :mod:`quadmodes.analysis.campbell_table`).
+    Returns ``(result, markers or None, paths)``."""
     if n < 1:
         raise ValueError("n: give at least one spin rate")
     check_count(CAMPBELL_POINTS, n, "points (--points)", "use fewer spin rates (41 by default)")
@@ -314,6 +316,8 @@ def campbell_with_full_order(
     sweep, notes = sweep_spins(model, spin_min, spin_max, n)
     result = campbell(model, sweep, axis, formulation, damped, axis_option=axis_option)
     result = replace(result, notes=(*result.notes, *notes))
+    name = case_or_model if isinstance(case_or_model, str) else getattr(case_or_model, "name", "")
+    result = replace(result, table=campbell_table(result, unit, str(name)))
     markers = (full_order_markers(case_or_model, model, spins, result.axis, formulation,
                                   progress, axis_option) if spins else None)  # fmt: skip
     if markers is not None:  # the figure's branch names

@@ -4,7 +4,8 @@ never scored unless it reached the end of the window, then the files of the comp
 
 The full-order checkpoint of a comparison written into folder OUT is the hidden file
 ``OUT/.fullorder-checkpoint.npz`` (:func:`checkpoint_beside`: inside the output folder, never
-beside it); it is removed once the comparison's data are written. Without ``resume`` an existing checkpoint is discarded only on
+beside it; one of the earlier layout, ``.OUT.fullorder-checkpoint.npz`` beside OUT, is moved
+in: :func:`adopt_legacy_checkpoint`); it is removed once the comparison's data are written. Without ``resume`` an existing checkpoint is discarded only on
 request (:func:`check_checkpoint`). A full-order run that stopped early raises
 :class:`FullOrderIncomplete` (``interrupted``: Ctrl-C, the checkpoint is kept for a resume).
 """
@@ -12,6 +13,7 @@ request (:func:`check_checkpoint`). A full-order run that stopped early raises
 from __future__ import annotations
 
 import os
+import shutil
 import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -92,11 +94,40 @@ def check_checkpoint_readable(path: Path, option: str = "--resume", fix: str | N
         ) from None
 
 
+def legacy_checkpoint(checkpoint: Path) -> Path:
+    """Where versions before 0.2 kept the checkpoint ``OUT/.fullorder-checkpoint.npz``: beside
+    the folder, ``.OUT.fullorder-checkpoint.npz`` (``compare -o .`` wrote into the parent)."""
+    target = Path(os.path.abspath(checkpoint)).parent
+    return target.parent / f".{target.name}.fullorder-checkpoint.npz"
+
+
+def adopt_legacy_checkpoint(checkpoint: Path, note: Note | None = None) -> None:
+    """Move a checkpoint of the earlier layout (:func:`legacy_checkpoint`) to ``checkpoint``
+    inside the output folder (created if need be), so that it is resumed as any other (the
+    checkpoint's own key still checks that it is this comparison's); one ``note`` line says
+    so. Where both exist the one inside is the newer layout's: the old one is named as ignored
+    and left as it is."""
+    old = legacy_checkpoint(checkpoint)
+    if not old.is_file() or old.is_symlink():
+        return
+    note = note or log_note
+    if checkpoint.exists():
+        note(f"note: ignored the checkpoint {old} of an earlier version (the one inside the "
+             f"output folder, {checkpoint}, is used); delete it when no longer needed")  # fmt: skip
+        return
+    checkpoint.parent.mkdir(parents=True, exist_ok=True)
+    shutil.move(old, checkpoint)
+    note(f"note: moved the checkpoint {old} of an earlier version into the output folder, "
+         f"{checkpoint}")  # fmt: skip
+
+
 def check_checkpoint(checkpoint: Path, *, resume: bool, restart: bool,
                      note: Note | None = None) -> Path:  # fmt: skip
-    """Before any work: ``checkpoint`` must exist and be readable to ``resume``; without
-    ``resume`` an existing one is discarded only with ``restart`` (else
+    """Before any work: a checkpoint of the earlier layout is moved in first
+    (:func:`adopt_legacy_checkpoint`); then ``checkpoint`` must exist and be readable to
+    ``resume``; without ``resume`` an existing one is discarded only with ``restart`` (else
     :class:`CheckpointError`). Returns ``checkpoint``."""
+    adopt_legacy_checkpoint(checkpoint, note)
     if resume and restart:
         raise CheckpointError("--restart: discards the checkpoint that --resume continues; pass one")
     if resume and not checkpoint.exists():

@@ -246,6 +246,7 @@ def campbell(
     case, spin_min: QuantityLike = 0.0, spin_max: QuantityLike = "10 rad/s", points: int = 41,
     *, formulation: str = "Q", axis=None, full_order: Sequence[QuantityLike] = (),
     output_dir: str | os.PathLike[str] | None = None, progress: Progress | None = None,
+    units: str = "Hz",
 ):  # fmt: skip
     """Frequencies of the reduced model linearised about steady spin at ``points`` spin rates
     from ``spin_min`` to ``spin_max`` (quantities, e.g. "20 Hz"; bare floats are rad/s),
@@ -258,27 +259,33 @@ def campbell(
     name ("x", "minor" ...), a principal index 0-2 or a vector (3,).
     ``full_order``: spin rates (quantities; bare floats rad/s) at which the full-order model is
     linearised about its spinning equilibrium, its roots drawn as markers (``--full-order``).
+    ``units`` ("Hz", "rpm", "rad/s"; ``--units``): the unit of the result's ``table`` (the
+    table ``quadmodes campbell`` prints, by the same function) and of campbell.png.
 
     Returns
     -------
     quadmodes.analysis.campbell.CampbellResult
         ``spin`` (ns,) rad/s, ``labels`` (nb,), ``frequency`` (ns, nb) rad/s (rotating frame),
-        ``growth`` (ns, nb) 1/s, ``min_stiffness`` (ns,) 1/s^2. With ``output_dir``
+        ``growth`` (ns, nb) 1/s, ``min_stiffness`` (ns,) 1/s^2 (SI whatever ``units``);
+        ``table`` (:class:`~quadmodes.analysis.campbell_table.CampbellTable`): spin and
+        frequencies in ``units``, critical speeds, ``to_text()``. With ``output_dir``
         campbell.png/.nc/.csv are written there (all or nothing), as ``campbell -o``.
     """
     from quadmodes.analysis.campbell_output import campbell_with_full_order
+    from quadmodes.io.display_units import frequency_unit
     from quadmodes.io.staging import staged_output
     from quadmodes.rom.reduced import ReducedModel
 
     lo = si(spin_min, "angular_rate", "spin_min")
     hi = si(spin_max, "angular_rate", "spin_max")
     spins = [si(v, "angular_rate", "full_order") for v in full_order]
+    unit = frequency_unit(units, "units")
     folder = None if output_dir is None else Path(output_dir)
     with staged_output(folder) as scratch:
         result, _, _ = campbell_with_full_order(
             case if isinstance(case, ReducedModel) else _model(case), lo, hi, int(points),
             axis=axis, formulation=formulation,
-            output_dir=scratch, progress=progress, full_order_spins=spins,
+            output_dir=scratch, progress=progress, full_order_spins=spins, unit=unit,
         )  # fmt: skip
     return result
 

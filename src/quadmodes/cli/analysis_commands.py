@@ -94,36 +94,33 @@ def _campbell_summary(result, case_name: str, formulation: str) -> dict:
 
 def _print_campbell(result, case_name: str, summary: dict, unit) -> None:
     """At most 9 spin rates by the first 6 branches (in ``unit``), the critical speeds and
-    where the stiffness is lost."""
-    u = unit.name
-    freqs = unit.from_rad_s(np.asarray(result.frequency, float))
-    spins = unit.from_rad_s(np.asarray(result.spin, float))
-    table = Table(f"spin ({u})", *result.labels[:6], title=f"{case_name}: rotating-frame ({u})")
-    for k in np.linspace(0, len(result.spin) - 1, min(9, len(result.spin))).astype(int):
-        cells = [f"{v:.4g}" if np.isfinite(v) else "-" for v in freqs[k, :6]]
-        table.add_row(f"{spins[k]:.4g}", *cells)
+    where the stiffness is lost: the result's :class:`~quadmodes.analysis.campbell_table.
+    CampbellTable` (what ``qm.campbell(units=)`` returns too)."""
+    from quadmodes.analysis.campbell_table import campbell_table
+
+    tab = result.table if getattr(result.table, "unit", None) == unit.name else \
+        campbell_table(result, unit, case_name)  # fmt: skip
+    u = tab.unit
+    table = Table(f"spin ({u})", *map(escape, tab.labels), title=escape(tab.title))
+    for row in tab.cells():
+        table.add_row(*row)
     out.print(table)
-    for note in result.notes:
+    for note in tab.notes:
         err.print(f"note: {escape(note)}")
-    if result.notes:  # a body stiffened by its spin alone: ω/Ω is its spin-free answer
-        ratio = np.asarray(result.ratio, float)
-        spans = [f"{escape(lab)} {np.nanmin(r):.4g}–{np.nanmax(r):.4g}"
-                 for lab, r in zip(result.labels[:6], ratio.T[:6], strict=False)
-                 if np.isfinite(r).any()]  # fmt: skip
-        out.print("ω/Ω over the sweep: " + "; ".join(spans))
-    if summary["critical_speeds"]:
+    if tab.ratios:  # a body stiffened by its spin alone: ω/Ω is its spin-free answer
+        out.print("ω/Ω over the sweep: " + "; ".join(
+            f"{escape(lab)} {lo:.4g}–{hi:.4g}" for lab, lo, hi in tab.ratios))  # fmt: skip
+    if tab.critical:
         crit = Table(f"spin ({u})", "branch", "meets", title="critical speeds (f = kΩ)",
                      caption="k = 1: a load fixed in space; 2: twice a turn")  # fmt: skip
-        for c in summary["critical_speeds"]:
-            crit.add_row(f"{unit.from_rad_s(c['spin_rad_s']):.4g}", escape(c["branch"]),
-                         f"{c['order']}Ω")  # fmt: skip
+        for w, lab, k in tab.critical:
+            crit.add_row(f"{w:.4g}", escape(lab), f"{k}Ω")
         out.print(crit)
-    for w in summary["divergence_spin_rad_s"]:
-        out.print(f"[bold red]divergence at {unit.from_rad_s(w):.4g} {u}: the rotating stiffness "
+    for w in tab.divergence:
+        out.print(f"[bold red]divergence at {w:.4g} {u}: the rotating stiffness "
                   "changes definiteness; every branch ends there[/]")  # fmt: skip
-    if summary["unstable_spin_rates_rad_s"] and not summary["divergence_spin_rad_s"]:
-        w = unit.from_rad_s(summary["unstable_spin_rates_rad_s"][0])
-        out.print(f"[bold red]rotating stiffness not positive definite from {w:.4g} {u}[/]")
+    if tab.unstable_from is not None and not tab.divergence:
+        out.print(f"[bold red]rotating stiffness not positive definite from {tab.unstable_from:.4g} {u}[/]")
 
 
 FULL_ORDER_HELP = (

@@ -226,9 +226,9 @@ def check_output_folder(directory: Path | None, option: str = "-o", *,
     if directory.exists() and not directory.is_dir():
         raise UserError(f"{option}: {directory} is a file, not a folder; give a folder name")
     _check_name_lengths(directory, option, _STAGING_EXTRA)
-    _check_writable_folder(_nearest_existing(directory.parent), option, directory)
-    if directory.is_dir():
-        _check_writable_folder(directory, option, directory)
+    # an existing folder is written (and staged) inside only: its parent is not probed
+    where = directory if directory.is_dir() else _nearest_existing(directory.parent)
+    _check_writable_folder(where, option, directory)
 
 
 def check_output_file(path: Path | None, option: str = "-o") -> None:

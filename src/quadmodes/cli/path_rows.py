@@ -65,8 +65,9 @@ def _taut(summary: dict) -> str | None:
         return f"True (no deformation above round-off){apart}"
     verdict = {True: "True", False: "False",  # None: a pressurised membrane (its energy check judges)
                None: "recorded, not judged for a pressurised membrane"}[path.get("taut")]
+    where = f" {path['slack_where']}" if path.get("slack_where") else ""
     return (f"{verdict}: least tension {least:.3g} N/m, {100 * path['slack_area_fraction']:.3g} % "
-            f"of the taut area slack; the largest |s| is "
+            f"of the taut area slack{where}; the largest |s| is "
             f"{_times(path.get('slack_onset_fraction_of_peak'))} the onset{apart}")  # fmt: skip
 
 

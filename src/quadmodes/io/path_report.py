@@ -30,6 +30,7 @@ def _validity(path: dict) -> list[str]:
             path.get("taut"), "—")),
         ("least tension (N/m)", format_value(path.get("least_tension_n_per_m"), ".3g")),
         ("taut area slack (largest fraction)", format_value(path.get("slack_area_fraction"), ".3g")),
+        ("where it is slack", path.get("slack_where") or "—"),
         ("area slack at the reference (not judged)",
          format_value(path.get("reference_slack_area_fraction"), ".3g")),
     ]  # fmt: skip

@@ -1,5 +1,6 @@
 """All-or-nothing output folders: files are written into a hidden scratch folder
-``.<name>.partial-<pid>-…/`` beside the output folder and moved in only when complete, with
+``.<name>.partial-<pid>-…/`` inside the output folder (beside it for a run's folder OUT/NAME,
+whose parent OUT is the folder the user named) and moved in only when complete, with
 Ctrl-C and SIGTERM held during the few renames; scratch folders of processes that no longer
 run (killed while writing) are removed at the next start.
 
@@ -49,16 +50,15 @@ def _alive(pid: int) -> bool:
 
 
 def clean_stale_staging(directory: Path, note: Note | None = None) -> list[Path]:
-    """Remove the hidden staging folders ``.<name>.partial-<pid>-…/`` beside ``directory`` left
-    by a process that no longer runs (e.g. killed while writing); returns those removed (a
-    ``note`` names each)."""
+    """Remove the hidden staging folders ``.<name>.partial-<pid>-…/`` inside or beside
+    ``directory`` left by a process that no longer runs (e.g. killed while writing); returns
+    those removed (a ``note`` names each)."""
     note = note or log_note
     directory = Path(os.path.abspath(directory))
     prefix = f".{directory.name}.partial-"
     removed = []
-    if not directory.parent.is_dir():
-        return removed
-    for folder in sorted(directory.parent.glob(f"{glob.escape(prefix)}*")):
+    places = [d for d in (directory.parent, directory) if d.is_dir() and not d.is_symlink()]
+    for folder in sorted(f for d in places for f in d.glob(f"{glob.escape(prefix)}*")):
         pid = _staging_owner(folder, prefix)
         if not folder.is_dir() or (pid is not None and pid != os.getpid() and _alive(pid)):
             continue
@@ -71,9 +71,12 @@ def clean_stale_staging(directory: Path, note: Note | None = None) -> list[Path]
 
 @contextlib.contextmanager
 def staged_output(directory: Path | None, note: Note | None = None,
-                  announce: bool = True) -> Iterator[Path | None]:
-    """Write into a hidden scratch folder ``.<name>.partial-<pid>-…/`` beside ``directory``; move
-    the files in only on success and list them in its manifest
+                  announce: bool = True, *, beside: bool = False) -> Iterator[Path | None]:
+    """Write into a hidden scratch folder ``.<name>.partial-<pid>-…/`` inside ``directory``
+    (created if need be; with ``beside``, next to it: a run's folder OUT/NAME stages in OUT, so
+    that an interrupted rerun never writes into OUT/NAME), never in a folder the user did not
+    name (``-o .`` stages in the current folder, not its parent); move the files in only on
+    success and list them in its manifest
     (:mod:`quadmodes.io.outputs`). Left-over scratch folders of dead processes are removed
     first (:func:`clean_stale_staging`). A ``directory`` that is a symbolic link, or a file
     in it that quadmodes did not write and a new file would replace, raises
@@ -86,11 +89,13 @@ def staged_output(directory: Path | None, note: Note | None = None,
     if directory.is_symlink():  # never written through: the link's target is not ours
         raise OutputPathError(f"{directory} is a symbolic link; quadmodes writes only into real "
                               "folders: give its target or another folder")  # fmt: skip
-    created = [p for p in directory.parents if not p.exists()]  # deepest first
-    directory.parent.mkdir(parents=True, exist_ok=True)
+    created = [p for p in (directory, *directory.parents) if not p.exists()]  # deepest first
+    if beside:
+        created = created[1:] if created and created[0] == directory else created
+    (directory.parent if beside else directory).mkdir(parents=True, exist_ok=True)
     clean_stale_staging(directory, note)
     prefix = f".{directory.name}.partial-{os.getpid()}-"
-    scratch = Path(tempfile.mkdtemp(prefix=prefix, dir=directory.parent))
+    scratch = Path(tempfile.mkdtemp(prefix=prefix, dir=directory.parent if beside else directory))
     done = False
     try:
         yield scratch

@@ -110,8 +110,11 @@ def potential_gradient(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
 def potential_nonlinear_force(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     """``∂V/∂s − Λs − F1 = 3 V3·ss + 4 V4·sss (+ ∂N/∂s)`` (N,) J/(√kg·m) at one s (N,) (zeros
     for Q, P, L; N the system's ``nonlinear_potential``)."""
-    ss = np.outer(s, s).ravel()
-    out = sys.flat.V3g @ ss + sys.flat.V4g @ np.outer(ss, s).ravel()
+    if sys.quartic:
+        ss = np.outer(s, s).ravel()
+        out = sys.flat.V3g @ ss + sys.flat.V4g @ np.outer(ss, s).ravel()
+    else:  # no V3, V4 (their flat forms are (N, 0))
+        out = np.zeros(sys.n_modes)
     if sys.nonlinear_potential is not None:
         out = out + sys.nonlinear_potential.nonlinear_force(s)
     return out
@@ -122,10 +125,12 @@ def potential_hessian(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     if not sys.nonlinear:
         return sys.Lam
     n = sys.n_modes
-    ss = np.outer(s, s).ravel()
-    h3 = (sys.flat.V3g.reshape(n * n, n) @ s).reshape(n, n)  # 3 V3·s
-    h4 = (sys.flat.V4g.reshape(n * n, n * n) @ ss).reshape(n, n)  # 4 V4·ss
-    h = sys.Lam + 2.0 * h3 + 3.0 * h4
+    h = sys.Lam
+    if sys.quartic:
+        ss = np.outer(s, s).ravel()
+        h3 = (sys.flat.V3g.reshape(n * n, n) @ s).reshape(n, n)  # 3 V3·s
+        h4 = (sys.flat.V4g.reshape(n * n, n * n) @ ss).reshape(n, n)  # 4 V4·ss
+        h = h + 2.0 * h3 + 3.0 * h4
     if sys.nonlinear_potential is not None:
         h = h + sys.nonlinear_potential.nonlinear_hessian(s)
     return h
@@ -134,8 +139,10 @@ def potential_hessian(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
 def potential_nonlinear_energy(sys: ReducedSystem, s: np.ndarray) -> float:
     """``V − F1·s − ½ sᵀΛs`` (J) at one s (N,): the cubic and quartic terms of "Q4" plus the
     system's ``nonlinear_potential`` (zero for Q, P, L)."""
-    ss = np.outer(s, s)
-    v = float(np.einsum("mn,p,mnp->", ss, s, sys.V3) + np.einsum("mn,pq,mnpq->", ss, ss, sys.V4))
+    v = 0.0
+    if sys.quartic:
+        ss = np.outer(s, s)
+        v = float(np.einsum("mn,p,mnp->", ss, s, sys.V3) + np.einsum("mn,pq,mnpq->", ss, ss, sys.V4))
     if sys.nonlinear_potential is not None:
         v += float(sys.nonlinear_potential.nonlinear_energy(s))
     return v

@@ -53,7 +53,8 @@ class FlatTensors:
 
     J1f (N, 9): J1. J2s (N, 9N): ``G(s)_k = Σ_m s_m J2_mk = (s @ J2s).reshape(N, 9)``.
     J2w (N², 9): J2. Ds (N, 3N): D. Dsk (N², 3): ``D_km − D_mk``.
-    V3g (N, N²) = 3 V3, V4g (N, N³) = 4 V4: ``∂V/∂s − Λs = V3g @ (s⊗s) + V4g @ (s⊗s⊗s)``.
+    V3g (N, N²) = 3 V3, V4g (N, N³) = 4 V4: ``∂V/∂s − Λs = V3g @ (s⊗s) + V4g @ (s⊗s⊗s)``
+    ("Q4" only; ``(N, 0)`` for the other formulations).
 
     The dense mass tensors, O(N⁴) numbers each, built on first use from ``system`` (the steps
     evaluate 𝕄 by blocks, :attr:`ReducedSystem.mass_blocks`; these serve backward Euler and the
@@ -177,8 +178,9 @@ class ReducedSystem:
         put(self, "quartic", self.formulation == "Q4")
         #: the potential has terms beyond ½ sᵀΛs (Q4's tensors or a nonlinear potential)
         put(self, "nonlinear", self.quartic or self.nonlinear_potential is not None)
-        put(self, "V3", np.zeros((n, n, n)) if self.V3 is None else np.asarray(self.V3, float))
-        put(self, "V4", np.zeros((n,) * 4) if self.V4 is None else np.asarray(self.V4, float))
+        # absent (Q, P, L): read-only zeros of no memory, never multiplied (N⁴ numbers at N = 31)
+        put(self, "V3", _zeros((n,) * 3) if self.V3 is None else np.asarray(self.V3, float))
+        put(self, "V4", _zeros((n,) * 4) if self.V4 is None else np.asarray(self.V4, float))
         put(self, "F1", np.zeros(n) if self.F1 is None else np.asarray(self.F1, float))
         w = self.reference_omega
         put(self, "reference_omega", np.zeros(3) if w is None else np.asarray(w, float))
@@ -193,19 +195,26 @@ class ReducedSystem:
         return 7 + 2 * self.n_modes
 
 
+def _zeros(shape: tuple[int, ...]) -> np.ndarray:
+    """Read-only zeros of ``shape`` that take no memory (a broadcast view of one zero)."""
+    return np.broadcast_to(np.zeros(()), shape)
+
+
 def flat_tensors(sys: ReducedSystem) -> FlatTensors:
-    """The :class:`FlatTensors` of ``sys`` (its V3, V4 already arrays)."""
+    """The :class:`FlatTensors` of ``sys`` (its V3, V4 already arrays); V3g and V4g only for
+    "Q4" (``quartic``), else ``(N, 0)`` (no cubic or quartic potential: nothing to multiply)."""
     n = sys.n_modes
     c = np.ascontiguousarray
     dsk = sys.D - sys.D.transpose(1, 0, 2)  # D_km − D_mk
+    quartic = sys.quartic
     return FlatTensors(
         J1f=c(sys.J1.reshape(n, 9)),
         J2s=c(sys.J2.reshape(n, n * 9)),
         J2w=c(sys.J2.reshape(n * n, 9)),
         Ds=c(sys.D.reshape(n, n * 3)),
         Dsk=c(dsk.reshape(n * n, 3)),
-        V3g=c(3.0 * sys.V3.reshape(n, n * n)),
-        V4g=c(4.0 * sys.V4.reshape(n, n * n * n)),
+        V3g=c(3.0 * sys.V3.reshape(n, n * n)) if quartic else np.zeros((n, 0)),
+        V4g=c(4.0 * sys.V4.reshape(n, n * n * n)) if quartic else np.zeros((n, 0)),
         system=sys,
     )
 

@@ -138,7 +138,8 @@ class EventMonitor:
                       e_d=(*state.e_d[:-1], ed_new[: j + 1]))  # fmt: skip
         stop = _Stop(0, f"reached {self.text} at t = {hit.time:.6g} s", "")
         return dataclasses.replace(state, steps=k_b, y_last=y_new[j].copy(),
-                                   e_d_offset=float(ed_new[j]), stop=stop, event=hit, **pieces)  # fmt: skip
+                                   e_d_offset=float(ed_new[j]), stop=stop, event=hit,
+                                   stats=_steps_to(state, hit), **pieces)  # fmt: skip
 
     def after_resume(self, state, integ, h: float):
         """:meth:`after_chunk` on every sample of a resumed ``state`` (its pieces merged)."""
@@ -178,6 +179,17 @@ class EventMonitor:
         step = (k0 + k) if k0 is not None else int(round(ts[k] / h))
         return EventHit(self.text, self.kind, self.level, time, step, at(m["cone"]),
                         at(m["spin"]), located)  # fmt: skip
+
+
+def _steps_to(state, hit: EventHit) -> dict:
+    """``state.stats`` with ``n_steps`` (the run's steps, as reported) ending on the event's
+    step, not on the end of the chunk that passed it (``state.steps``, in the same count);
+    unchanged for an event located between samples (adaptive: no step of its own). The work
+    counters (right-hand sides, Newton iterations) keep the work done."""
+    stats = dict(state.stats)
+    if hit.located == "step" and "n_steps" in stats:
+        stats["n_steps"] = max(0, int(stats["n_steps"]) - max(0, int(state.steps) - int(hit.step)))
+    return stats
 
 
 def event_monitor(system: rsys.ReducedSystem, y0: np.ndarray, until: str | None,

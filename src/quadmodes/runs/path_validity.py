@@ -81,7 +81,8 @@ class PathValidity:
     least_tension (N/m): the smallest minor principal resultant of the membrane elements taut at
     the reference on the checked samples, slack_area the largest fraction of their area slack,
     reference_slack_area the reference's own slack area (NaN: no tension check,
-    :mod:`quadmodes.runs.taut_path`); slack_at (s): the first checked sample where one is slack
+    :mod:`quadmodes.runs.taut_path`), slack_where where the slack elements are ("at the seam of
+    end body 'front'"; "": none or no end bodies); slack_at (s): the first checked sample where one is slack
     (None: none, or not judged); slack_judged: the loss of tension is judged (a membrane held
     taut by its spin alone), else recorded only; tension_samples: ``(times (s), least tension
     (N/m))`` arrays of the checked samples (empty: no tension check); failures: every failing
@@ -110,6 +111,7 @@ class PathValidity:
     least_tension: float = math.nan
     slack_area: float = math.nan
     reference_slack_area: float = math.nan
+    slack_where: str = ""
     slack_at: float | None = None
     slack_judged: bool = False
     tension_samples: tuple = ()
@@ -414,7 +416,7 @@ def with_tension_check(path: PathValidity, setup, solution, diag) -> PathValidit
     path = dataclasses.replace(
         path, checked=(*path.checked, "membrane tension"), least_tension=tension.least,
         slack_area=tension.slack_area, reference_slack_area=tension.reference_slack_area,
-        amplitude_slack_fraction=tension.peak_fraction,
+        slack_where=tension.slack_where, amplitude_slack_fraction=tension.peak_fraction,
         tension_samples=(tension.checked_times, tension.checked_least),
     )  # fmt: skip
     from quadmodes.runs.deformation_check import slack_judged

@@ -167,7 +167,7 @@ def save_partial(result, folders: RunFolders, saved: bool, note: Note | None = N
 
     if not saved:
         return "nothing was saved (the first chunk had not ended)"
-    with staged_output(folders.partial, note, announce=False) as scratch:  # the last partial
+    with staged_output(folders.partial, note, announce=False, beside=True) as scratch:  # the last partial
         write_run_data(result, scratch)
     return (f"its checkpoint and partial results (complete = 0) are in {folders.partial}; "
             f"{folders.target} is untouched")  # fmt: skip
@@ -261,7 +261,7 @@ def commit(target: Path, data, draw, *, plots: bool, note: Note | None = None,
     data files) word the notes. Ctrl-C while drawing raises :class:`OutputsInterrupted`.
     Returns (dataset, summary)."""
     note = note or log_note
-    with staged_output(target, note) as scratch:
+    with staged_output(target, note, beside=True) as scratch:  # in OUT, never in OUT/NAME
         ds, info = data(scratch)
         old_figures = remove_old_figures(target)
         remove_old_extras(target)

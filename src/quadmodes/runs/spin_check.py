@@ -34,11 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadmodes.rom import dynamics as dy
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 from quadmodes.rom.energy_sink import energy_sink
-from quadmodes.rom.spin_axis import equilibrium_direction, in_degenerate_eigenspace
+from quadmodes.rom.steady_spin import relative_equilibrium
 
 #: The models' frequency tolerance (:data:`quadmodes.runs.path_validity.FREQUENCY_TOLERANCE`,
 #: which is this one).
@@ -102,31 +101,13 @@ def _rebuilt(setup, spin: float):
     return model, rsys.reduced_system(model, setup.run.reduced.formulation)
 
 
-def _equilibrium(sys: rsys.ReducedSystem, spin: float, e: np.ndarray, iterations: int = 50):
-    """(ω0 (3,) rad/s, s* (N,)) of the relative equilibrium at ``spin`` about the principal axis
-    nearest ``e``: ``(Λ − ωᵀJ2ω) s = ½ ωᵀJ1ω − F1``, the fixed point of
-    :func:`quadmodes.analysis.reduced_linearisation.relative_equilibrium` for a potential
-    without quartic or nonlinear terms (the runs may not import the analysis layer)."""
-    keep = in_degenerate_eigenspace(sys.J0, e)
-    w, s = spin * e, np.zeros(sys.n_modes)
-    for _ in range(iterations):
-        k = rf.rotating_frame_matrices(sys, w)[2]
-        s_new = np.linalg.solve(k, 0.5 * np.einsum("kab,a,b->k", sys.J1, w, w) - sys.F1)
-        w_new = spin * equilibrium_direction(dy.inertia_tensor(sys, s_new, "rot"), e, keep)
-        done = np.allclose(s_new, s, rtol=1e-13, atol=1e-300) and np.allclose(w_new, w, rtol=1e-13)
-        w, s = w_new, s_new
-        if done:
-            break
-    return w, s
-
-
 def coning_rate(sys: rsys.ReducedSystem, spin: float, axis: np.ndarray, cone: float) -> float:
     """θ̇/θ (1/s) of the energy-sink law (:func:`quadmodes.rom.energy_sink.energy_sink`, its
     ``growth_rate``) of ``sys`` about its relative equilibrium at ``spin`` (rad/s) near ``axis``
     (3,), at the cone angle ``cone`` (rad, > 0). NaN for a quartic or nonlinear potential."""
     if sys.nonlinear or sys.n_modes == 0:
         return math.nan
-    w0, s_eq = _equilibrium(sys, spin, np.asarray(axis, float) / np.linalg.norm(axis))
+    w0, s_eq, _ = relative_equilibrium(sys, spin, np.asarray(axis, float) / np.linalg.norm(axis))
     return float(energy_sink(sys, s_eq, w0, cone).growth_rate)
 
 

@@ -61,7 +61,9 @@ class PathTension:
     largest fraction of the judged area slack at a checked sample; reference_slack_area: of the
     off-patch area, the fraction not taut at the reference (not judged); peak_fraction: the
     fraction of the state of largest ‖s‖ at which the first judged element loses tension along
-    its manifold ray (inf: none up to 4 ×); samples: how many were checked; checked_times (s)
+    its manifold ray (inf: none up to 4 ×); slack_where: where the elements slack at any checked
+    sample are (:func:`~quadmodes.structure.tension_margin.slack_place`, e.g. "at the seam of
+    end body 'front'"; "": none, or no end bodies); samples: how many were checked; checked_times (s)
     and checked_least (N/m) ``(samples,)``: each checked sample's time and least tension of the
     judged elements (+inf where its deformation is round-off)."""
 
@@ -73,6 +75,7 @@ class PathTension:
     reference_slack_area: float
     peak_fraction: float
     samples: int
+    slack_where: str = ""
     checked_times: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
     checked_least: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
@@ -82,7 +85,7 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
     :class:`~quadmodes.runs.simulate.RunSetup` and its merged solution); None without a
     membrane or modes."""
     from quadmodes.runs import deformation_check as dc
-    from quadmodes.structure.tension_margin import taut_set
+    from quadmodes.structure.tension_margin import slack_place, taut_set
 
     system, model = setup.system, setup.model
     t, y = np.asarray(solution.t, float), np.asarray(solution.y, float)
@@ -101,6 +104,7 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
     least, least_k, least_e, slack_at, slack_area = math.inf, 0, 0, None, 0.0
     judged_area = taut.area[taut.judged].sum()
     per_sample = np.full(len(idx), np.inf)
+    ever = np.zeros(len(taut.area), bool)  # slack at some checked sample
     for i, k in enumerate(idx):
         if is_round_off(model, s[k]):
             continue  # round-off: no deformation
@@ -111,6 +115,7 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
         if tension[e] < least:
             least, least_k, least_e = float(tension[e]), int(k), e
         if tension[e] <= 0.0:
+            ever |= tension <= 0.0
             slack_area = max(slack_area, float(taut.area[tension <= 0.0].sum() / judged_area))
             slack_at = float(t[k]) if slack_at is None else slack_at
     onset = dc.slack_along(model, structure, s[peak], taut) if math.isfinite(least) else None
@@ -120,7 +125,8 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
         slack_at=slack_at, slack_area=slack_area,
         reference_slack_area=taut.reference_slack_area,
         peak_fraction=math.inf if onset is None else float(onset[0].fraction),
-        samples=len(idx), checked_times=t[idx], checked_least=per_sample,
+        samples=len(idx), slack_where=slack_place(structure, taut, x_ref, ever),
+        checked_times=t[idx], checked_least=per_sample,
     )  # fmt: skip
 
 
@@ -131,6 +137,6 @@ def tension_reason(tension: PathTension) -> str:
             "the reference state, not judged" if tension.reference_slack_area > 0 else "")
     return (f"the membrane loses tension where it is taut at the reference (exact strain of the "
             f"manifold displacement Φs + Σ s s g): up to {100 * tension.slack_area:.3g} % of that "
-            f"area slack, least tension {tension.least:.3g} N/m at ({where}) m, t = "
+            f"area slack{' ' + tension.slack_where if tension.slack_where else ''}, least tension {tension.least:.3g} N/m at ({where}) m, t = "
             f"{tension.least_time:.6g} s; the state of largest |s| is "
             f"{1 / tension.peak_fraction:.3g} × the onset along its own direction{rest}")  # fmt: skip

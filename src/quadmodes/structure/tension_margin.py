@@ -201,6 +201,51 @@ def taut_set(structure: Structure, x0: np.ndarray) -> TautSet | None:
     return TautSet(sets, area, centroid, tension, off_patch & (tension > 0.0), off_patch)
 
 
+def seam_bodies(structure: Structure, taut: TautSet, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(body, distance)`` ``(ne,)`` each: for every element of ``taut``, the end body whose
+    bonded patch it lies next to — a node on the patch, or its centroid within the patch's
+    radius (the largest distance of the patch's nodes from their centroid, at ``x0`` ``(n, 3)``
+    m) of a patch node — and that distance (m); "" and inf elsewhere (and for an image set's elements). The seam of a rigid end
+    fitting: its rim holds the hoop strain at zero, so the minor (hoop) tension of an inflated
+    membrane is low there (paper-membrane-coarse at 41 Hz: 15–48 N/m against a median of 224
+    N/m) and the end body's motion relative to the membrane changes it at first order: where a
+    pressurised membrane's path goes slack first (docs/validation.md)."""
+    x0 = np.asarray(x0, float).reshape(-1, 3)
+    body = np.full(len(taut.area), "", dtype=object)
+    distance = np.full(len(taut.area), np.inf)
+    own = np.concatenate([np.full(len(e.conn), e is _inner(e)) for e in taut.sets])
+    conn = np.concatenate([e.conn if e is _inner(e) else np.full((len(e.conn), 3), -1)
+                           for e in taut.sets])  # fmt: skip
+    for name, nodes in structure.groups.items():
+        if not name.startswith("attach:") or len(nodes) == 0:
+            continue
+        patch = x0[np.asarray(nodes)]
+        radius = float(np.max(np.linalg.norm(patch - patch.mean(axis=0), axis=1)))
+        d = np.min(np.linalg.norm(taut.centroid[:, None, :] - patch[None], axis=2), axis=1)
+        touching = np.isin(conn, nodes).any(axis=1)
+        near = own & taut.off_patch & ((d <= radius) | touching) & (d < distance)
+        body[near], distance[near] = name.partition(":")[2], d[near]
+    return body, distance
+
+
+def slack_place(structure: Structure, taut: TautSet, x0: np.ndarray, slack: np.ndarray) -> str:
+    """Where the elements ``slack`` ``(ne,)`` bool of ``taut`` are, in words
+    (:func:`seam_bodies`): "at the seam of end body 'front' (within 3.1 mm of its bonded
+    patch)", "… and N elements off the seams", "off the end-body seams"; "" for a structure
+    without end bodies or nothing slack."""
+    if not slack.any() or not any(g.startswith("attach:") for g in structure.groups):
+        return ""
+    body, distance = seam_bodies(structure, taut, x0)
+    names = sorted({str(b) for b in body[slack] if b})
+    off = int(np.sum(slack & (body == "")))
+    if not names:
+        return "off the end-body seams"
+    text = ("at the seam of end body " if len(names) == 1 else "at the seams of end bodies ")
+    text += ", ".join(f"'{b}'" for b in names)
+    text += f" (within {1e3 * float(np.max(distance[slack & (body != '')])):.3g} mm of the bonded patch)"
+    return text + (f" and {off} element{'s' * (off > 1)} off the seams" if off else "")
+
+
 @dataclass(frozen=True)
 class ManifoldSlack:
     """First loss of tension along ``x0 + a u1 + a² u2`` (exact strain), among the elements taut
