@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -104,6 +105,7 @@ class RenewalPipeline:
         self.factor, self.lag, self.background = factor, lag, background
         self.steps = 0  # steps started with this pipeline
         self.launched = 0  # renewals launched (for the statistics)
+        self.waited = 0.0  # s of wall time the stepping thread waited for them (diagnostics)
         self._pending = None
         self._swap_at = 0
         self._history = []  # the start pairs of the last `lag` steps, oldest first
@@ -119,7 +121,9 @@ class RenewalPipeline:
         self._history = [*self._history[1 - self.lag :], pair] if self.lag > 1 else [pair]
         due = None
         if self._pending is not None and self.steps >= self._swap_at:
+            start = time.perf_counter()
             due, self._pending = self._pending.result(), None
+            self.waited += time.perf_counter() - start
         if self._pending is None and self.steps > 1 and wanted:
             kind = _Background if self.background else _Inline
             if EXTRAPOLATE and past is not None:  # the pair expected at the swap
