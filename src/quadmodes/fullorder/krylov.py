@@ -115,26 +115,27 @@ class KrylovNewtonMatrix:
         """Take the operator at the body-frame pair (z0, z1) (n,3) (the start data of the step
         force recomputed only when z0 changed)."""
         if self._z0 is None or not np.array_equal(z0, self._z0):
-            if self.renewal is not None:
-                self._next_step_renewal(z0, z1)
+            cost = renewal_module.RENEWAL_COST  # launch a renewal by the last step's count
+            wanted = cost is None or self._past_average(cost)
             if self._z0 is not None:  # a step done: its Krylov steps go into the mean
                 self._steps_before += 1
                 self._krylov_before += self._this_step
             self._z0 = np.array(z0, float)
             self._start = self.ops.start(self._z0)
             self._this_step = 0
+            if self.renewal is not None:
+                self._next_step_renewal(z0, z1, wanted)
         self._z1 = np.array(z1, float)
         self._f1 = self.ops.step_force(self._start, self._z1) if self.adaptive else None
 
-    def _next_step_renewal(self, z0: np.ndarray, z1: np.ndarray) -> None:
-        """At the start of a step: swap in the pipeline's renewal due now, launch the next
-        (always, or by :data:`~quadmodes.fullorder.renewal.RENEWAL_COST`)."""
-        cost = renewal_module.RENEWAL_COST
-        wanted = cost is None or self._past_average(cost)
+    def _next_step_renewal(self, z0: np.ndarray, z1: np.ndarray, wanted: bool) -> None:
+        """At the start of a step: swap in the pipeline's renewal due now (the mean cost then
+        counts from here), launch the next if ``wanted`` (always, or by
+        :data:`~quadmodes.fullorder.renewal.RENEWAL_COST`)."""
         due = self.renewal.step(z0, z1, wanted)
         if due is not None:
             self.base = due
-            self._steps_before = self._krylov_before = self._this_step = 0
+            self._steps_before = self._krylov_before = 0
 
     def take_renewals(self) -> int:
         """Renewals launched by the pipeline since the last call (for the statistics)."""
