@@ -243,3 +243,56 @@ def tie_blocks(conn, l2, k, x0, x1, positions, weight, out):  # pragma: no cover
                 if pos >= 0:
                     sign = 1.0 if (r < 3) == (c < 3) else -1.0
                     out[pos] += weight * sign * kb[r % 3, c % 3]
+
+
+@nb.njit(cache=True, nogil=True)
+def membrane_block_scatter(conn, g0, g1, vol, d, x0, x1, positions, weight, out):  # pragma: no cover
+    """Add ``weight ×`` the SVK membranes' energy–momentum Jacobian blocks
+    ``½ A₀t [B(x½)ᵀ D B(x₁) + K_geo(S̄)]`` (``MembraneKernel.block``, 9 × 9 per element, rows
+    3a + i for node a, component i) at the pair (x0, x1) (n,3) to ``out``, entry (p, q) of
+    element e at ``positions[81 e + 9 p + q]`` (−1: dropped), element by element: the blocks'
+    sums in the order of :func:`scatter_add`, the blocks themselves to round-off (not formed:
+    no (ne, 9, 9) array). conn (ne,3), g0, g1 (ne,3) shape-function gradients, vol = A₀t (ne,),
+    d (3,3) the Voigt stiffness."""
+    fa0, fb0, fa1, fb1 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    bh, b1, db1 = np.empty((3, 9)), np.empty((3, 9)), np.empty((3, 9))
+    for e in range(conn.shape[0]):
+        for i in range(3):
+            fa0[i] = fb0[i] = fa1[i] = fb1[i] = 0.0
+            for a in range(3):
+                fa0[i] += g0[e, a] * x0[conn[e, a], i]
+                fb0[i] += g1[e, a] * x0[conn[e, a], i]
+                fa1[i] += g0[e, a] * x1[conn[e, a], i]
+                fb1[i] += g1[e, a] * x1[conn[e, a], i]
+        e11 = 0.5 * (fa0 @ fa0 - 1.0 + fa1 @ fa1 - 1.0) * 0.5
+        e22 = 0.5 * (fb0 @ fb0 - 1.0 + fb1 @ fb1 - 1.0) * 0.5
+        g12 = 0.5 * (fa0 @ fb0 + fa1 @ fb1)
+        s11 = d[0, 0] * e11 + d[0, 1] * e22 + d[0, 2] * g12
+        s22 = d[1, 0] * e11 + d[1, 1] * e22 + d[1, 2] * g12
+        s12 = d[2, 0] * e11 + d[2, 1] * e22 + d[2, 2] * g12
+        for a in range(3):
+            for i in range(3):
+                c = 3 * a + i
+                ah, bb = 0.5 * (fa0[i] + fa1[i]), 0.5 * (fb0[i] + fb1[i])
+                bh[0, c] = g0[e, a] * ah
+                bh[1, c] = g1[e, a] * bb
+                bh[2, c] = g1[e, a] * ah + g0[e, a] * bb
+                b1[0, c] = g0[e, a] * fa1[i]
+                b1[1, c] = g1[e, a] * fb1[i]
+                b1[2, c] = g1[e, a] * fa1[i] + g0[e, a] * fb1[i]
+        for r in range(3):
+            for c in range(9):
+                db1[r, c] = d[r, 0] * b1[0, c] + d[r, 1] * b1[1, c] + d[r, 2] * b1[2, c]
+        scale = weight * 0.5 * vol[e]
+        for p in range(9):
+            a, i = p // 3, p % 3
+            for q in range(9):
+                pos = positions[81 * e + 9 * p + q]
+                if pos < 0:
+                    continue
+                k = bh[0, p] * db1[0, q] + bh[1, p] * db1[1, q] + bh[2, p] * db1[2, q]
+                b, j = q // 3, q % 3
+                if i == j:
+                    k += (s11 * g0[e, a] * g0[e, b] + s12 * (g0[e, a] * g1[e, b] + g1[e, a] * g0[e, b])
+                          + s22 * g1[e, a] * g1[e, b])  # fmt: skip
+                out[pos] += scale * k

@@ -253,13 +253,14 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
     if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
         permuted = PermutedNewtonAssembly.of(ops, problem.free)
 
-        def kept(z0, z1):
-            return _kept(problem, ops, permuted, z0, z1)
+        def kept(z0, z1, fused=False):
+            return _kept(problem, ops, permuted, z0, z1, fused)
 
         def krylov(z0, z1):
             pipe = None
-            if threads >= 2 and policy == "adaptive":
-                pipe = renewal_module.RenewalPipeline(kept, background=renewal_module.BACKGROUND)
+            if threads >= 2 and policy == "adaptive":  # the thread's: compiled blocks
+                pipe = renewal_module.RenewalPipeline(lambda a, b: kept(a, b, True),
+                                                      background=renewal_module.BACKGROUND)  # fmt: skip
             return KrylovNewtonMatrix(problem, ops, kept(z0, z1), policy, pipe)
 
         return krylov
@@ -267,13 +268,14 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
 
 
 def _kept(problem: FullOrderProblem, ops: StepOperators, permuted: PermutedNewtonAssembly,
-          z0: np.ndarray, z1: np.ndarray) -> NewtonMatrix:  # fmt: skip
+          z0: np.ndarray, z1: np.ndarray, fused: bool = False) -> NewtonMatrix:  # fmt: skip
     """The float32 preconditioner of the Krylov path at the body-frame pair (z0, z1) (n,3):
     ``NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)``, assembled straight
-    into its permuted data by ``permuted`` (built once per run; the same matrix bit for bit)."""
+    into its permuted data by ``permuted`` (built once per run; the same matrix bit for bit,
+    or to round-off with ``fused``: :meth:`PermutedNewtonAssembly.data`)."""
     weight = 0.5 * problem.h * problem.h
     try:
-        lu = permuted.factorize(ops, z0, z1, weight)
+        lu = permuted.factorize(ops, z0, z1, weight, fused)
     except RuntimeError:  # exactly singular: the general path's partial pivoting decides
         return NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
     low = low_rank_terms(problem.structure, z0, z1)
