@@ -225,9 +225,9 @@ def spin_runs(small_modal_model, small_reduced_model):
     model, m = small_reduced_model, small_modal_model
     x0, v0 = _spin_start(m, model)
 
-    def run(full):
+    def run(full):  # one thread: the renewal rule on the stepping thread (counted below)
         return integrate_full_order(m.structure, m.x, x0, v0, (0.0, 40 * H), H,
-                                    FullOrderOptions(model=model, full_newton=full))  # fmt: skip
+                                    FullOrderOptions(model=model, full_newton=full, threads=1))  # fmt: skip
 
     made = []
 
@@ -291,7 +291,8 @@ def policy_runs(small_modal_model, small_reduced_model):
     x0, v0 = _spin_start(m, model)
 
     def run(policy, krylov=False, full=False, tol=1e-11):
-        opts = FullOrderOptions(model=model, full_newton=full, newton_policy=policy, newton_tol=tol)
+        opts = FullOrderOptions(model=model, full_newton=full, newton_policy=policy, newton_tol=tol,
+                                threads=1)  # the rationed renewal (test_fullorder_renewal.py: 2)
         with pytest.MonkeyPatch.context() as mp:
             if krylov:
                 mp.setattr(nwt, "MAX_TIE_DOFS", 0)

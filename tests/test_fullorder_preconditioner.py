@@ -81,3 +81,19 @@ def test_compiled_bar_force_is_the_numpy_one_bit_for_bit(capsule):
             plain, compiled = BarKernel(e, problem.n), BarKernel(e, problem.n, jit_module())
             start = plain.start(x0)
             assert np.array_equal(compiled.force(start, x1), plain.force(start, x1))
+
+
+@pytest.mark.skipif(jit_module() is None, reason="numba cannot be imported here")
+def test_fused_membrane_blocks_are_the_numpy_ones_to_round_off(capsule):
+    # the renewal thread's preconditioner (issue 27 item 4): the SVK membranes' Jacobian blocks
+    # computed and added in one compiled pass (jit.membrane_block_scatter) instead of formed
+    # by numpy and scattered; the same sums in the same order, the blocks to round-off
+    problem, ops, pairs = capsule
+    w = 0.5 * H * H
+    permuted = pre.PermutedNewtonAssembly.of(ops, problem.free)
+    assert any(type(k) is pre.MembraneKernel for k in ops.kernels)
+    for x0, x1 in pairs:
+        ref = permuted.data(ops, x0, x1, w)
+        got = permuted.data(ops, x0, x1, w, fused=True)
+        stiff = np.abs(ref - permuted.mass).max()  # the weight·J part
+        assert np.abs(got - ref).max() <= 1e-13 * stiff

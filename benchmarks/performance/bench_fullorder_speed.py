@@ -9,7 +9,9 @@ issue 10: ``git worktree add --detach /tmp/qm-old 55d0bce``). The runs alternate
 step (printed: the one-off costs of a fresh process, e.g. loading the compiled kernels, about
 1 s for the new version), then times the window. Printed per case: wall time per
 simulated second (best of the repeats) and the ratio old/new, in wall and in CPU time (the
-CPU time of the child, less disturbed by other jobs on a shared machine), Newton iterations and
+CPU time of the child, less disturbed by other jobs on a shared machine; and the CPU time of
+its stepping thread alone, which is the wall time where the renewal thread has a core of its
+own), Newton iterations and
 factorisations per step, and how far the results differ: the |H| drift, the energy E and
 the balance E + E_d relative to the kinetic energy, and the modal envelope (max |s_k| over the
 window) relative to the largest. Nothing here asserts on timings. Usage::
@@ -24,6 +26,13 @@ window) relative to the largest. Nothing here asserts on timings. Usage::
 the default ``"adaptive"`` (issue 27 item 4; docs/performance.md)::
 
     python -m benchmarks.performance.bench_fullorder_speed --old fixed --cases paper-41hz \
+        --window 0.05 --repeat 2
+
+``--old one-thread`` runs this tree twice: the old side with ``QUADMODES_THREADS=1`` (the
+preconditioner renewed on the stepping thread), the new side with the default (renewed on a
+second thread when the process may use two cores; issue 27 item 4, docs/performance.md)::
+
+    python -m benchmarks.performance.bench_fullorder_speed --old one-thread --cases paper-41hz \
         --window 0.05 --repeat 2
 
 ``--offline`` times the offline build instead (mesh + structure, inflation, 10 modes of
@@ -78,11 +87,14 @@ def child(setup_file: str, window: float, dt: float, out: str) -> None:
     start = time.perf_counter()
     run(dt)  # one step: the one-off costs of a process (first calls, compiled kernels)
     first = time.perf_counter() - start
-    start, cpu = time.perf_counter(), time.process_time()
+    load = os.getloadavg()[0]
+    start, cpu, main = time.perf_counter(), time.process_time(), time.thread_time()
     sol = run(window)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    main = time.thread_time() - main  # the stepping thread's: wall time on free cores
     arrays = {k: np.asarray(getattr(sol, k)) for k in SERIES}
-    np.savez(out, wall=wall, cpu=cpu, first=first, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
+    np.savez(out, wall=wall, cpu=cpu, main=main, first=first,
+             load=(load + os.getloadavg()[0]) / 2, n_steps=sol.stats["n_steps"], n_newton=sol.stats["n_newton"],
              n_factor=sol.stats["n_factor"], **arrays)  # fmt: skip
 
 
@@ -145,9 +157,12 @@ def build_setup(case: str, folder: Path) -> Path:
 
 
 def run_child(src: Path | str, setup: Path, window: float, dt: float, out: Path) -> dict:
-    """One child on ``src`` (a src/ folder, or "fixed"/"adaptive": this tree, that policy)."""
+    """One child on ``src`` (a src/ folder, or "fixed"/"adaptive": this tree, that policy, or
+    "one-thread": this tree with ``QUADMODES_THREADS=1``)."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     env.pop("QM_NEWTON_POLICY", None)
+    if str(src) == "one-thread":
+        env["QUADMODES_THREADS"], src = "1", NEW_SRC
     if str(src) in ("fixed", "adaptive"):
         env["QM_NEWTON_POLICY"], src = str(src), NEW_SRC
     env["PYTHONPATH"] = str(src)
@@ -187,16 +202,20 @@ def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp
             runs[label].append(run_child(src, setup, window, dt, tmp / f"{case}-{label}-{k}.npz"))
             last = runs[label][-1]
             print(f"  {case} {label} run {k + 1}: {float(last['wall']):.1f} s wall, "
-                  f"{float(last['cpu']):.1f} s CPU (one step before it, in a fresh process: "
-                  f"{float(last['first']):.2f} s)", flush=True)  # fmt: skip
+                  f"{float(last['cpu']):.1f} s CPU, {float(last['main']):.1f} s CPU of the "
+                  f"stepping thread, load {float(last['load']):.1f} (one step before it, in a "
+                  f"fresh process: {float(last['first']):.2f} s)", flush=True)  # fmt: skip
     best = {label: min(float(r["wall"]) for r in rs) for label, rs in runs.items()}
     cpu = {label: min(float(r["cpu"]) for r in rs) for label, rs in runs.items()}
+    main = {label: min(float(r["main"]) for r in rs) for label, rs in runs.items()}
     old, new = runs["old"][0], runs["new"][0]
     steps = int(new["n_steps"])
     return {
         "case": case, "window": window, "dt": dt, "steps": steps,
         "old_s": best["old"] / window, "new_s": best["new"] / window,
         "ratio": best["old"] / best["new"], "cpu_ratio": cpu["old"] / cpu["new"],
+        "main_ratio": main["old"] / main["new"],
+        "old_main_s": main["old"] / window, "new_main_s": main["new"] / window,
         "old_newton": int(old["n_newton"]) / steps, "new_newton": int(new["n_newton"]) / steps,
         "old_factor": int(old["n_factor"]) / steps, "new_factor": int(new["n_factor"]) / steps,
         "diff": differences(old, new),
@@ -205,11 +224,13 @@ def measure(case: str, old_src: Path, window: float, dt: float, repeat: int, tmp
 
 def report(rows: list[dict]) -> None:
     print("\n| case | window (s) | steps | old (s per sim. s) | new (s per sim. s) | old / new "
-          "| CPU old / new | Newton/step old → new | factorisations/step old → new |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| CPU old / new | stepping thread's CPU s per sim. s, old → new | its old / new "
+          "| Newton/step old → new | factorisations/step old → new |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['case']} | {r['window']:g} | {r['steps']} | {r['old_s']:.1f} | "
               f"{r['new_s']:.1f} | **{r['ratio']:.2f}** | {r['cpu_ratio']:.2f} | "
+              f"{r['old_main_s']:.1f} → {r['new_main_s']:.1f} | {r['main_ratio']:.2f} | "
               f"{r['old_newton']:.2f} → "
               f"{r['new_newton']:.2f} | {r['old_factor']:.3f} → {r['new_factor']:.4f} |")  # fmt: skip
     print("\n| case | Δ|H| drift | |H| drift (old) | ΔE / T | Δ(E + E_d) / T | Δ envelope "
@@ -231,7 +252,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--old", required=True, type=Path,
                     help='src/ folder of the old version, or "fixed": this tree with the Newton '
-                         'policy before issue 27')  # fmt: skip
+                         'policy before issue 27, or "one-thread": this tree on one thread')  # fmt: skip
     ap.add_argument("--cases", default="paper-41hz-coarse", help="comma-separated run cases")
     ap.add_argument("--window", type=float, default=0.2, help="simulated window (s)")
     ap.add_argument("--dt", type=float, default=2.5e-4, help="full-order step (s)")
@@ -242,8 +263,8 @@ def main() -> None:
     ap.add_argument("--setups", type=Path, default=None,
                     help="folder keeping the pickled setups between runs (default: temporary)")
     args = ap.parse_args()
-    if str(args.old) == "fixed":
-        args.old = "fixed"
+    if str(args.old) in ("fixed", "one-thread"):
+        args.old = str(args.old)
     elif not (args.old / "quadmodes" / "__init__.py").is_file():
         print(f"error: --old {args.old}: not a source folder with quadmodes/ in it; give the "
               "src/ of a checkout of the old version", file=sys.stderr)  # fmt: skip

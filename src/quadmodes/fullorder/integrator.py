@@ -25,6 +25,7 @@ from quadmodes.fullorder.newton import (
     solve_step,
 )
 from quadmodes.fullorder.options import FullOrderOptions
+from quadmodes.fullorder.renewal import default_threads
 from quadmodes.fullorder.sampling import SampledSeries
 from quadmodes.fullorder.setup import (
     FullOrderProblem,
@@ -133,6 +134,7 @@ def integrate_full_order(
         save_every=opts.save_every, checkpoint=ck,
         checkpoint_every=opts.checkpoint_every, progress=progress, start=start,
         key=opts.checkpoint_key, policy=opts.newton_policy,
+        threads=default_threads() if opts.threads is None else opts.threads,
     )  # fmt: skip
     modes = problem.damping
     stats = {"n_newton": state.n_newton, "n_factor": state.n_factor, "n_steps": state.step,
@@ -147,16 +149,18 @@ def _run_steps(
     problem: FullOrderProblem, state: RunState, samples: SampledSeries, ops: StepOperators, *,
     max_newton: int, full_newton: bool, save_every: int, checkpoint: Path | None, checkpoint_every: int,
     progress: Callable[[float], None] | None, start: float, key: str = "", policy: str = "fixed",
+    threads: int = 1,
 ) -> tuple[RunState, int, str]:  # fmt: skip
     """Step ``state`` to the end of the problem, sampling every ``save_every`` steps (and the
     last), checkpointing every ``checkpoint_every`` (the factorisation is renewed after each,
     so that a resumed run repeats the uninterrupted one); ``start``: perf_counter at the start
     of this run; ``key``: the checkpoints' key; ``policy``: the Newton policy
-    (:data:`~quadmodes.fullorder.newton.POLICIES`). Returns ``(state, status, message)``; Ctrl-C stops with status 1 (the state
+    (:data:`~quadmodes.fullorder.newton.POLICIES`); ``threads``: see
+    :func:`~quadmodes.fullorder.newton.matrix_factory`. Returns ``(state, status, message)``; Ctrl-C stops with status 1 (the state
     reached is sampled)."""
     n_steps, matrix = problem.n_steps, None
     report = max(1, n_steps // 100)
-    make = matrix_factory(problem, ops, full_newton, policy)
+    make = matrix_factory(problem, ops, full_newton, policy, threads)
     try:
         while state.step < n_steps:
             state, matrix = _advance(problem, state, matrix, max_newton, checkpoint, ops, make,
@@ -198,8 +202,9 @@ def _advance(
         cause = loss_of_tension(problem.structure, x, problem.X)
         raise FullOrderNewtonError(state.step + 1, t1, res.correction / problem.scale, kept, cause)
     e_d = state.e_d + dissipated_work(problem, x, res.x1, res.vh, res.fd, t_now + 0.5 * h)
+    renewed = getattr(res.matrix, "take_renewals", lambda: 0)()  # on a second thread
     new = RunState(state.step + 1, res.x1, 2.0 * res.vh - v, e_d, frame_now,
-                   state.n_newton + res.n_newton, state.n_factor + res.n_factor,
+                   state.n_newton + res.n_newton, state.n_factor + res.n_factor + renewed,
                    state.wall_before)  # fmt: skip
     return new, res.matrix
 

@@ -3,7 +3,7 @@ follower-pressure force at x½ (:mod:`quadmodes.fullorder.kernels`), the free-bo
 force (:func:`quadmodes.fullorder.step.damping_force`) and the ties' blocks of the condensed
 Newton matrix (:mod:`quadmodes.fullorder.condensed`). Used when numba (a core
 dependency) is importable; the numpy forms there are the fallback and the reference (same
-arithmetic, so the two agree to round-off; the tests compare them). ``@njit(cache=True)``:
+arithmetic, so the two agree to round-off; the tests compare them). ``@njit(cache=True, nogil=True)`` (a renewal on a second thread runs beside them):
 compiled once per machine and numba version (then about 0.4 s to load in a fresh process).
 """
 
@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def membrane_force(conn, g0, g1, vg0, vg1, d, a0, b0, e0, x1, out):  # pragma: no cover - jit
     """Add the membrane step forces to ``out`` (n,3): per element F(x₁) columns from ``g0, g1``
     (ne,3), S̄ = D (ε₀ + ε₁)/2 with ``e0`` (3,ne) the Voigt start strain, F(x½) from the start
@@ -41,7 +41,7 @@ def membrane_force(conn, g0, g1, vg0, vg1, d, a0, b0, e0, x1, out):  # pragma: n
             out[n2, i] += vg0[e, 2] * p0 + vg1[e, 2] * p1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def pressure_gradient(conn, xh, out):  # pragma: no cover - jit
     """Add ``∇V`` at xh (n,3) of the triangles ``conn`` (nt,3) to ``out`` (n,3) (m²) and
     return the enclosed volume V (m³)."""
@@ -63,7 +63,7 @@ def pressure_gradient(conn, xh, out):  # pragma: no cover - jit
     return volume
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def damping_frame(x, v, t, w, mx, indptr, indices, data):  # pragma: no cover - jit
     """The n-sized sums of the free-body damping force at state (x, v) (n,3), M_s in CSR
     (indptr, indices, data), t (n,) translational indicator, w = M_s t, mx = M_s X (n,3):
@@ -105,7 +105,7 @@ def damping_frame(x, v, t, w, mx, indptr, indices, data):  # pragma: no cover - 
     return p, r, big_a, big_p, s, moments
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def damping_modal(r, v, t, c6, rot, mphi_flat, cmat):  # pragma: no cover - jit
     """``(f, b)``: the modal damping force before its projection, ``f = Y C Yᵀ (v − Ψ c6)``
     (n,3) with ``Y = M 𝒬 Φ`` (``mphi_flat`` = M_s Φ (K, 3n), rot the frame), and its net and
@@ -132,7 +132,7 @@ def damping_modal(r, v, t, c6, rot, mphi_flat, cmat):  # pragma: no cover - jit
     return f, moments
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _pinv_symmetric(g, rcond):  # pragma: no cover - jit
     w, u = np.linalg.eigh(g)
     big = np.max(np.abs(w))
@@ -143,7 +143,7 @@ def _pinv_symmetric(g, rcond):  # pragma: no cover - jit
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def damping_free(x, v, t, w, mx, indptr, indices, data, mphi_flat, cmat):  # pragma: no cover
     """The free-body modal damping force (n,3) N at state (x, v) of
     :func:`quadmodes.fullorder.step.damping_force` in one compiled call: the frame sums
@@ -185,7 +185,7 @@ def damping_free(x, v, t, w, mx, indptr, indices, data, mphi_flat, cmat):  # pra
     return f
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def bar_force(conn, l2, k, d0, e0, x1, out):  # pragma: no cover - jit
     """Add the Green-strain bars' step forces ``∓ k ε̄ d½`` (ε̄ = (ε₀ + ε₁)/2, k = EA/L₀) to
     ``out`` (n,3), bar by bar in index order: the sums of ``BarKernel.force``'s sparse
@@ -209,7 +209,7 @@ def bar_force(conn, l2, k, d0, e0, x1, out):  # pragma: no cover - jit
         out[b, 2] += f2
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def scatter_add(positions, values, out):  # pragma: no cover - jit
     """``out[positions[i]] += values[i]`` in the order of i, skipping ``positions[i] < 0``
     (the sums of ``np.bincount``, bit for bit; :mod:`quadmodes.fullorder.preconditioner`)."""
@@ -219,7 +219,7 @@ def scatter_add(positions, values, out):  # pragma: no cover - jit
             out[p] += values[i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def tie_blocks(conn, l2, k, x0, x1, positions, weight, out):  # pragma: no cover - jit
     """Add ``weight ×`` the Green-strain bars' energy–momentum Jacobian blocks
     ``½k(ε̄ I + d½ d₁ᵀ/L₀²)`` (as ``[[kb, −kb], [−kb, kb]]``) at the pair (x0, x1) (n,3) to the
@@ -243,3 +243,56 @@ def tie_blocks(conn, l2, k, x0, x1, positions, weight, out):  # pragma: no cover
                 if pos >= 0:
                     sign = 1.0 if (r < 3) == (c < 3) else -1.0
                     out[pos] += weight * sign * kb[r % 3, c % 3]
+
+
+@nb.njit(cache=True, nogil=True)
+def membrane_block_scatter(conn, g0, g1, vol, d, x0, x1, positions, weight, out):  # pragma: no cover
+    """Add ``weight ×`` the SVK membranes' energy–momentum Jacobian blocks
+    ``½ A₀t [B(x½)ᵀ D B(x₁) + K_geo(S̄)]`` (``MembraneKernel.block``, 9 × 9 per element, rows
+    3a + i for node a, component i) at the pair (x0, x1) (n,3) to ``out``, entry (p, q) of
+    element e at ``positions[81 e + 9 p + q]`` (−1: dropped), element by element: the blocks'
+    sums in the order of :func:`scatter_add`, the blocks themselves to round-off (not formed:
+    no (ne, 9, 9) array). conn (ne,3), g0, g1 (ne,3) shape-function gradients, vol = A₀t (ne,),
+    d (3,3) the Voigt stiffness."""
+    fa0, fb0, fa1, fb1 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    bh, b1, db1 = np.empty((3, 9)), np.empty((3, 9)), np.empty((3, 9))
+    for e in range(conn.shape[0]):
+        for i in range(3):
+            fa0[i] = fb0[i] = fa1[i] = fb1[i] = 0.0
+            for a in range(3):
+                fa0[i] += g0[e, a] * x0[conn[e, a], i]
+                fb0[i] += g1[e, a] * x0[conn[e, a], i]
+                fa1[i] += g0[e, a] * x1[conn[e, a], i]
+                fb1[i] += g1[e, a] * x1[conn[e, a], i]
+        e11 = 0.5 * (fa0 @ fa0 - 1.0 + fa1 @ fa1 - 1.0) * 0.5
+        e22 = 0.5 * (fb0 @ fb0 - 1.0 + fb1 @ fb1 - 1.0) * 0.5
+        g12 = 0.5 * (fa0 @ fb0 + fa1 @ fb1)
+        s11 = d[0, 0] * e11 + d[0, 1] * e22 + d[0, 2] * g12
+        s22 = d[1, 0] * e11 + d[1, 1] * e22 + d[1, 2] * g12
+        s12 = d[2, 0] * e11 + d[2, 1] * e22 + d[2, 2] * g12
+        for a in range(3):
+            for i in range(3):
+                c = 3 * a + i
+                ah, bb = 0.5 * (fa0[i] + fa1[i]), 0.5 * (fb0[i] + fb1[i])
+                bh[0, c] = g0[e, a] * ah
+                bh[1, c] = g1[e, a] * bb
+                bh[2, c] = g1[e, a] * ah + g0[e, a] * bb
+                b1[0, c] = g0[e, a] * fa1[i]
+                b1[1, c] = g1[e, a] * fb1[i]
+                b1[2, c] = g1[e, a] * fa1[i] + g0[e, a] * fb1[i]
+        for r in range(3):
+            for c in range(9):
+                db1[r, c] = d[r, 0] * b1[0, c] + d[r, 1] * b1[1, c] + d[r, 2] * b1[2, c]
+        scale = weight * 0.5 * vol[e]
+        for p in range(9):
+            a, i = p // 3, p % 3
+            for q in range(9):
+                pos = positions[81 * e + 9 * p + q]
+                if pos < 0:
+                    continue
+                k = bh[0, p] * db1[0, q] + bh[1, p] * db1[1, q] + bh[2, p] * db1[2, q]
+                b, j = q // 3, q % 3
+                if i == j:
+                    k += (s11 * g0[e, a] * g0[e, b] + s12 * (g0[e, a] * g1[e, b] + g1[e, a] * g0[e, b])
+                          + s22 * g1[e, a] * g1[e, b])  # fmt: skip
+                out[pos] += scale * k

@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
+import quadmodes.fullorder.renewal as renewal_module
 from quadmodes.fullorder.kernels import StepOperators
+from quadmodes.fullorder.renewal import RenewalPipeline
 from quadmodes.fullorder.setup import FullOrderProblem
 from quadmodes.linalg.krylov import gmres
 
@@ -74,11 +76,16 @@ class KrylovNewtonMatrix:
     the current iterate); ``worn`` when the last step (the solves since z₀ last changed) needed
     more than :data:`KRYLOV_STEP_BUDGET` Krylov steps (the caller renews at the next step).
     policy: ``"adaptive"`` (:data:`FACTOR_COST`, :data:`KRYLOV_STEPS_ADAPTIVE`) or ``"fixed"``
-    (:data:`KRYLOV_STEP_BUDGET`, :data:`KRYLOV_STEPS`; the rule before issue 27)."""
+    (:data:`KRYLOV_STEP_BUDGET`, :data:`KRYLOV_STEPS`; the rule before issue 27). renewal: a
+    :class:`~quadmodes.fullorder.renewal.RenewalPipeline` that swaps in a renewed ``base`` at
+    the start of a step on its own schedule (then never ``worn``); None: renewed by the
+    caller."""
 
     def __init__(self, problem: FullOrderProblem, ops: StepOperators, base,
-                 policy: str = "adaptive"):  # fmt: skip
+                 policy: str = "adaptive", renewal: RenewalPipeline | None = None):  # fmt: skip
         self.problem, self.ops, self.base = problem, ops, base
+        self.renewal = renewal
+        self._renewals_counted = 0
         self.weight = 0.5 * problem.h * problem.h
         self.adaptive = policy == "adaptive"
         self.stale = False
@@ -90,24 +97,51 @@ class KrylovNewtonMatrix:
     @property
     def worn(self) -> bool:
         """Renew before the next step: the last step's Krylov steps exceed the mean cost per
-        step since the renewal (:data:`FACTOR_COST`; ``"fixed"``: :data:`KRYLOV_STEP_BUDGET`)."""
+        step since the renewal (:data:`FACTOR_COST`; ``"fixed"``: :data:`KRYLOV_STEP_BUDGET`).
+        Never with a renewal pipeline (it renews on its own schedule)."""
+        if self.renewal is not None:
+            return False
         if not self.adaptive:
             return self._this_step > KRYLOV_STEP_BUDGET
-        total = FACTOR_COST + self._krylov_before + self._this_step
+        return self._past_average(FACTOR_COST)
+
+    def _past_average(self, cost: float) -> bool:
+        """The last step's Krylov steps exceed the mean per step since the renewal, the
+        renewal counted as ``cost`` Krylov steps."""
+        total = cost + self._krylov_before + self._this_step
         return self._this_step * (self._steps_before + 1) > total
 
     def update(self, z0: np.ndarray, z1: np.ndarray) -> None:
         """Take the operator at the body-frame pair (z0, z1) (n,3) (the start data of the step
         force recomputed only when z0 changed)."""
         if self._z0 is None or not np.array_equal(z0, self._z0):
+            cost = renewal_module.RENEWAL_COST  # launch a renewal by the last step's count
+            wanted = cost is None or self._past_average(cost)
             if self._z0 is not None:  # a step done: its Krylov steps go into the mean
                 self._steps_before += 1
                 self._krylov_before += self._this_step
             self._z0 = np.array(z0, float)
             self._start = self.ops.start(self._z0)
             self._this_step = 0
+            if self.renewal is not None:
+                self._next_step_renewal(z0, z1, wanted)
         self._z1 = np.array(z1, float)
         self._f1 = self.ops.step_force(self._start, self._z1) if self.adaptive else None
+
+    def _next_step_renewal(self, z0: np.ndarray, z1: np.ndarray, wanted: bool) -> None:
+        """At the start of a step: swap in the pipeline's renewal due now (the mean cost then
+        counts from here), launch the next if ``wanted`` (always, or by
+        :data:`~quadmodes.fullorder.renewal.RENEWAL_COST`)."""
+        due = self.renewal.step(z0, z1, wanted)
+        if due is not None:
+            self.base = due
+            self._steps_before = self._krylov_before = 0
+
+    def take_renewals(self) -> int:
+        """Renewals launched by the pipeline since the last call (for the statistics)."""
+        launched = self.renewal.launched if self.renewal is not None else 0
+        new, self._renewals_counted = launched - self._renewals_counted, launched
+        return new
 
     def apply(self, v: np.ndarray) -> np.ndarray:
         """``A(z) v`` (n_free,) for v on the free DOFs (body frame)."""

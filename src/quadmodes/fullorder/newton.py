@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+import quadmodes.fullorder.renewal as renewal_module
 from quadmodes.errors import QuadmodesError
 from quadmodes.fe.assembly import assemble_matrix
 from quadmodes.fe.model import Structure, tangent_low_rank, tangent_stiffness
@@ -228,7 +229,8 @@ def _rho(matrix) -> float:
 
 
 def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
-                   full_newton: bool = False, policy: str = "adaptive") -> Callable:  # fmt: skip
+                   full_newton: bool = False, policy: str = "adaptive",
+                   threads: int = 1) -> Callable:  # fmt: skip
     """``make(z0, z1)``: the Newton matrix of a run at a body-frame pair (n,3). With ``ops``
     and ties in the structure: a :class:`~quadmodes.fullorder.condensed.CondensedNewtonMatrix`
     (the ties renewed at every iteration; at most :data:`MAX_TIE_DOFS` of them); with more ties:
@@ -236,7 +238,11 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
     preconditioned by a float32 factorisation); without ties, with ``ops``: a
     :class:`NewtonMatrix` assembled by ``ops``; ``full_newton`` or no ``ops``: the
     straightforward :class:`NewtonMatrix`. policy: :data:`POLICIES` (the Krylov matrix's
-    renewal rule)."""
+    renewal rule). threads: with 2 or more and the policy ``"adaptive"``, the Krylov matrix's
+    preconditioner is renewed on a second thread every
+    :data:`~quadmodes.fullorder.renewal.RENEWAL_LAG` steps
+    (:class:`~quadmodes.fullorder.renewal.RenewalPipeline`; ``renewal.BACKGROUND = False``:
+    the same schedule inline)."""
     if full_newton or ops is None:
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1)
     split = TieSplit.of(ops, problem.free)
@@ -246,20 +252,30 @@ def matrix_factory(problem: FullOrderProblem, ops: StepOperators | None,
         return lambda z0, z1: NewtonMatrix.at(problem, z0, z1, ops)  # the kept whole matrix
     if len(split.tie) > MAX_TIE_DOFS:  # too many for a dense Schur system
         permuted = PermutedNewtonAssembly.of(ops, problem.free)
-        return lambda z0, z1: KrylovNewtonMatrix(
-            problem, ops, _kept(problem, ops, permuted, z0, z1), policy
-        )
+
+        def kept(z0, z1, fused=False):
+            return _kept(problem, ops, permuted, z0, z1, fused)
+
+        def krylov(z0, z1):
+            pipe = None
+            if threads >= 2 and policy == "adaptive":  # the thread's: compiled blocks
+                pipe = renewal_module.RenewalPipeline(lambda a, b: kept(a, b, True),
+                                                      background=renewal_module.BACKGROUND)  # fmt: skip
+            return KrylovNewtonMatrix(problem, ops, kept(z0, z1), policy, pipe)
+
+        return krylov
     return lambda z0, z1: CondensedNewtonMatrix(problem, ops, split, z0, z1)
 
 
 def _kept(problem: FullOrderProblem, ops: StepOperators, permuted: PermutedNewtonAssembly,
-          z0: np.ndarray, z1: np.ndarray) -> NewtonMatrix:  # fmt: skip
+          z0: np.ndarray, z1: np.ndarray, fused: bool = False) -> NewtonMatrix:  # fmt: skip
     """The float32 preconditioner of the Krylov path at the body-frame pair (z0, z1) (n,3):
     ``NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)``, assembled straight
-    into its permuted data by ``permuted`` (built once per run; the same matrix bit for bit)."""
+    into its permuted data by ``permuted`` (built once per run; the same matrix bit for bit,
+    or to round-off with ``fused``: :meth:`PermutedNewtonAssembly.data`)."""
     weight = 0.5 * problem.h * problem.h
     try:
-        lu = permuted.factorize(ops, z0, z1, weight)
+        lu = permuted.factorize(ops, z0, z1, weight, fused)
     except RuntimeError:  # exactly singular: the general path's partial pivoting decides
         return NewtonMatrix.at(problem, z0, z1, ops, single=True, node_order=True)
     low = low_rank_terms(problem.structure, z0, z1)

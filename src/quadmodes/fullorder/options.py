@@ -42,7 +42,10 @@ class FullOrderOptions:
     the error left is below a tenth of the tolerance, the Krylov preconditioner renewed when
     its marginal cost passes the average; :data:`quadmodes.fullorder.newton.RATE_STOP`,
     :data:`quadmodes.fullorder.krylov.FACTOR_COST`) or ``"fixed"`` (the rules before it, kept
-    for the side-by-side benchmark and the tests).
+    for the side-by-side benchmark and the tests). threads: threads the run may use (None:
+    :func:`~quadmodes.fullorder.renewal.default_threads`: ``$QUADMODES_THREADS``, else 1); with 2 or more, the Krylov path's preconditioner is renewed on a
+    second thread (:mod:`~quadmodes.fullorder.renewal`; same answers to the Newton
+    tolerance, repeatable whatever the load).
     """
 
     model: ReducedModel | None = None
@@ -60,10 +63,13 @@ class FullOrderOptions:
     resume: bool = False
     checkpoint_key: str = ""
     newton_policy: str = "adaptive"
+    threads: int | None = None
 
     def __post_init__(self):
         if self.newton_policy not in ("adaptive", "fixed"):
             raise ValueError(f"newton_policy {self.newton_policy!r}: choose adaptive or fixed")
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"threads {self.threads}: at least 1 (None: the cores available)")
 
     def updated(self, **changes) -> FullOrderOptions:
         """A copy with ``changes`` (option names as the fields; ``TypeError`` for others)."""

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from quadmodes.fe.membrane_kernels import MembraneKernel
 from quadmodes.fe.model import tangent_low_rank
 from quadmodes.fullorder.kernels import StepOperators, jit_module
 from quadmodes.linalg.factor import Factorization, kept_node_ordering, single_permuted
@@ -69,17 +70,24 @@ class PermutedNewtonAssembly:
                    ops.mass_data[source])  # fmt: skip
 
     def data(self, ops: StepOperators, x0: np.ndarray, x1: np.ndarray,
-             weight: float) -> np.ndarray:  # fmt: skip
+             weight: float, fused: bool = False) -> np.ndarray:  # fmt: skip
         """The permuted CSC data ``(nnz,)`` of ``M + weight·J(x₀, x₁)`` (weight: Δt²/2, s²)
         without the global rank-one terms; equal entry by entry to
-        ``ops.newton_matrix(x0, x1, weight)[order][:, order]``."""
+        ``ops.newton_matrix(x0, x1, weight)[order][:, order]``. fused: the St Venant–Kirchhoff
+        membranes' blocks computed and added in one compiled pass
+        (``jit.membrane_block_scatter``; the same sums in the same order, the blocks to
+        round-off, not bit for bit; the renewal thread's, :mod:`~quadmodes.fullorder.renewal`)."""
         acc = np.zeros(self.mass.size)
         jit = jit_module()
-        blocks = [kern.block(x0, x1).ravel() for kern in ops.kernels]
         if jit is not None:
-            for pos, values in zip(self.positions, blocks, strict=True):
-                jit.scatter_add(pos, values, acc)
+            for pos, kern in zip(self.positions, ops.kernels, strict=True):
+                if fused and type(kern) is MembraneKernel:
+                    jit.membrane_block_scatter(kern.conn, kern.g0, kern.g1, kern.vol, kern.d,
+                                               x0, x1, pos, 1.0, acc)  # fmt: skip
+                else:
+                    jit.scatter_add(pos, kern.block(x0, x1).ravel(), acc)
         else:  # bincount adds in input order: the same sums
+            blocks = [kern.block(x0, x1).ravel() for kern in ops.kernels]
             keep = [pos >= 0 for pos in self.positions]
             pos = np.concatenate([p[k] for p, k in zip(self.positions, keep, strict=True)])
             values = np.concatenate([b[k] for b, k in zip(blocks, keep, strict=True)])
@@ -87,13 +95,13 @@ class PermutedNewtonAssembly:
         return self.mass + weight * acc
 
     def factorize(self, ops: StepOperators, x0: np.ndarray, x1: np.ndarray,
-                  weight: float) -> Factorization:  # fmt: skip
+                  weight: float, fused: bool = False) -> Factorization:  # fmt: skip
         """float32 factorisation of the free-DOF Newton matrix at (x0, x1) (n,3), as
         ``factorize(a, single=True, nodes=free // 3)`` makes it (RuntimeError: exactly
-        singular)."""
+        singular); fused: see :meth:`data`."""
         size = self.order.size
         # copies of the pattern: the factorisation may reorder its input's arrays in place
-        a = sp.csc_matrix((self.data(ops, x0, x1, weight).astype(np.float32),
+        a = sp.csc_matrix((self.data(ops, x0, x1, weight, fused).astype(np.float32),
                            self.indices.copy(), self.indptr.copy()), shape=(size, size))  # fmt: skip
         return single_permuted(a, self.order)
 
