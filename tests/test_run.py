@@ -29,8 +29,8 @@ from quadmodes.cli.app import app
 from quadmodes.models import build as model_build
 from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact, integrators
+from quadmodes.runs import chunked, simulate
 from quadmodes.runs import results as res
-from quadmodes.runs import simulate
 from quadmodes.structure import pipeline
 
 PAPER_RUNS = ["paper-0.5hz", "paper-41hz"]
@@ -107,6 +107,14 @@ def workdir(tmp_path, monkeypatch, small_reduced_model) -> Path:
     )
     artifact.save_reduced_model(seeded, model_cache.cache_path(case, 5))
     return tmp_path
+
+
+@pytest.fixture
+def many_chunks(monkeypatch):
+    """The small runs (250–750 steps) chunked as longer ones are, without the floor of
+    :data:`~quadmodes.runs.chunked.MIN_CHUNK_STEPS` steps a chunk (in this process), so that
+    a test sees several chunks: progress and failures between them."""
+    monkeypatch.setattr(chunked, "MIN_CHUNK_STEPS", 1)
 
 
 def _undamped(model):
@@ -297,7 +305,7 @@ def test_chunked_run_is_continuous(workdir, small_reduced_model):
     assert np.max(np.abs(one.y - many.y) / scale) < 1e-9
 
 
-def test_summary_keys_log_decrement_and_consistency(workdir, small_reduced_model):
+def test_summary_keys_log_decrement_and_consistency(workdir, small_reduced_model, many_chunks):
     run = load_run_case(workdir / "small-run.toml")
     run = simulate.apply_overrides(run, duration="0.15 s")
     progress: list[float] = []
@@ -434,7 +442,7 @@ def test_run_command_unknown_case_exits_2(tmp_path):
 
 
 @pytest.mark.parametrize("failure", ["status", "nan"])
-def test_integrator_failure_keeps_partial_results(workdir, monkeypatch, failure):
+def test_integrator_failure_keeps_partial_results(workdir, monkeypatch, failure, many_chunks):
     real = integrators.integrate
     calls = {"n": 0}
 
