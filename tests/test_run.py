@@ -295,6 +295,19 @@ def test_results_file_units_and_conservation(workdir, small_reduced_model):
     assert summary["H_relative_drift"] < 1e-10
 
 
+def test_chunk_sizes_left_to_the_run_have_a_floor():
+    """Chunks are whole multiples of save_every; left to the run (max_chunks None) at most
+    MAX_CHUNKS of at least MIN_CHUNK_STEPS steps (300 steps saved every 2: one chunk of 256
+    and the rest, not 150 of 2); a count given is honoured as before."""
+    floor, most = chunked.MIN_CHUNK_STEPS, chunked.MAX_CHUNKS
+    for n, every in ((300, 2), (3000, 2), (10**6, 5), (7, 3), (250, 5)):
+        chunk = chunked._chunk_steps(n, every)
+        assert chunk % every == 0 and chunk >= floor and math.ceil(n / chunk) <= most
+        assert chunk - every < max(floor, n / most)  # the smallest such multiple
+        given = chunked._chunk_steps(n, every, 20)
+        assert given == every * max(1, math.ceil(n / every / 20))
+
+
 def test_chunked_run_is_continuous(workdir, small_reduced_model):
     run = load_run_case(workdir / "small-run.toml")
     model = _undamped(small_reduced_model)
