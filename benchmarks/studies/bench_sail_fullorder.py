@@ -38,6 +38,7 @@ import argparse
 import json
 import os
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -107,36 +108,45 @@ def compare_one(folder: Path, args, edge: float, window: float) -> tuple[dict, P
 
     run = write_cases(folder, args.case, args.cone, edge, window, args.dt)
     out = folder / f"out-{edge}"
+    cpu = []  # (simulated s, process CPU s) at the full order's progress reports
+
+    def progress(stage: str, fraction: float) -> None:
+        if stage == "full order":
+            cpu.append((fraction * window, time.process_time()))
+
     qm.compare(str(run), f"{window} s", formulations=("Q",), output_dir=out, plots=False,
-               full_order_dt=f"{args.full_dt} s")  # fmt: skip
+               full_order_dt=f"{args.full_dt} s", progress=progress)  # fmt: skip
     n = structure_for_case(load_run_case(str(run)).model_case()).n
     summary = json.loads((out / "comparison.json").read_text())
-    summary["integration_wall_s"], summary["run_wall_s"] = reduced_run_wall(run)
+    summary["integration_wall_s"], summary["run_wall_s"], summary["integration_cpu_s"] = \
+        reduced_run_wall(run)  # fmt: skip
+    (t0, c0), (t1, c1) = cpu[0], cpu[-1]
+    summary["full_cpu_per_s"] = (c1 - c0) / (t1 - t0) if t1 > t0 else float("nan")
     return summary, out, n
 
 
-def reduced_run_wall(run_path: Path, repeats: int = 5) -> tuple[float, float]:
+def reduced_run_wall(run_path: Path, repeats: int = 5) -> tuple[float, float, float]:
     """The reduced run's (integration, whole work) wall times (s) once its model is loaded,
     each the median of ``repeats``: its chunked integration alone (``integrate_run``, what
     ``compare`` times once) and ``simulate.execute`` of the run prepared as ``quadmodes run``
     prepares it (integration, diagnostics and the path's FE checks). The median, because a
-    run of a few milliseconds on a shared machine is often preempted for a time slice."""
-    import time
-
+    run of a few milliseconds on a shared machine is often preempted for a time slice. Third:
+    the integration's process CPU time (s, median), what contention does not inflate."""
     from quadmodes.runs import simulate
     from quadmodes.runs.step_chunks import integrate_run
 
     setup = simulate.prepare(load_run_case(str(run_path)), check_deformation=True)
     simulate.warm_up_kernel(setup.run)
-    integration, whole = [], []
+    integration, whole, cpu = [], [], []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         integrate_run(setup.system, setup.initial.y0, setup.run.integration)
         integration.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
         start = time.perf_counter()
         simulate.execute(setup)
         whole.append(time.perf_counter() - start)
-    return float(np.median(integration)), float(np.median(whole))
+    return float(np.median(integration)), float(np.median(whole)), float(np.median(cpu))
 
 
 def print_decay(summary: dict, out: Path) -> None:
@@ -197,20 +207,29 @@ def main() -> None:
                 print_decay(summary, out)
             full, q = summary["full_order"], summary["formulations"]["Q"]
             rows.append((edge, n, summary["reduced_model"]["modes"], window, full, q,
-                         (summary["integration_wall_s"], summary["run_wall_s"])))  # fmt: skip
+                         (summary["integration_wall_s"], summary["run_wall_s"]),
+                         (summary["full_cpu_per_s"], summary["integration_cpu_s"])))  # fmt: skip
     print("\nwall time per simulated second (same process, one after the other; integration: "
           "what compare times; run: integration, diagnostics and the path's FE checks):")
     print("| edge (m) | DOFs | modes | window (s) | full order (s/s) | reduced integration, "
           "median of 5 (s/s) | ratio | (compare's single, ratio) | reduced run (s/s) | ratio | "
           "envelope error | cone error |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for edge, n_dofs, modes, window, full, q, (integration, run_wall) in rows:
+    for edge, n_dofs, modes, window, full, q, (integration, run_wall), _ in rows:
         fw = full["wall_s"]
         print(f"| {edge} | {n_dofs} | {modes} | {window:.0f} | {fw / window:.4g} | "
               f"{integration / window:.3g} | {fw / integration:.0f} | "
               f"{q['wall_s'] / window:.3g}, {fw / q['wall_s']:.0f} | "
               f"{run_wall / window:.3g} | {fw / run_wall:.0f} | "
               f"{_g(q['envelope_error'])} | {_g(q['cone_angle_error'])} |")  # fmt: skip
+    print("\nprocess CPU time per simulated second (contention does not inflate it; the full "
+          "order's between its first and last progress report, its set-up excluded):")
+    print("| edge (m) | window (s) | full order (CPU s/s) | reduced integration (CPU s/s) | ratio |")
+    print("|---|---|---|---|---|")
+    for edge, _, _, window, _, _, _, (full_cpu, red_cpu) in rows:
+        print(f"| {edge} | {window:.0f} | {full_cpu:.4g} | {red_cpu / window:.3g} | "
+              f"{full_cpu * window / red_cpu:.0f} |")  # fmt: skip
+    for edge, _, _, _, full, _, _, _ in rows:
         if not full["complete"]:
             print(f"  full order at {edge} m incomplete: {full['reason']}")
 
