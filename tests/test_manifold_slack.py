@@ -181,3 +181,28 @@ def test_slack_off_a_compact_patch_is_said_to_be_off_the_seam(square):
     off = int(np.sum(taut.judged & (body == "")))
     assert 0 < off < len(body) and slack_place(structure, taut, x0, everywhere & taut.judged).endswith(
         f"of the bonded patch) and {off} elements off the seams")
+
+
+def test_minor_resultant_is_the_cauchy_resultants_least_eigenvalue(square):
+    """The minor resultant (by components, :func:`minor_resultant`) against the Cauchy
+    resultant t F S Fᵀ / J computed here in an orthonormal basis of the deformed plane
+    (F = Q R: t R S Rᵀ / |det R|, its least eigenvalue), S = D E from E = (FᵀF − I)/2, on
+    random large deformations (tension and compression); and the batched evaluation of many
+    states equals the states one by one."""
+    structure, membrane, X = square
+    taut = taut_set(structure, (1 + LAM) * X)
+    rng = np.random.default_rng(11)
+    states = (1 + LAM) * X + 0.05 * rng.standard_normal((5, *X.shape))
+    c = E / (1 - NU**2)
+    d = c * np.array([[1, NU, 0], [NU, 1, 0], [0, 0, (1 - NU) / 2]])
+    for x in states:
+        got = taut.tensions(x)
+        for e, nodes in enumerate(membrane.conn):
+            f = x[nodes].T @ membrane.gradients[e]  # (3, 2)
+            g = 0.5 * (f.T @ f - np.eye(2))
+            sv = d @ [g[0, 0], g[1, 1], 2 * g[0, 1]]
+            s = np.array([[sv[0], sv[2]], [sv[2], sv[1]]])
+            r = np.linalg.qr(f, mode="r")
+            expected = np.linalg.eigvalsh(T * r @ s @ r.T / abs(np.linalg.det(r)))[0]
+            assert got[e] == pytest.approx(expected, rel=1e-9, abs=1e-12 * np.abs(sv).max() * T)
+    np.testing.assert_array_equal(taut.tensions_many(states), [taut.tensions(x) for x in states])

@@ -29,8 +29,8 @@ from quadmodes.cli.app import app
 from quadmodes.models import build as model_build
 from quadmodes.models import cache as model_cache
 from quadmodes.rom import artifact, integrators
+from quadmodes.runs import chunked, simulate
 from quadmodes.runs import results as res
-from quadmodes.runs import simulate
 from quadmodes.structure import pipeline
 
 PAPER_RUNS = ["paper-0.5hz", "paper-41hz"]
@@ -107,6 +107,14 @@ def workdir(tmp_path, monkeypatch, small_reduced_model) -> Path:
     )
     artifact.save_reduced_model(seeded, model_cache.cache_path(case, 5))
     return tmp_path
+
+
+@pytest.fixture
+def many_chunks(monkeypatch):
+    """The small runs (250–750 steps) chunked as longer ones are, without the floor of
+    :data:`~quadmodes.runs.chunked.MIN_CHUNK_STEPS` steps a chunk (in this process), so that
+    a test sees several chunks: progress and failures between them."""
+    monkeypatch.setattr(chunked, "MIN_CHUNK_STEPS", 1)
 
 
 def _undamped(model):
@@ -287,6 +295,19 @@ def test_results_file_units_and_conservation(workdir, small_reduced_model):
     assert summary["H_relative_drift"] < 1e-10
 
 
+def test_chunk_sizes_left_to_the_run_have_a_floor():
+    """Chunks are whole multiples of save_every; left to the run (max_chunks None) at most
+    MAX_CHUNKS of at least MIN_CHUNK_STEPS steps (300 steps saved every 2: one chunk of 256
+    and the rest, not 150 of 2); a count given is honoured as before."""
+    floor, most = chunked.MIN_CHUNK_STEPS, chunked.MAX_CHUNKS
+    for n, every in ((300, 2), (3000, 2), (10**6, 5), (7, 3), (250, 5)):
+        chunk = chunked._chunk_steps(n, every)
+        assert chunk % every == 0 and chunk >= floor and math.ceil(n / chunk) <= most
+        assert chunk - every < max(floor, n / most)  # the smallest such multiple
+        given = chunked._chunk_steps(n, every, 20)
+        assert given == every * max(1, math.ceil(n / every / 20))
+
+
 def test_chunked_run_is_continuous(workdir, small_reduced_model):
     run = load_run_case(workdir / "small-run.toml")
     model = _undamped(small_reduced_model)
@@ -297,7 +318,7 @@ def test_chunked_run_is_continuous(workdir, small_reduced_model):
     assert np.max(np.abs(one.y - many.y) / scale) < 1e-9
 
 
-def test_summary_keys_log_decrement_and_consistency(workdir, small_reduced_model):
+def test_summary_keys_log_decrement_and_consistency(workdir, small_reduced_model, many_chunks):
     run = load_run_case(workdir / "small-run.toml")
     run = simulate.apply_overrides(run, duration="0.15 s")
     progress: list[float] = []
@@ -434,7 +455,7 @@ def test_run_command_unknown_case_exits_2(tmp_path):
 
 
 @pytest.mark.parametrize("failure", ["status", "nan"])
-def test_integrator_failure_keeps_partial_results(workdir, monkeypatch, failure):
+def test_integrator_failure_keeps_partial_results(workdir, monkeypatch, failure, many_chunks):
     real = integrators.integrate
     calls = {"n": 0}
 

@@ -34,11 +34,24 @@ Progress = Callable[[str, float], None]
 
 #: The run is split into at most this many chunks (progress is reported between chunks).
 MAX_CHUNKS = 200
+#: A chunk has at least this many steps when the chunk count is left to the run (``max_chunks``
+#: None). Why: a chunk costs about 0.1 ms of Python around the compiled step loop (the
+#: integrator call, its sampling, the merge), the time of about 15 compiled steps of a small
+#: model (N = 8: ~150,000 steps/s); 300 steps in 150 chunks of 2 took 15 times the steps' own
+#: time (docs/performance.md, "The reduced run of the IKAROS-like sail"). 256 steps keep it
+#: to a few per cent, and a chunk of the slowest models (N = 60, or the numpy steppers) still
+#: takes well under a second, so progress and Ctrl-C stay prompt.
+MIN_CHUNK_STEPS = 256
 
 
-def _chunk_steps(n_steps: int, save_every: int, max_chunks: int = MAX_CHUNKS) -> int:
-    """Steps per chunk: the smallest multiple of ``save_every`` giving at most ``max_chunks``."""
-    per = max(1, math.ceil(n_steps / save_every / max_chunks))
+def _chunk_steps(n_steps: int, save_every: int, max_chunks: int | None = None) -> int:
+    """Steps per chunk: the smallest multiple of ``save_every`` giving at most ``max_chunks``
+    chunks; ``max_chunks`` None: at most :data:`MAX_CHUNKS` chunks of at least
+    :data:`MIN_CHUNK_STEPS` steps (a number given is honoured as it is, e.g. by tests)."""
+    floor = 1
+    if max_chunks is None:
+        max_chunks, floor = MAX_CHUNKS, MIN_CHUNK_STEPS
+    per = max(1, math.ceil(n_steps / save_every / max_chunks), math.ceil(floor / save_every))
     return save_every * per
 
 
@@ -240,7 +253,7 @@ def integrate_in_chunks(
     integ,
     progress: Progress | None = None,
     name: str = "",
-    max_chunks: int = MAX_CHUNKS,
+    max_chunks: int | None = None,
     *,
     checkpoint: Checkpointer | None = None,
     resume: tuple[ChunkProgress, float] | None = None,
@@ -248,7 +261,9 @@ def integrate_in_chunks(
 ) -> ChunkedRun:
     """Integrate ``system`` from ``y0`` (7+2N,) over ``integ.duration`` (s) with the settings of
     ``integ`` (the run case's ``[integration]``: method, dt, rtol, save_every) in at most
-    ``max_chunks`` chunks; ``progress(name, fraction)`` is called before and between chunks.
+    ``max_chunks`` chunks (None: at most :data:`MAX_CHUNKS` of at least
+    :data:`MIN_CHUNK_STEPS` steps); ``progress(name, fraction)`` is called before and between
+    chunks.
     An integrator failure or a non-finite state ends the run early (not raised).
 
     ``checkpoint``: saves the progress when due, at the end and on Ctrl-C; ``resume``:

@@ -348,7 +348,8 @@ def _amplitude_error(setup, y: np.ndarray, structure) -> tuple[float, tuple | No
     return (0.0 if reduced == 0 else math.inf), slack
 
 
-def with_amplitude_check(path: PathValidity, setup, solution, diag) -> PathValidity:
+def with_amplitude_check(path: PathValidity, setup, solution, diag,
+                         structure=None) -> PathValidity:  # fmt: skip
     """``path`` with its modal amplitudes checked against the FE model
     (:mod:`quadmodes.runs.deformation_check` at the state of a sample: the reduced potential
     within :data:`~quadmodes.runs.validity.DEFORMATION_ENERGY_TOLERANCE` of the condensed
@@ -364,7 +365,7 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag) -> PathValid
     t, y = np.asarray(solution.t, float), np.asarray(solution.y, float)
     amp = np.linalg.norm(rsys.split_state(setup.system, y)[2], axis=1)
     peak = int(np.argmax(amp))
-    structure = dc.deformation_structure(setup)
+    structure = structure or dc.deformation_structure(setup)
     if _round_off(setup, y[peak]):  # no deformation: both energies are 0
         return dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
                                    unchecked=(), amplitude_error=0.0)  # fmt: skip
@@ -402,7 +403,8 @@ def _round_off(setup, y: np.ndarray) -> bool:
     return is_round_off(setup.model, rsys.split_state(setup.system, y)[2])
 
 
-def with_tension_check(path: PathValidity, setup, solution, diag) -> PathValidity:
+def with_tension_check(path: PathValidity, setup, solution, diag,
+                       structure=None) -> PathValidity:  # fmt: skip
     """``path`` with the membrane's tension checked on its samples
     (:func:`quadmodes.runs.taut_path.path_tension`): it leaves the range at the first sample
     where an element taut at the reference has lost tension (unchanged without a membrane;
@@ -410,7 +412,9 @@ def with_tension_check(path: PathValidity, setup, solution, diag) -> PathValidit
     slack_judged`)."""
     from quadmodes.runs.taut_path import path_tension, tension_reason
 
-    tension = path_tension(setup, solution)
+    # the amplitude check's slack onset is along the same ray (the state of largest |s|)
+    known = path.amplitude_slack_fraction if "modal amplitudes" in path.checked else None
+    tension = path_tension(setup, solution, structure, peak_fraction=known)
     if tension is None:
         return path
     path = dataclasses.replace(
@@ -438,9 +442,13 @@ def run_path_validity(setup, solution, diag) -> PathValidity:
     path = path_validity(setup, solution, diag)
     if not setup.fe_checks:
         return path
+    from quadmodes.runs.deformation_check import deformation_structure
+
+    # built once for both FE checks (each built it before; none without modes to check)
+    structure = deformation_structure(setup) if setup.system.n_modes else None
     path = with_measured_range(path, setup, solution, diag)
-    path = with_amplitude_check(path, setup, solution, diag)
-    return with_tension_check(path, setup, solution, diag)
+    path = with_amplitude_check(path, setup, solution, diag, structure)
+    return with_tension_check(path, setup, solution, diag, structure)
 
 
 def with_measured_range(path: PathValidity, setup, solution, diag) -> PathValidity:

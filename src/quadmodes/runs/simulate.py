@@ -238,7 +238,7 @@ def warm_up_kernel(run: RunCase, progress: Progress | None = None) -> float | No
 def execute(
     setup: RunSetup,
     progress: Progress | None = None,
-    max_chunks: int = MAX_CHUNKS,
+    max_chunks: int | None = None,
     *,
     checkpoint: Checkpointer | None = None,
     resume: tuple[ChunkProgress, float] | None = None,
@@ -258,7 +258,8 @@ def execute(
 
         spin_family.check_family_run(run, resume)
         try:
-            return _family_result(setup, spin_family.run_family(setup, progress, max_chunks))
+            return _family_result(setup, spin_family.run_family(  # its switches: per chunk
+                setup, progress, MAX_CHUNKS if max_chunks is None else max_chunks))
         except Interrupted as stop:
             raise Interrupted(_family_result(setup, stop.partial), False, stop.reason) from None
     try:
@@ -278,7 +279,7 @@ def simulate(
     progress: Progress | None = None,
     *,
     model_case: Case | None = None,
-    max_chunks: int = MAX_CHUNKS,
+    max_chunks: int | None = None,
     check_deformation: bool = False,
     allow_coarse_step: bool = False,
 ) -> RunResult:

@@ -32,6 +32,7 @@ import numpy as np
 from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import step_control as sc
 from quadmodes.runs.chunked import (
+    MAX_CHUNKS,
     ChunkProgress,
     _finish,
     _integrate_chunk,
@@ -150,12 +151,13 @@ def _loop(system, integ, progress, name, state, checkpoint, wall, event, chunk_t
     return state, False
 
 
-def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=200, *,
+def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=None, *,
                          checkpoint=None, resume=None, event=None):  # fmt: skip
     """:func:`quadmodes.runs.chunked.integrate_in_chunks` with a controlled step (module
     docstring): same arguments, same :class:`~quadmodes.runs.chunked.ChunkedRun`; the merged
     Solution has ``dt`` None; its stats count the probes' steps (``n_probe_steps``) and give
     the shortest and longest step (``dt_min_s``, ``dt_max_s``, s) and ``n_chunks``."""
+    max_chunks = MAX_CHUNKS if max_chunks is None else max_chunks
     chunk_time = min(integ.duration, max(integ.duration / max(1, int(max_chunks)),
                      PROBES_PER_CHUNK * sc.probe_time(system, np.asarray(y0, float))))  # fmt: skip
     if resume is None:
@@ -185,7 +187,7 @@ def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=2
     return out
 
 
-def integrate_run(system, y0, integ, progress=None, name="", max_chunks=200, *, checkpoint=None,
+def integrate_run(system, y0, integ, progress=None, name="", max_chunks=None, *, checkpoint=None,
                   resume=None, event=None):  # fmt: skip
     """A run's chunked integration: :func:`integrate_controlled` when ``integ.step_tolerance``
     is set, else :func:`quadmodes.runs.chunked.integrate_in_chunks` (the fixed step)."""

@@ -45,10 +45,52 @@ def deformation_scale(model, s: np.ndarray) -> tuple[float, float]:
             float(np.max(np.linalg.norm(x - x.mean(axis=0), axis=1))))  # fmt: skip
 
 
+def manifold_displacements(model, s: np.ndarray) -> np.ndarray:
+    """The manifold displacements ``Φs + Σ s_m s_n g^{mn}`` ``(K, n, 3)`` (m) of ``model`` at
+    ``K`` modal states ``s`` ``(K, N)`` (:func:`quadmodes.runs.deformation_check.manifold_parts`
+    of each, summed)."""
+    s = np.atleast_2d(np.asarray(s, float))
+    k, n_modes = s.shape
+    phi = np.asarray(model.Phi, float).reshape(n_modes, -1)
+    g = np.asarray(model.G, float).reshape(n_modes * n_modes, -1)
+    quad = np.einsum("km,kn->kmn", s, s).reshape(k, -1)
+    return (s @ phi + quad @ g).reshape(k, -1, 3)
+
+
 def is_round_off(model, s: np.ndarray) -> bool:
     """The deformation at ``s`` is below :data:`ROUND_OFF_DEFORMATION` × the body's size."""
     largest, size = deformation_scale(model, s)
     return largest < ROUND_OFF_DEFORMATION * size
+
+
+def sample_tensions(model, taut, s: np.ndarray):
+    """At ``K`` modal states ``s`` ``(K, N)`` of ``model``, the membrane of ``taut`` (a
+    :class:`~quadmodes.structure.tension_margin.TautSet` at ``model.X``) at the manifold point:
+    ``(least (K,) N/m, element (K,), slack area (K,) m², ever (E,) bool)``, the least minor
+    resultant of the judged elements, its element and their area not taut (inf, 0, 0 where the
+    deformation is round-off: nothing to check), and which elements are slack at some state. The states are evaluated in batches (a numpy pass per batch
+    of :data:`~quadmodes.structure.tension_margin.BATCH_ELEMENTS` element evaluations, not one
+    per state)."""
+    from quadmodes.structure.tension_margin import BATCH_ELEMENTS
+
+    x_ref = np.asarray(model.X, float)
+    rows = np.asarray(model.translational, bool)
+    size = float(np.max(np.linalg.norm(x_ref[rows] - x_ref[rows].mean(axis=0), axis=1)))
+    least, element, slack = np.full(len(s), np.inf), np.zeros(len(s), int), np.zeros(len(s))
+    ever = np.zeros(len(taut.area), bool)
+    per = max(1, BATCH_ELEMENTS // max(1, len(taut.area)))
+    for b in range(0, len(s), per):
+        u = manifold_displacements(model, s[b:b + per])
+        deformed = np.max(np.linalg.norm(u[:, rows], axis=2), axis=1) >= ROUND_OFF_DEFORMATION * size
+        if not deformed.any():
+            continue
+        k = b + np.flatnonzero(deformed)
+        tension = np.where(taut.judged, taut.tensions_many(x_ref + u[deformed]), np.inf)
+        element[k] = np.argmin(tension, axis=1)
+        least[k] = tension[np.arange(len(k)), element[k]]
+        slack[k] = (tension <= 0.0) @ taut.area
+        ever |= np.any(tension <= 0.0, axis=0)
+    return least, element, slack, ever
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,10 +122,12 @@ class PathTension:
     checked_least: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
-def path_tension(setup, solution, structure=None) -> PathTension | None:
+def path_tension(setup, solution, structure=None, peak_fraction: float | None = None,
+                 ) -> PathTension | None:  # fmt: skip
     """:class:`PathTension` of a run (a prepared
     :class:`~quadmodes.runs.simulate.RunSetup` and its merged solution); None without a
-    membrane or modes."""
+    membrane or modes. ``peak_fraction``: the slack onset along the ray of the state of largest
+    ‖s‖ when already known (the path's amplitude check finds it), else it is found here."""
     from quadmodes.runs import deformation_check as dc
     from quadmodes.structure.tension_margin import slack_place, taut_set
 
@@ -101,30 +145,26 @@ def path_tension(setup, solution, structure=None) -> PathTension | None:
     peak = int(np.argmax(amp))
     idx = np.unique(np.r_[np.linspace(0, len(t) - 1, min(len(t), TENSION_SAMPLES)).astype(int),
                           peak])  # fmt: skip
+    per_sample, element, slack_per, ever = sample_tensions(model, taut, s[idx])
     least, least_k, least_e, slack_at, slack_area = math.inf, 0, 0, None, 0.0
-    judged_area = taut.area[taut.judged].sum()
-    per_sample = np.full(len(idx), np.inf)
-    ever = np.zeros(len(taut.area), bool)  # slack at some checked sample
-    for i, k in enumerate(idx):
-        if is_round_off(model, s[k]):
-            continue  # round-off: no deformation
-        u = np.add(*dc.manifold_parts(model, s[k]))
-        tension = np.where(taut.judged, taut.tensions(x_ref + u), np.inf)
-        e = int(np.argmin(tension))
-        per_sample[i] = tension[e]
-        if tension[e] < least:
-            least, least_k, least_e = float(tension[e]), int(k), e
-        if tension[e] <= 0.0:
-            ever |= tension <= 0.0
-            slack_area = max(slack_area, float(taut.area[tension <= 0.0].sum() / judged_area))
-            slack_at = float(t[k]) if slack_at is None else slack_at
-    onset = dc.slack_along(model, structure, s[peak], taut) if math.isfinite(least) else None
+    i = int(np.argmin(per_sample))  # the first sample of the least tension
+    if math.isfinite(per_sample[i]):
+        least, least_k, least_e = float(per_sample[i]), int(idx[i]), int(element[i])
+    slack = per_sample <= 0.0
+    if slack.any():
+        slack_area = float(np.max(slack_per) / taut.area[taut.judged].sum())
+        slack_at = float(t[idx[int(np.argmax(slack))]])
+    if peak_fraction is None and math.isfinite(least):
+        onset = dc.slack_along(model, structure, s[peak], taut)
+        peak_fraction = math.inf if onset is None else float(onset[0].fraction)
+    elif not math.isfinite(least):
+        peak_fraction = math.inf
     return PathTension(
         least=least, least_time=float(t[least_k]),
         least_position=taut.centroid[least_e] if math.isfinite(least) else np.full(3, np.nan),
         slack_at=slack_at, slack_area=slack_area,
         reference_slack_area=taut.reference_slack_area,
-        peak_fraction=math.inf if onset is None else float(onset[0].fraction),
+        peak_fraction=peak_fraction,
         samples=len(idx), slack_where=slack_place(structure, taut, x_ref, ever),
         checked_times=t[idx], checked_least=per_sample,
     )  # fmt: skip

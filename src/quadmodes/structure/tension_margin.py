@@ -126,6 +126,8 @@ RAY_LIMIT = 4.0
 RAY_SCAN = 96
 #: Bisections of the first bracket found by the scan (the onset to 2⁻⁴⁰ of its bracket).
 RAY_BISECTIONS = 40
+#: Scan points evaluated together (one batched pass; the scan stops at the first slack block).
+RAY_BLOCK = 16
 
 
 def _inner(element_set):
@@ -142,17 +144,59 @@ def _element_positions(element_set, x: np.ndarray) -> np.ndarray:
     return x[element_set.conn]
 
 
+def _element_positions_many(element_set, xs: np.ndarray) -> np.ndarray:
+    """:func:`_element_positions` at ``K`` states ``xs`` ``(K, n, 3)``: ``(K, ne, 3, 3)`` (m)."""
+    if hasattr(element_set, "inner"):
+        virtual = np.einsum("eab,kebi->keai", element_set.images, xs[:, element_set.conn])
+        return virtual.reshape(len(xs), -1, 3)[:, element_set.inner.conn]
+    return xs[:, element_set.conn]
+
+
 def minor_resultant(membrane: MembraneSet, xe: np.ndarray) -> np.ndarray:
     """Minor principal Cauchy stress resultant ``(ne,)`` (N/m) of the SVK law (the taut branch,
     also of a tension-field membrane) at element node positions ``xe`` ``(ne, 3, 3)`` (m): the
     exact Green strain, no linearisation. Its sign is that of the 2nd Piola–Kirchhoff stress's
     minor eigenvalue (t F S Fᵀ / J is congruent to S)."""
-    f, e = green_strain(membrane.gradients, xe)
-    s = _voigt_stress(membrane.d, e)
-    c = np.einsum("eki,ekj->eij", f, f)
-    a = np.einsum("eij,ejk->eik", s, c) * (membrane.thickness / np.sqrt(_det2(c)))[:, None, None]
-    half_trace = 0.5 * (a[:, 0, 0] + a[:, 1, 1])
-    return half_trace - np.sqrt(np.maximum(half_trace**2 - _det2(a), 0.0))
+    return _minor(membrane.gradients, membrane.d, membrane.thickness, xe)
+
+
+def _minor(gradients: np.ndarray, d: np.ndarray, thickness, xe: np.ndarray) -> np.ndarray:
+    """:func:`minor_resultant` of elements with shape-function ``gradients`` ``(ne, 3, 2)``,
+    Voigt law ``d`` and ``thickness`` (m, scalar or ``(ne,)``) at ``xe`` ``(ne, 3, 3)``."""
+    # by components (einsum on these 2×2 and 3×2 blocks was 3 times slower): F = Σ_a x_a ⊗ G_a,
+    # C = FᵀF, E = (C − I)/2, S = D E; the resultant t F S Fᵀ / J, J = √det C, has the
+    # eigenvalues of k A, A = S C, k = t/J (real: A is similar to C^½ S C^½), the minor one
+    # tr A/2 − √(((A₀₀ − A₁₁)/2)² + A₀₁A₁₀), a discriminant free of cancellation at an
+    # isotropic stress (the two resultants equal)
+    f0 = xe[:, 0] * gradients[:, 0, 0, None] + xe[:, 1] * gradients[:, 1, 0, None] \
+        + xe[:, 2] * gradients[:, 2, 0, None]  # fmt: skip
+    f1 = xe[:, 0] * gradients[:, 0, 1, None] + xe[:, 1] * gradients[:, 1, 1, None] \
+        + xe[:, 2] * gradients[:, 2, 1, None]  # fmt: skip
+    c00, c11, c01 = (f0 * f0).sum(axis=1), (f1 * f1).sum(axis=1), (f0 * f1).sum(axis=1)
+    sv = np.stack([0.5 * (c00 - 1.0), 0.5 * (c11 - 1.0), c01], -1) @ np.asarray(d).T
+    s00, s11, s01 = sv[:, 0], sv[:, 1], sv[:, 2]
+    a00, a01 = s00 * c00 + s01 * c01, s00 * c01 + s01 * c11
+    a10, a11 = s01 * c00 + s11 * c01, s01 * c01 + s11 * c11
+    k = thickness / np.sqrt(c00 * c11 - c01 * c01)
+    disc = (0.5 * (a00 - a11)) ** 2 + a01 * a10
+    return k * (0.5 * (a00 + a11) - np.sqrt(np.maximum(disc, 0.0)))
+
+
+#: Element evaluations per batch of :meth:`TautSet.tensions_many` (bounds its temporaries; larger batches ran slower, out of cache) to
+#: about 0.1 GB on any mesh).
+BATCH_ELEMENTS = 20_000
+
+
+def _minor_many(membrane: MembraneSet, xe: np.ndarray) -> np.ndarray:
+    """:func:`minor_resultant` at ``K`` states at once: ``xe`` ``(K, ne, 3, 3)`` → ``(K, ne)``
+    (N/m); the same arithmetic per element, so equal to ``K`` single calls."""
+    k, ne = xe.shape[:2]
+    grads = np.broadcast_to(membrane.gradients, (k, *membrane.gradients.shape))
+    thick = np.asarray(membrane.thickness, float)
+    if thick.ndim:
+        thick = np.broadcast_to(thick, (k, ne)).reshape(-1)
+    flat = _minor(grads.reshape(k * ne, 3, 2), membrane.d, thick, xe.reshape(k * ne, 3, 3))
+    return flat.reshape(k, ne)
 
 
 @dataclass(frozen=True)
@@ -184,6 +228,17 @@ class TautSet:
         """Minor principal resultants ``(ne,)`` (N/m) at the state ``x`` ``(n, 3)`` m."""
         return np.concatenate([minor_resultant(_inner(e), _element_positions(e, x))
                                for e in self.sets])  # fmt: skip
+
+    def tensions_many(self, xs: np.ndarray) -> np.ndarray:
+        """:meth:`tensions` at ``K`` states ``xs`` ``(K, n, 3)`` m: ``(K, ne)`` N/m, in batches
+        of at most :data:`BATCH_ELEMENTS` element evaluations (one numpy pass per batch instead
+        of one per state: the path's tension check and the slack onset's ray scan)."""
+        xs = np.asarray(xs, float)
+        per = max(1, BATCH_ELEMENTS // max(1, len(self.area)))
+        out = [np.concatenate([_minor_many(_inner(e), _element_positions_many(e, xs[i:i + per]))
+                               for e in self.sets], axis=1)
+               for i in range(0, len(xs), per)]  # fmt: skip
+        return np.concatenate(out) if out else np.zeros((0, len(self.area)))
 
 
 def taut_set(structure: Structure, x0: np.ndarray) -> TautSet | None:
@@ -272,26 +327,29 @@ def _first_slack(taut: TautSet, x0, u1, u2) -> tuple[float, int]:
     """(a, element) of the first loss of tension of a judged element along the ray (inf, -1)."""
     judged = taut.judged
 
-    def least(a: float) -> tuple[float, int]:
-        t = np.where(judged, taut.tensions(x0 + a * u1 + a * a * u2), np.inf)
-        k = int(np.argmin(t))
-        return float(t[k]), k
+    def least(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The least judged tension (N/m) and its element at each ``a`` ``(m,)``."""
+        xs = x0 + a[:, None, None] * u1 + (a * a)[:, None, None] * u2
+        t = np.where(judged, taut.tensions_many(xs), np.inf)
+        k = np.argmin(t, axis=1)
+        return t[np.arange(len(a)), k], k
 
     grid = RAY_LIMIT * np.linspace(0.0, 1.0, RAY_SCAN + 1)[1:] ** 2
-    lo = 0.0
-    for a in grid:
-        value, k = least(a)
-        if value <= 0.0:
-            hi = a
-            for _ in range(RAY_BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                value, j = least(mid)
-                if value <= 0.0:
-                    hi, k = mid, j
-                else:
-                    lo = mid
-            return hi, k
-        lo = a
+    for b in range(0, RAY_SCAN, RAY_BLOCK):  # the scan in blocks: stops at the first slack one
+        values, elements = least(grid[b:b + RAY_BLOCK])
+        hit = np.flatnonzero(values <= 0.0)
+        if not hit.size:
+            continue
+        j = b + int(hit[0])
+        lo, hi, k = (grid[j - 1] if j else 0.0), grid[j], int(elements[hit[0]])
+        for _ in range(RAY_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            value, element = least(np.array([mid]))
+            if value[0] <= 0.0:
+                hi, k = mid, int(element[0])
+            else:
+                lo = mid
+        return hi, k
     return np.inf, -1
 
 
