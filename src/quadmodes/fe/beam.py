@@ -144,12 +144,29 @@ def _transformed(a: np.ndarray, transform: np.ndarray | None) -> np.ndarray:
     return np.swapaxes(p, -1, -2) @ a @ p
 
 
+#: Weight of each nodal strain's stress (t·d₂, t·d₃, ½|d₂|², ½|d₃|², d₂·d₃) in the Newton block
+#: (``QuadraticStrainSet.newton_stress``). The section's rigidity (the last three: EA, GA)
+#: is a stiff penalty whose true stress is ~0 (the centrifugal pull on the rotary mass, ρIΩ²),
+#: but an additive Newton correction that turns a section by θ stretches its directors by
+#: θ²/2 and gives it a spurious stress EA θ²/2 — whose geometric stiffness then swamps the
+#: twist stiffness GJ/L where that is small (a string's node, L = 0.25 m: EA L θ²/2 = 3.8e3 θ²
+#: N m against GJ/L = 9e-5 N m, equal at θ = 1.6e-4), and Newton stalls (docs/full-order.md). The shear ties carry
+#: the physical transverse force and keep theirs.
+SECTION_NEWTON_STRESS = np.array([1.0, 1.0, 0.0, 0.0, 0.0])
+
+
+class BeamSectionSet(QuadraticStrainSet):
+    """The nodal section strains of a beam (:func:`_nodal_operators`): a set of its own type so
+    that the full order knows its body has sections whose stiff ties turn with a soft twist
+    (:func:`quadmodes.fullorder.newton.solve_step`)."""
+
+
 def beam_sets(
     conn: np.ndarray,
     length0: np.ndarray,
     section: BeamSection,
     transform: np.ndarray | None = None,
-) -> tuple[QuadraticStrainSet, QuadraticStrainSet]:
+) -> tuple[QuadraticStrainSet, BeamSectionSet]:
     """The beam's two element sets (distributed strains with the mass; nodal section strains)
     for elements ``conn`` ``(ne, 8)`` of reference lengths ``length0`` ``(ne,)`` (m).
 
@@ -168,12 +185,13 @@ def beam_sets(
         weights=_WXI[None, :] * length0[:, None],
         mass_blocks=_transformed(_mass_blocks(length0, s), transform),
     )
-    nodal = QuadraticStrainSet(
+    nodal = BeamSectionSet(
         conn=conn,
         operators=_transformed(_nodal_operators(ne), transform),
         offsets=np.broadcast_to([0.0, 0.0, 0.5, 0.5, 0.0], (ne, 2, 5)).copy(),
         moduli=np.broadcast_to([s.kGA, s.kGA, s.EA, s.EA, s.GA], (ne, 2, 5)).copy(),
         weights=np.repeat(0.5 * length0[:, None], 2, axis=1),
+        newton_stress=SECTION_NEWTON_STRESS,
     )
     return dist, nodal
 

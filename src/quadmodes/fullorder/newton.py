@@ -308,25 +308,32 @@ def solve_step(
             x1, dx = _step_to(problem, matrix, residual_at, x1, r, rot, search=stalled > 0)
         n_newton, since = n_newton + 1, since + 1
         nd = float(np.max(np.abs(dx)))
-        if (not np.isfinite(nd) or nd > DIVERGED * problem.scale) and not restarted:
+        wild = not np.isfinite(nd) or nd > DIVERGED * problem.scale
+        if not wild:
+            nd = measured(problem, dx, policy)
+            rate = policy == "adaptive" and _rate_converged(nd, seen, problem.tol)
+            if nd <= problem.tol or rate:
+                ok = True
+                break
+        slow = bool(seen) and nd > _rho(matrix) * seen[-1]
+        renew = since >= 2 and (slow or getattr(matrix, "stale", False))
+        if (wild or (renew and since <= 3 and _twisting(problem, policy))) and not restarted:
             # a matrix from earlier steps sent the iteration off (a fast transient in stiff
-            # DOFs): start the step again from its predictor, with full Newton (a matrix
-            # factorised at every iterate) for the rest of this step
+            # DOFs), or — in a body with beam sections, whose stiff ties turn with their soft
+            # twist, so that a matrix serves one iteration only — a fresh matrix did not
+            # restore contraction: start the step again from its predictor, with full Newton
+            # (a matrix factorised at every iterate) for the rest of this step
             x1, restarted, budget = predictor, True, max_newton
             matrix = make(x @ rot, x1 @ rot)
             n_factor, since, seen = n_factor + 1, 0, []
             continue
         if not np.isfinite(nd):
             break
-        if nd <= problem.tol or (policy == "adaptive" and _rate_converged(nd, seen, problem.tol)):
-            ok = True
-            break
-        slow = bool(seen) and nd > _rho(matrix) * seen[-1]
-        if since >= 2 and (slow or getattr(matrix, "stale", False)):
+        if renew:
             # the frozen matrix no longer contracts well (or a Krylov solve on it did not reach
-            # its tolerance): renew it at this iterate; if a fresh
-            # matrix did not help either (the wrinkling law's tangent jumps between iterates,
-            # and Newton can cycle), backtrack on the residual from now on
+            # its tolerance): renew it at this iterate; if a fresh matrix did not help either
+            # (the wrinkling law's tangent jumps between iterates, and Newton can cycle),
+            # backtrack on the residual from now on
             stalled += since <= 3 and n_factor > 0
             matrix = make(x @ rot, x1 @ rot)
             n_factor, since, seen = n_factor + 1, 0, []
@@ -335,6 +342,26 @@ def solve_step(
     if policy == "adaptive":
         vh = (x1 - x) / problem.h  # the end state's, not the last residual's
     return NewtonResult(x1, vh, fd, matrix, ok, nd, n_newton, n_factor)
+
+
+def _twisting(problem: FullOrderProblem, policy: str) -> bool:
+    """The adaptive policy on a body with beam sections (``problem.sections``)."""
+    return policy == "adaptive" and problem.sections
+
+
+def measured(problem: FullOrderProblem, dx: np.ndarray, policy: str) -> float:
+    """The size (m) of a Newton correction dx (n,3) that the test compares with ``problem.tol``
+    (``newton_tol`` × the body size): policy ``"fixed"``, and bodies of positions only, the
+    plain ``max |δx|``; policy ``"adaptive"`` measures a direction DOF (a beam's slope and
+    section directors, a hub's axes, a cable's slope: unit vectors at rest, dimensionless) in
+    radians times the body size, ``scale × |δd|``, so that every DOF is held to the same
+    relative accuracy ``newton_tol``: a position to that fraction of the body, a direction to
+    that angle — the angle a position error of ``tol`` turns the body by. (Held as a length,
+    ``|δd| ≤ tol``, a direction was ``scale`` times looser than the body's own rotation.)"""
+    step = np.abs(dx).max(axis=1)
+    if policy == "adaptive":
+        step = np.where(problem.tr > 0, step, problem.scale * step)
+    return float(step.max())
 
 
 def _rate_converged(nd: float, seen: list[float], tol: float) -> bool:
