@@ -144,21 +144,14 @@ def _transformed(a: np.ndarray, transform: np.ndarray | None) -> np.ndarray:
     return np.swapaxes(p, -1, -2) @ a @ p
 
 
-#: Weight of each nodal strain's stress (t·d₂, t·d₃, ½|d₂|², ½|d₃|², d₂·d₃) in the Newton block
-#: (``QuadraticStrainSet.newton_stress``). The section's rigidity (the last three: EA, GA)
-#: is a stiff penalty whose true stress is ~0 (the centrifugal pull on the rotary mass, ρIΩ²),
-#: but an additive Newton correction that turns a section by θ stretches its directors by
-#: θ²/2 and gives it a spurious stress EA θ²/2 — whose geometric stiffness then swamps the
-#: twist stiffness GJ/L where that is small (a string's node, L = 0.25 m: EA L θ²/2 = 3.8e3 θ²
-#: N m against GJ/L = 9e-5 N m, equal at θ = 1.6e-4), and Newton stalls (docs/full-order.md). The shear ties carry
-#: the physical transverse force and keep theirs.
-SECTION_NEWTON_STRESS = np.array([1.0, 1.0, 0.0, 0.0, 0.0])
-
-
+@dataclass(frozen=True, eq=False)
 class BeamSectionSet(QuadraticStrainSet):
-    """The nodal section strains of a beam (:func:`_nodal_operators`): a set of its own type so
-    that the full order knows its body has sections whose stiff ties turn with a soft twist
-    (:func:`quadmodes.fullorder.newton.solve_step`)."""
+    """The nodal section strains of a beam (:func:`_nodal_operators`), with ``triads``
+    ``(k, 3)``: the rows ``[t, d₂, d₃]`` of its nodes whose slope and directors are DOFs of
+    their own (not images of a hub's) — what the full order's Newton turns as a frame
+    (:func:`quadmodes.fullorder.newton.advanced`)."""
+
+    triads: np.ndarray | None = None
 
 
 def beam_sets(
@@ -191,9 +184,22 @@ def beam_sets(
         offsets=np.broadcast_to([0.0, 0.0, 0.5, 0.5, 0.0], (ne, 2, 5)).copy(),
         moduli=np.broadcast_to([s.kGA, s.kGA, s.EA, s.EA, s.GA], (ne, 2, 5)).copy(),
         weights=np.repeat(0.5 * length0[:, None], 2, axis=1),
-        newton_stress=SECTION_NEWTON_STRESS,
+        triads=_own_triads(conn, transform),
     )
     return dist, nodal
+
+
+def _own_triads(conn: np.ndarray, transform: np.ndarray | None) -> np.ndarray:
+    """Rows ``[t, d₂, d₃]`` ``(k, 3)`` of the element ends of ``conn`` ``(ne, 8)`` whose DOFs are
+    their own (the end's block of ``transform`` is the identity), each node once."""
+    ends = []
+    for base in (0, 4):
+        own = np.ones(conn.shape[0], bool)
+        if transform is not None:
+            block = transform[:, base : base + 4, base : base + 4]
+            own = np.all(np.isclose(block, np.eye(4)), axis=(1, 2))
+        ends.append(conn[own, base + 1 : base + 4])
+    return np.unique(np.concatenate(ends), axis=0)
 
 
 def beam_frame(tangent: np.ndarray, director2: np.ndarray | None = None) -> np.ndarray:

@@ -39,10 +39,7 @@ class QuadraticStrainSet(ElementSet):
 
     conn: ``(ne, k)`` vector-DOF indices. operators: ``a`` ``(ne, np, ns, k, k)`` symmetric.
     offsets: ``c`` ``(ne, np, ns)``. moduli: ``C`` ``(ne, np, ns)``. weights: ``w`` ``(ne, np)``.
-    mass_blocks: scalar consistent mass ``(ne, k, k)`` (kg, …) or None. newton_stress: ``(ns,)``
-    weight (1 or 0) of each strain's stress in the geometric part of :meth:`step_block` (None:
-    all, the exact Jacobian); 0 for the stiff penalty strains of a constraint whose stress
-    the iterates make spurious (a beam section's rigidity, :func:`~quadmodes.fe.beam.beam_sets`).
+    mass_blocks: scalar consistent mass ``(ne, k, k)`` (kg, …) or None.
     """
 
     conn: np.ndarray
@@ -51,7 +48,6 @@ class QuadraticStrainSet(ElementSet):
     moduli: np.ndarray
     weights: np.ndarray
     mass_blocks: np.ndarray | None = None
-    newton_stress: np.ndarray | None = None
 
     # ---------------------------------------------------------------- strain evaluation
     def _q(self, x: np.ndarray) -> np.ndarray:
@@ -128,13 +124,9 @@ class QuadraticStrainSet(ElementSet):
         return np.einsum("eps,epsjc->ejc", self._weighted_stress(ebar), self._gradients(qh))
 
     def step_block(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
-        """The Newton block ``(ne, 3k, 3k)`` of the step (not symmetric):
-        ``½ Σ w C (a q½) ⊗ (a q₁) + ½ Σ w C ε̄ a ⊗ I₃`` — ``∂(step_force)/∂x1`` exactly, less the
-        geometric terms of the strains that ``newton_stress`` leaves out."""
+        """``∂(step_force)/∂x1`` ``(ne, 3k, 3k)`` (not symmetric):
+        ``½ Σ w C (a q½) ⊗ (a q₁) + ½ Σ w C ε̄ a ⊗ I₃``."""
         q0, q1 = self._q(x0), self._q(x1)
         ebar = 0.5 * (self.strains(x0) + self.strains(x1))
         gh, g1 = self._gradients(0.5 * (q0 + q1)), self._gradients(q1)
-        sigma = self._weighted_stress(ebar)
-        if self.newton_stress is not None:
-            sigma = sigma * self.newton_stress
-        return 0.5 * self._tangent(gh, g1, sigma)
+        return 0.5 * self._tangent(gh, g1, self._weighted_stress(ebar))
