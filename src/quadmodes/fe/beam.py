@@ -144,12 +144,22 @@ def _transformed(a: np.ndarray, transform: np.ndarray | None) -> np.ndarray:
     return np.swapaxes(p, -1, -2) @ a @ p
 
 
+@dataclass(frozen=True, eq=False)
+class BeamSectionSet(QuadraticStrainSet):
+    """The nodal section strains of a beam (:func:`_nodal_operators`), with ``triads``
+    ``(k, 3)``: the rows ``[t, d₂, d₃]`` of its nodes whose slope and directors are DOFs of
+    their own (not images of a hub's) — what the full order's Newton turns as a frame
+    (:func:`quadmodes.fullorder.newton.advanced`)."""
+
+    triads: np.ndarray | None = None
+
+
 def beam_sets(
     conn: np.ndarray,
     length0: np.ndarray,
     section: BeamSection,
     transform: np.ndarray | None = None,
-) -> tuple[QuadraticStrainSet, QuadraticStrainSet]:
+) -> tuple[QuadraticStrainSet, BeamSectionSet]:
     """The beam's two element sets (distributed strains with the mass; nodal section strains)
     for elements ``conn`` ``(ne, 8)`` of reference lengths ``length0`` ``(ne,)`` (m).
 
@@ -168,14 +178,28 @@ def beam_sets(
         weights=_WXI[None, :] * length0[:, None],
         mass_blocks=_transformed(_mass_blocks(length0, s), transform),
     )
-    nodal = QuadraticStrainSet(
+    nodal = BeamSectionSet(
         conn=conn,
         operators=_transformed(_nodal_operators(ne), transform),
         offsets=np.broadcast_to([0.0, 0.0, 0.5, 0.5, 0.0], (ne, 2, 5)).copy(),
         moduli=np.broadcast_to([s.kGA, s.kGA, s.EA, s.EA, s.GA], (ne, 2, 5)).copy(),
         weights=np.repeat(0.5 * length0[:, None], 2, axis=1),
+        triads=_own_triads(conn, transform),
     )
     return dist, nodal
+
+
+def _own_triads(conn: np.ndarray, transform: np.ndarray | None) -> np.ndarray:
+    """Rows ``[t, d₂, d₃]`` ``(k, 3)`` of the element ends of ``conn`` ``(ne, 8)`` whose DOFs are
+    their own (the end's block of ``transform`` is the identity), each node once."""
+    ends = []
+    for base in (0, 4):
+        own = np.ones(conn.shape[0], bool)
+        if transform is not None:
+            block = transform[:, base : base + 4, base : base + 4]
+            own = np.all(np.isclose(block, np.eye(4)), axis=(1, 2))
+        ends.append(conn[own, base + 1 : base + 4])
+    return np.unique(np.concatenate(ends), axis=0)
 
 
 def beam_frame(tangent: np.ndarray, director2: np.ndarray | None = None) -> np.ndarray:

@@ -164,13 +164,15 @@ class NewtonMatrix:
 # ---------------------------------------------------------------------------------------------
 
 
-def line_search(residual_norm, x1: np.ndarray, dx: np.ndarray, r0: float):
+def line_search(residual_norm, x1: np.ndarray, dx: np.ndarray, r0: float,
+                move: Callable | None = None):  # fmt: skip
     """Backtracking along dx on the residual norm (N): the first α of 1, ½, ¼, … (six halvings)
     with ``‖r(x₁ + α dx)‖ < (1 − 10⁻⁴α) r0``. Returns ``(α, trial point)``, or ``(1, None)`` if
-    none qualifies (the caller's convergence control takes over)."""
+    none qualifies (the caller's convergence control takes over). ``move(x1, δ)``: the point
+    a correction δ leads to (default ``x1 + δ``; :func:`advanced`)."""
     alpha = 1.0
     for _ in range(7):
-        y = x1 + alpha * dx
+        y = x1 + alpha * dx if move is None else move(x1, alpha * dx)
         trial = residual_norm(y)
         if np.isfinite(trial) and trial < (1.0 - 1e-4 * alpha) * r0:
             return alpha, y
@@ -324,25 +326,33 @@ def solve_step(
             x1, dx = _step_to(problem, matrix, residual_at, x1, r, rot, search=stalled > 0)
         n_newton, since = n_newton + 1, since + 1
         nd = float(np.max(np.abs(dx)))
-        if (not np.isfinite(nd) or nd > DIVERGED * problem.scale) and not restarted:
+        wild = not np.isfinite(nd) or nd > DIVERGED * problem.scale
+        if not wild:
+            nd = measured(problem, dx, policy)
+            rate = policy == "adaptive" and _rate_converged(nd, seen, problem.tol)
+            if nd <= problem.tol or rate:
+                ok = True
+                break
+        slow = bool(seen) and nd > _rho(matrix) * seen[-1]
+        renew = since >= 2 and (slow or getattr(matrix, "stale", False))
+        grew = since <= 3 and bool(seen) and nd > seen[-1] and _twisting(problem, policy)
+        if (wild or (renew and grew)) and not restarted:
             # a matrix from earlier steps sent the iteration off (a fast transient in stiff
-            # DOFs): start the step again from its predictor, with full Newton (a matrix
-            # factorised at every iterate) for the rest of this step
+            # DOFs), or — in a body with beam sections, whose stiff ties turn with their soft
+            # twist, so that a matrix may serve one iteration only — the corrections grew
+            # with a fresh matrix: start the step again from its predictor, with full Newton
+            # (a matrix factorised at every iterate) for the rest of this step
             x1, restarted, budget = predictor, True, max_newton
             matrix = make(x @ rot, x1 @ rot)
             n_factor, since, seen = n_factor + 1, 0, []
             continue
         if not np.isfinite(nd):
             break
-        if nd <= problem.tol or (policy == "adaptive" and _rate_converged(nd, seen, problem.tol)):
-            ok = True
-            break
-        slow = bool(seen) and nd > _rho(matrix) * seen[-1]
-        if since >= 2 and (slow or getattr(matrix, "stale", False)):
+        if renew:
             # the frozen matrix no longer contracts well (or a Krylov solve on it did not reach
-            # its tolerance): renew it at this iterate; if a fresh
-            # matrix did not help either (the wrinkling law's tangent jumps between iterates,
-            # and Newton can cycle), backtrack on the residual from now on
+            # its tolerance): renew it at this iterate; if a fresh matrix did not help either
+            # (the wrinkling law's tangent jumps between iterates, and Newton can cycle),
+            # backtrack on the residual from now on
             stalled += since <= 3 and n_factor > 0
             matrix = make(x @ rot, x1 @ rot)
             n_factor, since, seen = n_factor + 1, 0, []
@@ -351,6 +361,27 @@ def solve_step(
     if policy == "adaptive":
         vh = (x1 - x) / problem.h  # the end state's, not the last residual's
     return NewtonResult(x1, vh, fd, matrix, ok, nd, n_newton, n_factor)
+
+
+def _twisting(problem: FullOrderProblem, policy: str) -> bool:
+    """The adaptive policy on a body with beam sections (``problem.triads``)."""
+    return policy == "adaptive" and problem.triads is not None
+
+
+def measured(problem: FullOrderProblem, dx: np.ndarray, policy: str) -> float:
+    """The size (m) of a Newton correction dx (n,3) that the test compares with ``problem.tol``
+    (``newton_tol`` × the body size): the plain ``max |δx|``, except that policy ``"adaptive"``
+    measures a beam node's slope and section directors (``problem.triads``: unit vectors at
+    rest, dimensionless) in radians times the body size, ``scale × |δd|``, so that every DOF of
+    a beam is held to the same relative accuracy ``newton_tol``: a position to that fraction of
+    the body, a direction to that angle — the angle a position error of ``tol`` turns the body
+    by. (Held as a length, ``|δd| ≤ tol``, a direction was ``scale`` times looser than the
+    body's own rotation.) A hub's axes keep the plain test (membranes on a hub unchanged)."""
+    step = np.abs(dx).max(axis=1)
+    if policy == "adaptive" and problem.triads is not None:
+        rows = problem.triads.ravel()
+        step[rows] *= problem.scale
+    return float(step.max())
 
 
 def _rate_converged(nd: float, seen: list[float], tol: float) -> bool:
@@ -371,11 +402,44 @@ def _step_to(problem: FullOrderProblem, matrix, residual_at: Callable, x1: np.nd
     on the residual norm when it exceeds :data:`LINE_SEARCH` × body size or ``search`` (α = 1
     otherwise)."""
     dx = _correction(problem, matrix, r, rot)
+    move = (lambda y, d: advanced(problem.triads, y, d)) if problem.triads is not None else None
     if not search and float(np.max(np.abs(dx))) <= LINE_SEARCH * problem.scale:
-        return x1 + dx, dx
+        y = x1 + dx if move is None else move(x1, dx)
+        return y, y - x1
     # far from the solution (a violent transient): backtrack on the residual
     alpha, trial = line_search(
-        lambda y: float(np.linalg.norm(residual_at(y)[1])), x1, dx, float(np.linalg.norm(r))
+        lambda y: float(np.linalg.norm(residual_at(y)[1])), x1, dx, float(np.linalg.norm(r)), move
     )
-    dx = alpha * dx
-    return (trial if trial is not None else x1 + dx), dx
+    y = trial if trial is not None else (x1 + alpha * dx if move is None else move(x1, alpha * dx))
+    return y, y - x1
+
+
+def advanced(triads: np.ndarray, x1: np.ndarray, dx: np.ndarray) -> np.ndarray:
+    """``x1 + dx`` (n,3), except that the part of dx that turns a beam node's frame
+    ``[t, d₂, d₃]`` (rows ``triads`` (k,3)) is applied as a rotation: with
+    ``φ = ½(t̂ × δt/|t| + d₂ × δd₂ + d₃ × δd₃)`` (exact for a turn φ of an orthonormal frame),
+    each of the three vectors v also gets ``(R(φ) − I − [φ]×) v`` — second order in δ, so
+    Newton's rate and its fixed point are unchanged. Why: an additive turn θ stretches the
+    frame by θ²/2, and the stiff section ties (EA, κGA) then put a spurious stress EA θ²/2 in
+    the Jacobian's geometric part, which swamps a string's twist stiffness GJ/L above θ ~
+    1e-4 rad and stalled the tall-hub rotor (docs/full-order.md)."""
+    y = x1 + dx
+    e, de = x1[triads], dx[triads]  # (k, 3, 3): t, d2, d3
+    length = np.linalg.norm(e[:, 0], axis=1)[:, None]
+    frame = e.copy()
+    frame[:, 0] /= length
+    turns = de.copy()
+    turns[:, 0] /= length
+    phi = 0.5 * np.cross(frame, turns).sum(axis=1)  # (k, 3)
+    th2 = np.sum(phi * phi, axis=1)
+    th = np.sqrt(th2)
+    small = th < 1e-4
+    safe = np.where(small, 1.0, th)
+    a = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    b = np.where(small, -1.0 / 6.0 + th2 / 120.0, (np.sin(safe) - safe) / safe**3)
+    dot = np.einsum("kc,kjc->kj", phi, e)  # φ·v for the three vectors
+    cross = np.cross(phi[:, None, :], e)
+    extra = a[:, None, None] * (phi[:, None, :] * dot[..., None] - th2[:, None, None] * e)
+    extra += (b * th2)[:, None, None] * cross
+    y[triads] += extra
+    return y

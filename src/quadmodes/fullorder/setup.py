@@ -14,6 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 import quadmodes.fullorder.kinematics as kin
+from quadmodes.fe.beam import BeamSectionSet
 from quadmodes.fe.model import Structure, centre_of_mass, mass_matrix, strain_energy
 from quadmodes.fullorder.damping import DampingModes, retained_damping
 from quadmodes.rom.reduced import ReducedModel
@@ -41,7 +42,11 @@ class FullOrderProblem:
     mass; m_full (3n,3n) csc: ``M_s ⊗ I₃``. c (N,N) 1/s: modal damping or None (no damping).
     t0 s, h s, n_steps: the time grid. scale m: body size; tol m: Newton tolerance. v_ref J:
     strain energy of x_ref. energy_momentum: averaged-stress step force. mapped: the steady
-    rotation map is applied (free bodies with ``rotation_map``)."""
+    rotation map is applied (free bodies with ``rotation_map``). triads (k,3): the rows
+    ``[t, d₂, d₃]`` of the beam nodes whose slope and directors are DOFs
+    (:class:`~quadmodes.fe.beam.BeamSectionSet`; None without beams): Newton turns them as
+    frames, and a step of such a body restarts in full Newton when a kept matrix does not
+    converge it (:func:`~quadmodes.fullorder.newton.solve_step`)."""
 
     structure: Structure
     body: kin.Body
@@ -64,6 +69,7 @@ class FullOrderProblem:
     v_ref: float
     energy_momentum: bool
     mapped: bool
+    triads: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -119,8 +125,16 @@ def setup_problem(
         ms=structure.mass_scalar, m_full=m_full, c=c, MPhi_d=mphi_d, damping=modes,
         t0=float(t_span[0]), h=h, n_steps=n_steps, scale=scale, tol=newton_tol * scale,
         v_ref=strain_energy(structure, x_ref), energy_momentum=energy_momentum,
-        mapped=rotation_map and hub is None,
+        mapped=rotation_map and hub is None, triads=section_triads(structure),
     )  # fmt: skip
+
+
+def section_triads(structure: Structure) -> np.ndarray | None:
+    """Rows ``[t, d₂, d₃]`` ``(k, 3)`` of every :class:`~quadmodes.fe.beam.BeamSectionSet` of
+    structure (None without beams)."""
+    rows = [e.triads for e in structure.elements if isinstance(e, BeamSectionSet)]
+    rows = [r for r in rows if r is not None and len(r)]
+    return np.unique(np.concatenate(rows), axis=0) if rows else None
 
 
 def damping_modes(
