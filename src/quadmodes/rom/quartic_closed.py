@@ -24,6 +24,9 @@ caller takes the finite differences.
 
 from __future__ import annotations
 
+import itertools
+import math
+
 import numpy as np
 
 from quadmodes.fe.bar import BarSet
@@ -66,11 +69,15 @@ def _unpack(row: np.ndarray, iu: np.ndarray, ju: np.ndarray, n: int) -> np.ndarr
     return m
 
 
+def symmetrise(t: np.ndarray) -> np.ndarray:
+    """Average of ``t`` ``(N, …, N)`` over all permutations of its axes (fully symmetric part)."""
+    perms = list(itertools.permutations(range(t.ndim)))
+    return sum(np.transpose(t, p) for p in perms) / math.factorial(t.ndim)
+
+
 def cubic_force_tensor_closed(structure, shapes: np.ndarray) -> np.ndarray | None:
     """``E_mnpq`` (N, N, N, N) (J per unit⁴ of the shapes (N, n, 3)), fully symmetric, in
     closed form (module docstring); None if an element set has none."""
-    from quadmodes.rom.reduced import symmetrise
-
     n = shapes.shape[0]
     total = np.zeros((n,) * 4)
     for e in structure.elements:

@@ -15,8 +15,6 @@ self-describing NetCDF file by :mod:`quadmodes.rom.artifact`.
 
 from __future__ import annotations
 
-import itertools
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,7 +32,7 @@ from quadmodes.fe.model import (
     total_mass,
 )
 from quadmodes.fe.pressure import PressureSet
-from quadmodes.rom.quartic_closed import cubic_force_tensor_closed
+from quadmodes.rom.quartic_closed import cubic_force_tensor_closed, symmetrise
 from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
 from quadmodes.structure.spinning import centrifugal_softening
@@ -262,12 +260,6 @@ def has_polynomial_potential(structure: Structure) -> bool:
     """True if the internal force is an exact polynomial of degree ≤ 3 in the DOFs (membrane,
     bar, cable, constant pressure); False with a gas-law pressure (``p V^κ = const``)."""
     return not any(isinstance(e, PressureSet) and e.gas_law_exponent for e in structure.elements)
-
-
-def symmetrise(t: np.ndarray) -> np.ndarray:
-    """Average of ``t`` ``(N, …, N)`` over all permutations of its axes (fully symmetric part)."""
-    perms = list(itertools.permutations(range(t.ndim)))
-    return sum(np.transpose(t, p) for p in perms) / math.factorial(t.ndim)
 
 
 def pair_forces(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> np.ndarray:

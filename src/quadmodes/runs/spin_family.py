@@ -49,15 +49,21 @@ from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
 from quadmodes.runs import chunked
+from quadmodes.runs import family_checkpoint as fck
+from quadmodes.runs.family_spacing import (  # noqa: F401  (the family's switching, re-exported)
+    DEFAULT_TOLERANCE,
+    HYSTERESIS,
+    SPIN_RESOLUTION_HZ,
+    SwitchMonitor,
+    grid_spin,
+    member_hz,
+    member_spin,
+    sensitivity,
+    spacing_from,
+)
+from quadmodes.runs.step_chunks import integrate_run
+from quadmodes.runs.step_chunks import start as controlled_start
 
-#: Default spacing of the members' spins (relative): 0.75 %, so the spin departs from its
-#: member's by at most about 0.41 % (the centrifugal load by 0.83 %, inside the path check's
-#: 2 %; the cone growth by about 0.45 %, docs/path-validity.md).
-DEFAULT_TOLERANCE = 0.0075
-#: Members are expanded about spins rounded to this (Hz), so that paths share cached members.
-SPIN_RESOLUTION_HZ = 1e-4
-#: A switch waits until the spin is nearer another grid point by this factor on half a spacing.
-HYSTERESIS = 1.1
 #: Gauss–Newton iterations of the chart fit (the charts are 1 % apart: 3 reach round-off).
 FIT_ITERATIONS = 8
 
@@ -132,71 +138,6 @@ def mapped_state(sys0, model0, sys1, model1, y: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------
-# when to switch
-# ---------------------------------------------------------------------------------------------
-
-
-def member_hz(spin: float) -> float:
-    """The spin (Hz) a member about ``spin`` (rad/s) is expanded about: rounded to
-    :data:`SPIN_RESOLUTION_HZ`."""
-    return round(spin / (2 * math.pi) / SPIN_RESOLUTION_HZ) * SPIN_RESOLUTION_HZ
-
-
-def member_spin(system, y: np.ndarray) -> np.ndarray:
-    """Spin about the member's reference axis ω·e (k,) rad/s of states y (k, 7+2N)."""
-    w_ref = np.asarray(system.reference_omega, float)
-    return rsys.split_state(system, np.atleast_2d(y))[1] @ (w_ref / np.linalg.norm(w_ref))
-
-
-def grid_spin(spin: float, spin0: float, spacing: float) -> float:
-    """The member spin (rad/s) for ``spin``: the point of the geometric grid
-    Ω₀(1 + spacing)^k nearest it (in ln Ω), rounded to :data:`SPIN_RESOLUTION_HZ`."""
-    k = round(math.log(spin / spin0) / math.log1p(spacing))
-    return 2 * math.pi * member_hz(spin0 * (1.0 + spacing) ** k)
-
-
-class SwitchMonitor:
-    """``after_chunk`` of :func:`quadmodes.runs.chunked.integrate_in_chunks`: the run's
-    ``until`` event first (``event``, or None), then the switch: at the first new sample whose
-    spin about the member's axis is nearer another point of the grid of member spins
-    (:func:`grid_spin`; by :data:`HYSTERESIS` × half a spacing, so a spin hovering at a midpoint
-    does not switch back and forth) the chunk is cut there and the segment stopped
-    (``spin``: the new member's)."""
-
-    def __init__(self, system, spin0: float, spacing: float, event=None):
-        self.system, self.spin0, self.spacing, self.event = system, spin0, spacing, event
-        self.spin_ref = float(np.linalg.norm(system.reference_omega))
-        self.limit = HYSTERESIS * 0.5 * math.log1p(spacing)
-        self.spin: float | None = None
-
-    def after_resume(self, state, integ, h: float):
-        return state
-
-    def after_chunk(self, state, integ, h: float):
-        if self.event is not None:
-            state = self.event.after_chunk(state, integ, h)
-            if state.stop is not None:
-                return state
-        if not state.t or not len(state.y[-1]):
-            return state
-        t_new, y_new, ed_new = state.t[-1], state.y[-1], state.e_d[-1]
-        spins = member_spin(self.system, y_new)
-        hits = np.flatnonzero(np.abs(np.log(spins / self.spin_ref)) > self.limit)
-        if not len(hits):
-            return state
-        j = int(hits[0])
-        target = grid_spin(float(spins[j]), self.spin0, self.spacing)
-        if abs(target - self.spin_ref) < 0.5 * 2 * math.pi * SPIN_RESOLUTION_HZ:
-            return state  # the member about that spin is this one
-        self.spin = target
-        pieces = dict(t=(*state.t[:-1], t_new[: j + 1]), y=(*state.y[:-1], y_new[: j + 1]),
-                      e_d=(*state.e_d[:-1], ed_new[: j + 1]))  # fmt: skip
-        return dataclasses.replace(state, steps=int(round(t_new[j] / h)), y_last=y_new[j].copy(),
-                                   e_d_offset=float(ed_new[j]), stop=chunked._Stop(0, "switch", ""),
-                                   **pieces)  # fmt: skip
-
-
-# ---------------------------------------------------------------------------------------------
 # the run
 # ---------------------------------------------------------------------------------------------
 
@@ -232,56 +173,146 @@ def _energy(system, y: np.ndarray) -> float:
     return float(dyn.kinetic_energy(system, y) + dyn.potential_energy(system, y))
 
 
-def _segment_progress(y: np.ndarray, steps: int, chunk: int, e_d: float) -> chunked.ChunkProgress:
-    """A chunk progress that starts a new member at step ``steps`` from state ``y``."""
-    start = chunked.ChunkProgress.start(y, chunk)
-    return dataclasses.replace(start, steps=steps, e_d_offset=e_d)
+def _segment_chunks(integ, max_chunks: int, last: Segment | None, d_next: float) -> int:
+    """The chunk count parameter of the next segment: the run's ``max_chunks``, more where the
+    segment ahead is short (a quarter of its expected time, from the rate the last segment's
+    spin changed over ``d_next``, its range in ln Ω): a switch cuts its chunk, and the rest of
+    the chunk is integrated for nothing."""
+    if last is None or len(last.solution.t) < 2 or not d_next > 0:
+        return max_chunks
+    t, y = last.solution.t, last.solution.y
+    spins = member_spin(last.setup.system, y[[0, -1]])
+    rate = abs(math.log(spins[-1] / spins[0])) / max(float(t[-1] - t[0]), 1e-12)
+    if not rate > 0:
+        return max_chunks
+    expected = 2.0 * d_next / rate
+    return int(min(max(max_chunks, math.ceil(4.0 * integ.duration / expected)), 100 * max_chunks))
 
 
-def integrate_family(setup, tolerance: float = DEFAULT_TOLERANCE, progress=None,
-                     max_chunks: int = chunked.MAX_CHUNKS):  # fmt: skip
-    """(segments, switches, ChunkedRun of the last segment, wall time s) of a prepared run
-    (:class:`~quadmodes.runs.simulate.RunSetup` about a spinning state) integrated by a family
-    of members (module docstring). Times and steps are the run's global ones."""
+def _segment_progress(integ, final, y: np.ndarray, t: float, steps: int, chunk: int,
+                      e_d: float) -> chunked.ChunkProgress:  # fmt: skip
+    """A chunk progress that starts a new member at time t (s), step ``steps``, from state y:
+    the fixed step's chunk of ``chunk`` steps, or (a controlled step) the step the last segment
+    proposed, its last chunk kept in the grid (the next step's energy-balance bound)."""
+    if getattr(integ, "step_tolerance", None) is None:
+        start = chunked.ChunkProgress.start(y, chunk)
+        return dataclasses.replace(start, steps=steps, e_d_offset=e_d)
+    start = controlled_start(y, final.h_next if final is not None else integ.dt)
+    return dataclasses.replace(start, steps=steps, e_d_offset=e_d, t_done=t,
+                               grid=final.grid[-1:] if final is not None else ())  # fmt: skip
+
+
+@dataclass(eq=False)
+class _Family:
+    """The state of :func:`integrate_family` between segments (what its checkpoint holds)."""
+
+    setup: object
+    spacing: object
+    structure: object
+    segments: list
+    switches: list
+    member: object
+    y0: np.ndarray
+    offset: float
+    pi_k: float
+    chunks: int
+    spins: list  # the spins (rad/s) the members were asked for (the first: the run's)
+    wall: float = 0.0
+
+    def pack(self) -> dict:
+        return fck.pack(self.segments, self.switches, self.spins, self.offset,
+                        self.spacing.state(), self.y0, self.chunks)  # fmt: skip
+
+
+def _start_family(setup, max_chunks: int, resume, progress):
+    """(the :class:`_Family` at its start or at a checkpoint's segment, its resume or None)."""
     from quadmodes.runs.deformation_check import deformation_structure
+
+    structure = deformation_structure(setup)
+    spin0 = setup.model.reference_spin
+    fam = resume[0].family if resume is not None else None
+    if fam is None:
+        return _Family(setup, spacing_from(setup.run, spin0), structure, [], [], setup,
+                       setup.initial.y0, 0.0, _potential_at(structure, setup.model),
+                       max_chunks, [spin0]), resume  # fmt: skip
+    members = [setup if k == 0 else _member(setup, float(w), progress)
+               for k, w in enumerate(fam["spins"])]  # fmt: skip
+    sols = fck.unpack_solutions(fam, setup.run.integration.method,
+                                None if setup.run.integration.step_tolerance else
+                                setup.run.integration.duration / setup.run.integration.n_steps)  # fmt: skip
+    segments = [Segment(m, sol, float(off))
+                for m, sol, off in zip(members, sols, fam["offsets"], strict=False)]  # fmt: skip
+    state = _Family(setup, spacing_from(setup.run, spin0, fam["spacing"]), structure, segments,
+                    [Switch(float(r[0]), int(r[1]), *map(float, r[2:])) for r in fam["switches"]], members[-1], np.asarray(fam["y0"], float),
+                    float(fam["offsets"][-1]), _potential_at(structure, members[-1].model),
+                    int(fam["chunks"]), [float(w) for w in fam["spins"]], float(resume[1]))  # fmt: skip
+    return state, (dataclasses.replace(resume[0], family=None), resume[1])
+
+
+def _switch(fam: _Family, part, monitor, progress) -> tuple:
+    """Map the end of the segment ``part`` onto the member ``monitor.spin``: the switch
+    recorded, the family moved on; returns the next segment's resume."""
+    member, integ = fam.member, fam.setup.run.integration
+    y_end, t_end = part.solution.y[-1], float(part.solution.t[-1])
+    nxt = _member(member, monitor.spin, progress)
+    y1 = mapped_state(member.system, member.model, nxt.system, nxt.model, y_end)
+    e_before, e_after = _energy(member.system, y_end), _energy(nxt.system, y1)
+    pi_next = _potential_at(fam.structure, nxt.model)
+    h0 = np.linalg.norm(dyn.momentum_inertial(member.system, y_end))
+    h1 = np.linalg.norm(dyn.momentum_inertial(nxt.system, y1))
+    final = monitor.final
+    step = final.steps if final is not None else int(round(t_end / (integ.duration / integ.n_steps)))
+    last = Solution(part.solution.t[-1:], y_end[None, :], "", {}, 0, "")
+    cone = float(diagnostics(member.system, last, spin_axis=fam.setup.initial.spin_axis).cone_angle[-1])
+    fam.spacing.switched(sensitivity(member.system, nxt.system, cone))
+    fam.switches.append(Switch(t_end, step, member.model.reference_spin, nxt.model.reference_spin,
+                               abs(h1 / h0 - 1.0), (e_after + pi_next) - (e_before + fam.pi_k),
+                               e_before + fam.offset))  # fmt: skip
+    fam.offset, fam.pi_k = fam.offset + e_before - e_after, pi_next  # E continuous at the switch
+    fam.member, fam.y0 = nxt, y1
+    fam.spins.append(float(monitor.spin))
+    fam.chunks = _segment_chunks(integ, fam.chunks, fam.segments[-1], fam.spacing.limit())
+    chunk = chunked._chunk_steps(integ.n_steps, integ.save_every, fam.chunks)
+    return (_segment_progress(integ, final, y1, t_end, step, chunk,
+                              float(part.solution.dissipated[-1])), fam.wall)  # fmt: skip
+
+
+def integrate_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS, *,
+                     checkpoint=None, resume=None):  # fmt: skip
+    """(segments, switches, ChunkedRun of the last segment, wall time s, spacing) of a prepared
+    run (:class:`~quadmodes.runs.simulate.RunSetup` about a spinning state) integrated by a
+    family of members (module docstring), each segment at the run's fixed or controlled step
+    (:func:`quadmodes.runs.step_chunks.integrate_run`). Times and steps are the run's global
+    ones. ``checkpoint`` (the run's :class:`~quadmodes.runs.run_checkpoint.RunCheckpoint`):
+    saved at each segment's start and whenever due; ``resume``: its (progress, wall) of this
+    run, the family continued where it stood (:mod:`quadmodes.runs.family_checkpoint`)."""
     from quadmodes.runs.events import run_event
 
-    run, integ = setup.run, setup.run.integration
-    h = integ.duration / integ.n_steps
-    chunk = chunked._chunk_steps(integ.n_steps, integ.save_every, max_chunks)
-    structure = deformation_structure(setup)
-    pi0 = _potential_at(structure, setup.model)
-    segments, switches, resume, wall = [], [], None, 0.0
-    member, y0, offset, pi_k = setup, setup.initial.y0, 0.0, pi0
+    run = setup.run
+    fam, resume = _start_family(setup, max_chunks, resume, progress)
+    ckpt = None if checkpoint is None else fck.FamilyCheckpoint(checkpoint, fam.pack)
     while True:
-        event = run_event(member.system, dataclasses.replace(member.initial, y0=y0), run)
-        monitor = SwitchMonitor(member.system, setup.model.reference_spin, tolerance, event)
+        member = fam.member
+        event = run_event(member.system, dataclasses.replace(member.initial, y0=fam.y0), run)
+        t0 = float(fam.switches[-1].time) if fam.switches else 0.0
+        monitor = SwitchMonitor(member.system, fam.spacing, event, t0)
         start = time.perf_counter()
         try:
-            part = chunked.integrate_in_chunks(member.system, y0, integ, progress, run.name,
-                                               max_chunks, resume=resume, event=monitor)  # fmt: skip
+            part = integrate_run(member.system, fam.y0, run.integration, progress, run.name,
+                                 fam.chunks, checkpoint=ckpt, resume=resume, event=monitor)  # fmt: skip
         except chunked.Interrupted as stop:  # Ctrl-C: the path so far, raised by run_family
-            segments.append(Segment(member, stop.partial.solution, offset))
-            raise Stopped(segments, switches, stop.partial, wall, stop.reason) from None
-        wall += time.perf_counter() - start
-        segments.append(Segment(member, part.solution, offset))
-        if monitor.spin is None or part.reason:
-            return segments, switches, part, wall
-        y_end, t_end = part.solution.y[-1], float(part.solution.t[-1])
-        nxt = _member(member, monitor.spin, progress)
-        y1 = mapped_state(member.system, member.model, nxt.system, nxt.model, y_end)
-        e_before = _energy(member.system, y_end)
-        e_after = _energy(nxt.system, y1)
-        pi_next = _potential_at(structure, nxt.model)
-        defect = (e_after + pi_next) - (e_before + pi_k)
-        h0 = np.linalg.norm(dyn.momentum_inertial(member.system, y_end))
-        h1 = np.linalg.norm(dyn.momentum_inertial(nxt.system, y1))
-        step = int(round(t_end / h))
-        switches.append(Switch(t_end, step, member.model.reference_spin, nxt.model.reference_spin,
-                               abs(h1 / h0 - 1.0), defect, e_before + offset))  # fmt: skip
-        offset, pi_k = offset + e_before - e_after, pi_next  # E continuous at the switch
-        resume = (_segment_progress(y1, step, chunk, float(part.solution.dissipated[-1])), wall)
-        member, y0 = nxt, y1
+            fam.segments.append(Segment(member, stop.partial.solution, fam.offset))
+            raise Stopped(fam, stop.partial, stop.reason, stop.saved) from None
+        fam.wall += time.perf_counter() - start
+        done = float(part.solution.t[-1]) >= run.integration.duration * (1.0 - 1e-12)
+        if monitor.spin is None or part.reason or done:  # (a switch at the very end: none)
+            fam.segments.append(Segment(member, part.solution, fam.offset))
+            return fam, part
+        segment = Segment(member, part.solution, fam.offset)
+        fam.segments.append(segment)
+        resume = _switch(fam, part, monitor, progress)
+        if ckpt is not None:  # the new segment's start: a resume continues from here
+            ckpt.save(resume[0], fam.wall)
 
 
 def merged_diagnostics(segments, spin_axis) -> Diagnostics:
@@ -315,7 +346,7 @@ def merged_solution(segments, last) -> Solution:
                     last.solution.dt)  # fmt: skip
 
 
-def check_family_run(run, resume) -> None:
+def check_family_run(run) -> None:
     """Refuse what a spin-family run does not support yet (one line, the field named)."""
     if run.reduced.reference != "spinning":
         raise CaseError('reduced.path_model = "spin-family" needs reduced.reference = "spinning"; '
@@ -323,9 +354,6 @@ def check_family_run(run, resume) -> None:
     if run.reduced.formulation not in ("Q", "P", "L"):
         raise CaseError(f'reduced.path_model = "spin-family" takes formulation Q, P or L, not '
                         f'{run.reduced.formulation}', field="reduced.formulation")  # fmt: skip
-    if resume is not None:
-        raise CaseError('--resume: a reduced.path_model = "spin-family" run cannot be resumed '
-                        "yet; run it again without --resume", field="--resume")  # fmt: skip
 
 
 def family_path_validity(segments, diag):
@@ -371,37 +399,38 @@ class FamilyRun:
 
 
 class Stopped(KeyboardInterrupt):
-    """Ctrl-C inside :func:`integrate_family`: the segments, switches, last ChunkedRun and
-    wall time (s) so far and the reason (turned into a
-    :class:`~quadmodes.runs.chunked.Interrupted` carrying the :class:`FamilyRun` by
-    :func:`run_family`)."""
+    """Ctrl-C inside :func:`integrate_family`: the family so far (its segments, switches and
+    wall time), the last segment's partial ChunkedRun, the reason and whether a checkpoint holds
+    it (turned into a :class:`~quadmodes.runs.chunked.Interrupted` carrying the
+    :class:`FamilyRun` by :func:`run_family`)."""
 
-    def __init__(self, segments, switches, last, wall, reason: str):
+    def __init__(self, fam, last, reason: str, saved: bool = False):
         super().__init__(reason)
-        self.parts = (segments, switches, last, wall)
+        self.parts, self.saved = (fam, last), saved
 
 
-def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS) -> FamilyRun:
-    """:func:`integrate_family` of a prepared run with the tolerance of its
-    ``reduced.path_switch``, merged (:class:`FamilyRun`). Ctrl-C raises
-    :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial`` is the :class:`FamilyRun`
-    so far (not checkpointed: a family run is not resumed yet)."""
-    tolerance = setup.run.reduced.path_switch or DEFAULT_TOLERANCE
+def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS, *, checkpoint=None,
+               resume=None) -> FamilyRun:  # fmt: skip
+    """:func:`integrate_family` of a prepared run (members by its ``reduced.path_switch`` or
+    ``reduced.path_tolerance``), merged (:class:`FamilyRun`); ``checkpoint``, ``resume``: as
+    there. Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial`` is the
+    :class:`FamilyRun` so far (saved to the checkpoint, if any)."""
     try:
-        return _merged(setup, tolerance, *integrate_family(setup, tolerance, progress, max_chunks))
+        return _merged(*integrate_family(setup, progress, max_chunks, checkpoint=checkpoint,
+                                         resume=resume))  # fmt: skip
     except Stopped as stop:
-        raise chunked.Interrupted(_merged(setup, tolerance, *stop.parts), False, str(stop)) from None
+        raise chunked.Interrupted(_merged(*stop.parts), stop.saved, str(stop)) from None
 
 
-def _merged(setup, tolerance, segments, switches, last, wall) -> FamilyRun:
+def _merged(fam: _Family, last) -> FamilyRun:
+    setup, segments, switches = fam.setup, fam.segments, fam.switches
     diag = merged_diagnostics(segments, setup.initial.spin_axis)
     spins = ", ".join(f"{seg.setup.model.reference_spin / (2 * math.pi):.5g}" for seg in segments)
-    notes = [f"spin family (members {100 * tolerance:.3g} % apart in spin): {len(segments)} "
-             f"members about {spins} Hz"]  # fmt: skip
+    notes = [f"spin family ({fam.spacing.describe()}): {len(segments)} members about {spins} Hz"]
     if switches:
         worst_h = max(sw.h_change for sw in switches)
         worst_e = max(abs(sw.energy_defect / sw.energy) for sw in switches)
         notes.append(f"spin family: {len(switches)} switches, |H| changed by ≤ {worst_h:.1e}, "
                      f"energy defect ≤ {worst_e:.1e} relative (against the FE potential; E kept continuous)")  # fmt: skip
     return FamilyRun(merged_solution(segments, last), diag, family_path_validity(segments, diag),
-                     tuple(notes), tuple(switches), last, wall)  # fmt: skip
+                     tuple(notes), tuple(switches), last, fam.wall)  # fmt: skip
