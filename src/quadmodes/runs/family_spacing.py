@@ -85,6 +85,10 @@ class GridSpacing:
         about ``spin_ref``."""
         return grid_spin(spin, self.spin0, self.spacing)
 
+    def predicted(self, spin_ref: float, sign: float) -> float:
+        """The member after the one about ``spin_ref`` in the direction ``sign`` (±1)."""
+        return grid_spin(spin_ref * (1.0 + self.spacing) ** sign, self.spin0, self.spacing)
+
     def switched(self, sensitivity: float) -> None:
         """After a switch: the measured sensitivity (unused by the grid)."""
 
@@ -116,8 +120,13 @@ class AdaptiveSpacing:
 
     def target(self, spin_ref: float, spin: float) -> float:
         self.d_next = self.proposal()
-        sign = 1.0 if spin > spin_ref else -1.0
-        return 2 * math.pi * member_hz(spin_ref * math.exp(sign * (self.d + self.d_next / HYSTERESIS)))
+        return self.predicted(spin_ref, 1.0 if spin > spin_ref else -1.0)
+
+    def predicted(self, spin_ref: float, sign: float) -> float:
+        """The next member's spin (rad/s) past the member about ``spin_ref`` in the direction
+        ``sign`` (±1): the switch's target, known when the segment starts."""
+        shift = sign * (self.d + self.proposal() / HYSTERESIS)
+        return 2 * math.pi * member_hz(spin_ref * math.exp(shift))
 
     def switched(self, sensitivity: float) -> None:
         """After a switch to the member proposed: its departure, and the sensitivity σ measured

@@ -50,6 +50,7 @@ from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
 from quadmodes.runs import chunked
 from quadmodes.runs import family_checkpoint as fck
+from quadmodes.runs.family_prefetch import Prefetcher
 from quadmodes.runs.family_spacing import (  # noqa: F401  (the family's switching, re-exported)
     DEFAULT_TOLERANCE,
     HYSTERESIS,
@@ -249,11 +250,12 @@ def _start_family(setup, max_chunks: int, resume, progress):
     return state, (dataclasses.replace(resume[0], family=None), resume[1])
 
 
-def _switch(fam: _Family, part, monitor, progress) -> tuple:
+def _switch(fam: _Family, part, monitor, prefetch, progress) -> tuple:
     """Map the end of the segment ``part`` onto the member ``monitor.spin``: the switch
     recorded, the family moved on; returns the next segment's resume."""
     member, integ = fam.member, fam.setup.run.integration
     y_end, t_end = part.solution.y[-1], float(part.solution.t[-1])
+    prefetch.wait(monitor.spin)
     nxt = _member(member, monitor.spin, progress)
     y1 = mapped_state(member.system, member.model, nxt.system, nxt.model, y_end)
     e_before, e_after = _energy(member.system, y_end), _energy(nxt.system, y1)
@@ -286,13 +288,26 @@ def integrate_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS,
     ones. ``checkpoint`` (the run's :class:`~quadmodes.runs.run_checkpoint.RunCheckpoint`):
     saved at each segment's start and whenever due; ``resume``: its (progress, wall) of this
     run, the family continued where it stood (:mod:`quadmodes.runs.family_checkpoint`)."""
-    from quadmodes.runs.events import run_event
-
-    run = setup.run
     fam, resume = _start_family(setup, max_chunks, resume, progress)
     ckpt = None if checkpoint is None else fck.FamilyCheckpoint(checkpoint, fam.pack)
+    prefetch = Prefetcher(setup)
+    try:
+        return _segments(fam, resume, ckpt, prefetch, progress)
+    finally:
+        prefetch.close()
+
+
+def _segments(fam: _Family, resume, ckpt, prefetch: Prefetcher, progress):
+    """The loop of :func:`integrate_family`, segment after segment, the next member built
+    ahead (:mod:`quadmodes.runs.family_prefetch`) in the direction of the last switch."""
+    from quadmodes.runs.events import run_event
+
+    run = fam.setup.run
     while True:
         member = fam.member
+        if fam.switches:
+            sign = 1.0 if fam.switches[-1].spin_to > fam.switches[-1].spin_from else -1.0
+            prefetch.ahead(fam.spacing.predicted(float(np.linalg.norm(member.system.reference_omega)), sign))
         event = run_event(member.system, dataclasses.replace(member.initial, y0=fam.y0), run)
         t0 = float(fam.switches[-1].time) if fam.switches else 0.0
         monitor = SwitchMonitor(member.system, fam.spacing, event, t0)
@@ -310,7 +325,7 @@ def integrate_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS,
             return fam, part
         segment = Segment(member, part.solution, fam.offset)
         fam.segments.append(segment)
-        resume = _switch(fam, part, monitor, progress)
+        resume = _switch(fam, part, monitor, prefetch, progress)
         if ckpt is not None:  # the new segment's start: a resume continues from here
             ckpt.save(resume[0], fam.wall)
 
