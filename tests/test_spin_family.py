@@ -191,14 +191,21 @@ def test_member_spins_are_a_grid_and_the_nearest_point_integrates():
     assert sf.grid_spin(w0, w0, a) == pytest.approx(w0, rel=1e-12)
 
 
-@pytest.mark.parametrize("stop_at", [2, 3])
-def test_interrupted_family_resumes_to_the_same_path(workdir, monkeypatch, tmp_path, stop_at):  # noqa: F811
-    """Ctrl-C at the ``stop_at``-th chunk (after a switch), the checkpoint resumed: the same
-    samples, switches and members as the uninterrupted run, bit for bit."""
+@pytest.mark.parametrize(("stop_at", "controlled"), [(2, False), (3, False), (3, True)])
+def test_interrupted_family_resumes_to_the_same_path(workdir, monkeypatch, tmp_path, stop_at,  # noqa: F811
+                                                     controlled):  # fmt: skip
+    """Ctrl-C at the ``stop_at``-th chunk (after a switch; fixed or controlled step), the
+    checkpoint resumed: the same samples, switches and members as the uninterrupted run, bit
+    for bit."""
     from quadmodes.runs.chunked import Interrupted
     from quadmodes.runs.run_checkpoint import RunCheckpoint
 
     run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
+    if controlled:
+        text = (workdir / "fam.toml").read_text(encoding="utf-8")
+        (workdir / "fam.toml").write_text(text.replace("[integration]", "[integration]\nstep_tolerance = 1e-3"),
+                                          encoding="utf-8")  # fmt: skip
+        run = load_run_case(workdir / "fam.toml")
     whole = sim.simulate(run)
     setup = sim.prepare(run)
     path = tmp_path / "checkpoint.npz"

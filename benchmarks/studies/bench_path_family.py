@@ -63,14 +63,15 @@ def point_row(result, cone_deg: float, window: float, full_dt: float, case: str)
     spin = member_at(result, float(d.t[j]))
     run = load_run_case(case)
     n = result.system.n_modes
-    reduced = run.reduced.model_copy(update={"modes": n, "path_model": "fixed", "path_switch": None})
+    reduced = run.reduced.model_copy(update={"modes": n, "path_model": "fixed", "path_switch": None,
+                                                "path_tolerance": None})
     init = run.initial.model_copy(update={"spin_rate": spin})
-    integ = run.integration.model_copy(update={"until": None, "save_every": 2})
+    integ = run.integration.model_copy(update={"until": None, "save_every": 2, "step_tolerance": None})
     run_m = run.model_copy(update={"reduced": reduced, "initial": init, "integration": integ})
     run_w, setup0 = prepare_comparison(run_m, window)
     y = np.asarray(result.solution.y[j], float)
     dt = float(run.integration.dt)
-    point = PathPoint(f"cone {cone_deg:g} deg", "cone", float(d.t[j]), int(round(d.t[j] / dt)), y,
+    point = PathPoint(f"cone {cone_deg:g} deg", "cone", float(d.t[j]), int(round(d.t[j] / dt)), y,  # step: nominal
                       float(d.E_d[j]), float(d.cone_angle[j]), float(d.spin_rate[j]), "family path")  # fmt: skip
     start = time.perf_counter()
     full_sol = full_order_for_run(run_w, dt=full_dt, setup=full_order_setup_at(setup0, point))
