@@ -246,3 +246,20 @@ def test_members_built_ahead_give_the_same_path(workdir, monkeypatch):  # noqa: 
     assert len(alone.family) >= 2
     np.testing.assert_array_equal(ahead.solution.y, alone.solution.y)
     assert ahead.family == alone.family
+
+
+def test_measured_limit_from_neighbours():
+    """The spin part's limit of a segment from its neighbours' measurements: the whole step x
+    (δ = 1 − e^{−2x}) where both errors are within tolerance, else x scaled to where the worse
+    reaches its tolerance (2 % coning rate, 1 % frequencies); None without a measurement."""
+    w = 2 * np.pi * 40.0
+    step = np.exp(-0.015)
+
+    def switch(eps_c, eps_f):
+        return sf.Switch(1.0, 1, w, w * step, 0.0, 0.0, 1.0, eps_c, eps_f)
+
+    assert sf.measured_limit([switch(0.01, 1e-5)], 0)[0] == pytest.approx(-np.expm1(-0.03), rel=1e-12)
+    assert sf.measured_limit([switch(0.04, 1e-5)], 0)[0] == pytest.approx(-np.expm1(-0.015), rel=1e-12)
+    assert sf.measured_limit([switch(0.01, 0.04)], 1)[0] == pytest.approx(-np.expm1(-0.0075), rel=1e-12)
+    assert sf.measured_limit([switch(np.nan, 0.0)], 0)[0] is None
+    assert sf.measured_limit([], 0)[0] is None

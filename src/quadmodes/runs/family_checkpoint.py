@@ -5,7 +5,7 @@ the family so far in entries ``family_*``:
 ``spins`` (K+1,) rad/s: the members of the K finished segments and of the current one;
 ``offsets`` (K+1,) J: their energy constants on the path; ``lengths`` (K,): samples per finished
 segment; ``t`` (s), ``y``, ``e_d`` (J): those samples, concatenated; ``stats`` (K, 5): their
-work counters; ``switches`` (K, 7): :class:`~quadmodes.runs.spin_family.Switch` fields;
+work counters; ``switches`` (K, 9): :class:`~quadmodes.runs.spin_family.Switch` fields;
 ``spacing``: the spacing's state (:mod:`quadmodes.runs.family_spacing`); ``y0``: the current
 segment's first state; ``chunks``: its chunk count parameter (``max_chunks``).
 
@@ -21,7 +21,7 @@ import dataclasses
 
 import numpy as np
 
-STATS = ("n_steps", "n_rhs", "n_newton", "n_jac", "n_probe_steps")
+STATS = ("n_steps", "n_rhs", "n_newton", "n_jac", "n_probe_steps", "n_chunks")
 
 
 class FamilyCheckpoint:
@@ -55,7 +55,7 @@ def pack(segments, switches, spins, offset_now: float, spacing_state: np.ndarray
         "e_d": np.concatenate([s.dissipated for s in sols]) if sols else np.zeros(0),
         "stats": np.array([[int(s.stats.get(k, 0)) for k in STATS] for s in sols],
                           dtype=np.int64).reshape(-1, len(STATS)),  # fmt: skip
-        "switches": np.array([dataclasses.astuple(sw) for sw in switches], float).reshape(-1, 7),
+        "switches": np.array([dataclasses.astuple(sw) for sw in switches], float).reshape(-1, 9),
         "spacing": np.asarray(spacing_state, float),
         "y0": np.asarray(y0_now, float),
         "chunks": np.int64(chunks_now),

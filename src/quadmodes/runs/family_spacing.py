@@ -153,22 +153,33 @@ def spacing_from(run, spin0: float, state: np.ndarray | None = None):
     return AdaptiveSpacing(*(float(v) for v in state))
 
 
-def sensitivity(sys_old, sys_new, cone: float) -> float:
-    """σ: |θ̇/θ of the old member / that of the new one − 1| / |ln(Ω_new/Ω_old)|, both
-    coning rates (:func:`quadmodes.runs.spin_check.coning_rate`) at the new member's spin about
-    its axis and the cone angle ``cone`` (rad); NaN where not measurable."""
-    from quadmodes.runs.spin_check import coning_rate
+def neighbour_errors(sys_old, sys_new, cone: float) -> tuple[float, float]:
+    """(ε_c, ε_f) of the old member at the new member's spin (about its axis), against the new
+    member there: the relative difference of the energy-sink coning rates θ̇/θ
+    (:func:`quadmodes.runs.spin_check.coning_rate`, at the cone angle ``cone`` rad) and the
+    largest relative difference of the rotating-frame frequencies; NaN where not measurable."""
+    from quadmodes.runs.spin_check import coning_rate, frequency_difference, rotating_frequencies
 
     w_new = np.asarray(sys_new.reference_omega, float)
     spin = float(np.linalg.norm(w_new))
-    step = abs(math.log(spin / float(np.linalg.norm(sys_old.reference_omega))))
     try:
+        eps_f = frequency_difference(rotating_frequencies(sys_old, w_new),
+                                     rotating_frequencies(sys_new, w_new))  # fmt: skip
         rates = [coning_rate(s, spin, w_new / spin, max(float(cone), 1e-3)) for s in (sys_old, sys_new)]
     except (ValueError, ArithmeticError, np.linalg.LinAlgError):
-        return math.nan
-    if not (step > 0 and all(math.isfinite(r) for r in rates) and rates[1] != 0.0):
-        return math.nan
-    return abs(rates[0] / rates[1] - 1.0) / step
+        return math.nan, math.nan
+    if not (all(math.isfinite(r) for r in rates) and rates[1] != 0.0):
+        return math.nan, eps_f
+    return abs(rates[0] / rates[1] - 1.0), eps_f
+
+
+def sensitivity(sys_old, sys_new, cone: float) -> float:
+    """σ: ε_c of :func:`neighbour_errors` per unit of |ln(Ω_new/Ω_old)|; NaN where not
+    measurable."""
+    step = abs(math.log(float(np.linalg.norm(sys_new.reference_omega))
+                        / float(np.linalg.norm(sys_old.reference_omega))))  # fmt: skip
+    eps_c = neighbour_errors(sys_old, sys_new, cone)[0]
+    return eps_c / step if step > 0 and math.isfinite(eps_c) else math.nan
 
 
 class SwitchMonitor:

@@ -59,7 +59,7 @@ from quadmodes.runs.family_spacing import (  # noqa: F401  (the family's switchi
     grid_spin,
     member_hz,
     member_spin,
-    sensitivity,
+    neighbour_errors,
     spacing_from,
 )
 from quadmodes.runs.step_chunks import integrate_run
@@ -73,7 +73,9 @@ FIT_ITERATIONS = 8
 class Switch:
     """One switch: time (s) and step, spins from and to (rad/s), the relative change of |H|
     the map made, the energy defect (J: T + V + Π(X_k) of the new member's state minus the old
-    one's, module docstring) and the path's energy there (J)."""
+    one's, module docstring), the path's energy there (J), and the old member measured at the
+    new one's spin against it (:func:`~quadmodes.runs.family_spacing.neighbour_errors`): the
+    coning rate's and the rotating-frame frequencies' relative errors (NaN: not measured)."""
 
     time: float
     step: int
@@ -82,6 +84,8 @@ class Switch:
     h_change: float
     energy_defect: float
     energy: float
+    sink_error: float = math.nan
+    frequency_error: float = math.nan
 
     def describe(self) -> str:
         return (f"t = {self.time:.6g} s: {self.spin_from / (2 * math.pi):.5g} → "
@@ -266,10 +270,12 @@ def _switch(fam: _Family, part, monitor, prefetch, progress) -> tuple:
     step = final.steps if final is not None else int(round(t_end / (integ.duration / integ.n_steps)))
     last = Solution(part.solution.t[-1:], y_end[None, :], "", {}, 0, "")
     cone = float(diagnostics(member.system, last, spin_axis=fam.setup.initial.spin_axis).cone_angle[-1])
-    fam.spacing.switched(sensitivity(member.system, nxt.system, cone))
+    eps_c, eps_f = neighbour_errors(member.system, nxt.system, cone)
+    jump = abs(math.log(nxt.model.reference_spin / member.model.reference_spin))
+    fam.spacing.switched(eps_c / jump if jump > 0 else math.nan)
     fam.switches.append(Switch(t_end, step, member.model.reference_spin, nxt.model.reference_spin,
                                abs(h1 / h0 - 1.0), (e_after + pi_next) - (e_before + fam.pi_k),
-                               e_before + fam.offset))  # fmt: skip
+                               e_before + fam.offset, eps_c, eps_f))  # fmt: skip
     fam.offset, fam.pi_k = fam.offset + e_before - e_after, pi_next  # E continuous at the switch
     fam.member, fam.y0 = nxt, y1
     fam.spins.append(float(monitor.spin))
@@ -352,7 +358,11 @@ def merged_solution(segments, last) -> Solution:
 
     sols = [seg.solution for seg in segments]
     stats = {key: sum(s.stats.get(key, 0) for s in sols) for key in ("n_steps", "n_rhs",
-             "n_newton", "n_jac")}  # fmt: skip
+             "n_newton", "n_jac", "n_probe_steps", "n_chunks")}  # fmt: skip
+    for key, pick in (("dt_min_s", min), ("dt_max_s", max)):  # a controlled step's range
+        found = [s.stats[key] for s in sols if s.stats.get(key) is not None]
+        if found:
+            stats[key] = pick(found)
     stats["wall_s"] = last.wall_s
     return Solution(np.concatenate([cut(k, s.t) for k, s in enumerate(sols)]),
                     np.concatenate([cut(k, s.y) for k, s in enumerate(sols)]),
@@ -371,12 +381,37 @@ def check_family_run(run) -> None:
                         f'{run.reduced.formulation}', field="reduced.formulation")  # fmt: skip
 
 
-def family_path_validity(segments, diag):
+def measured_limit(switches, k: int) -> tuple[float | None, str]:
+    """(the measured limit of the spin part of δ of segment k, how) from the neighbours'
+    measurements (``Switch.sink_error``, ``frequency_error``: the old member at the new one's
+    spin, |ln Ω| = x apart): the switch out of segment k (its member measured), else the one
+    into it (its neighbour's, the sensitivity being smooth along the path); as
+    :func:`quadmodes.runs.spin_check.spin_limit` does with a rebuilt model: x if both are within
+    their tolerances (2 %, 1 %), else where the worse reaches its tolerance (linear in x); in δ
+    (in Ω²) 1 − e^{−2x}. None: nothing measured."""
+    from quadmodes.runs.spin_check import FREQUENCY_TOLERANCE, SINK_TOLERANCE
+
+    sw = switches[k] if k < len(switches) else (switches[k - 1] if k else None)
+    if sw is None or not (math.isfinite(sw.sink_error) and math.isfinite(sw.frequency_error)):
+        return None, ""
+    x = abs(math.log(sw.spin_to / sw.spin_from))
+    scale = min(1.0, SINK_TOLERANCE / max(sw.sink_error, 1e-300),
+                FREQUENCY_TOLERANCE / max(sw.frequency_error, 1e-300))  # fmt: skip
+    basis = (f"measured between the members about {sw.spin_from / (2 * math.pi):.5g} and "
+             f"{sw.spin_to / (2 * math.pi):.5g} Hz: {100 * sw.sink_error:.2g} % in the coning rate, "
+             f"{100 * sw.frequency_error:.2g} % in the frequencies")  # fmt: skip
+    return float(-math.expm1(-2.0 * x * scale)), basis
+
+
+def family_path_validity(segments, diag, switches=()):
     """The path's :class:`~quadmodes.runs.path_validity.PathValidity`: each segment checked
-    against its own member (centrifugal load, rotating-frame stiffness), the first to leave its
-    member's range gives where the path leaves; with the FE checks (``setup.fe_checks``, as
-    ``quadmodes run``) the modal amplitudes of the last segment against its member's FE
-    condensed energy."""
+    against its own member (centrifugal load, rotating-frame stiffness; where the a-priori
+    centrifugal bound fails, the spin part judged by the range measured between neighbouring
+    members, :func:`measured_limit`, the tilt by the a-priori bound, as a one-model run's
+    :func:`~quadmodes.runs.path_validity.with_measured_range` does with a rebuilt model), the
+    first to leave its member's range gives where the path leaves; with the FE checks
+    (``setup.fe_checks``, as ``quadmodes run``) the modal amplitudes of the last segment against
+    its member's FE condensed energy."""
     from quadmodes.runs import path_validity as pv
 
     k0, found = 0, None
@@ -387,6 +422,9 @@ def family_path_validity(segments, diag):
             seg.solution, t=seg.solution.t[1:], y=seg.solution.y[1:],
             dissipated=seg.solution.dissipated[1:])  # fmt: skip
         path = pv.path_validity(seg.setup, sol, sub)
+        limit, basis = measured_limit(switches, k)
+        if path.centrifugal_max > path.centrifugal_limit and limit is not None:
+            path = pv.path_validity(seg.setup, sol, sub, limit, basis)
         if k == len(segments) - 1 and seg.setup.fe_checks:
             path = pv.with_amplitude_check(path, seg.setup, sol, sub)
         found = path if found is None or (path.left_at is not None and found.left_at is None) else found
@@ -440,12 +478,12 @@ def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS, *, ch
 def _merged(fam: _Family, last) -> FamilyRun:
     setup, segments, switches = fam.setup, fam.segments, fam.switches
     diag = merged_diagnostics(segments, setup.initial.spin_axis)
-    spins = ", ".join(f"{seg.setup.model.reference_spin / (2 * math.pi):.5g}" for seg in segments)
+    spins = ", ".join(f"{w / (2 * math.pi):.7g}" for w in fam.spins)
     notes = [f"spin family ({fam.spacing.describe()}): {len(segments)} members about {spins} Hz"]
     if switches:
         worst_h = max(sw.h_change for sw in switches)
         worst_e = max(abs(sw.energy_defect / sw.energy) for sw in switches)
         notes.append(f"spin family: {len(switches)} switches, |H| changed by ≤ {worst_h:.1e}, "
                      f"energy defect ≤ {worst_e:.1e} relative (against the FE potential; E kept continuous)")  # fmt: skip
-    return FamilyRun(merged_solution(segments, last), diag, family_path_validity(segments, diag),
+    return FamilyRun(merged_solution(segments, last), diag, family_path_validity(segments, diag, switches),
                      tuple(notes), tuple(switches), last, fam.wall)  # fmt: skip
