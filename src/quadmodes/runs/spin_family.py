@@ -485,5 +485,11 @@ def _merged(fam: _Family, last) -> FamilyRun:
         worst_e = max(abs(sw.energy_defect / sw.energy) for sw in switches)
         notes.append(f"spin family: {len(switches)} switches, |H| changed by ≤ {worst_h:.1e}, "
                      f"energy defect ≤ {worst_e:.1e} relative (against the FE potential; E kept continuous)")  # fmt: skip
+        sink = [sw.sink_error for sw in switches if math.isfinite(sw.sink_error)]
+        freq = [sw.frequency_error for sw in switches if math.isfinite(sw.frequency_error)]
+        if sink:
+            notes.append(f"spin family: neighbouring members differ by {100 * min(sink):.2g}–"
+                         f"{100 * max(sink):.2g} % in the coning rate and ≤ {100 * max(freq, default=0):.2g} % "
+                         "in the rotating-frame frequencies, each at the next one's spin")  # fmt: skip
     return FamilyRun(merged_solution(segments, last), diag, family_path_validity(segments, diag, switches),
                      tuple(notes), tuple(switches), last, fam.wall)  # fmt: skip
