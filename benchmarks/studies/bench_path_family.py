@@ -60,16 +60,56 @@ def member_at(result, t: float) -> float:
 def point_row(result, cone_deg: float, window: float, full_dt: float, case: str) -> dict:
     d = result.diagnostics
     j = int(np.argmax(np.degrees(d.cone_angle) >= cone_deg))
-    spin = member_at(result, float(d.t[j]))
+    return window_row(d, np.asarray(result.solution.y[j], float), j, member_at(result, float(d.t[j])),
+                      result.system.n_modes, cone_deg, window, full_dt, case)  # fmt: skip
+
+
+def path_from_results(path: str, n_modes: int):
+    """(diagnostics-like namespace: t, cone_angle, spin_rate, E_d; states y (k, 7+2N); the
+    members' exact spins, rad/s) of a family run's results.nc, the member spins from the model
+    cache's file names (their notes print 7 digits)."""
+    import types
+
+    import xarray as xr
+
+    from benchmarks.studies.bench_family_sensitivity import member_spins
+    from quadmodes.case import load_case
+
+    ds = xr.open_dataset(path)
+    case = load_case(load_run_case_from_ds(ds).model)
+    spins = member_spins(str(ds.attrs.get("notes", "")), f"{case.name}-N{n_modes}")
+    d = types.SimpleNamespace(t=ds["time"].values, cone_angle=ds["cone_angle"].values,
+                              spin_rate=ds["spin_rate"].values, E_d=ds["dissipated_energy"].values)  # fmt: skip
+    y = np.concatenate([ds["quaternion"].values, ds["omega_body"].values,
+                        ds["modal_coordinates"].values, ds["modal_velocities"].values], axis=1)  # fmt: skip
+    return d, y, [2 * math.pi * hz for hz in spins]
+
+
+def load_run_case_from_ds(ds):
+    from quadmodes.case import run_case_from_toml
+
+    return run_case_from_toml(str(ds.attrs["case_toml"]))
+
+
+def results_point(d, spins, cone_deg: float) -> tuple[int, float]:
+    """(sample, member spin rad/s) near ``cone_deg`` where the path's spin is its member's (the
+    member that integrated it beyond doubt: the departure there is 0, the switches at ±d)."""
+    j0 = int(np.argmax(np.degrees(d.cone_angle) >= cone_deg))
+    member = min(spins, key=lambda w: abs(math.log(d.spin_rate[j0] / w)))
+    near = slice(max(0, j0 - 5000), j0 + 5000)
+    j = near.start + int(np.argmin(np.abs(d.spin_rate[near] - member)))
+    return j, member
+
+
+def window_row(d, y, j: int, spin: float, n: int, cone_deg: float, window: float, full_dt: float,
+               case: str) -> dict:  # fmt: skip
     run = load_run_case(case)
-    n = result.system.n_modes
     reduced = run.reduced.model_copy(update={"modes": n, "path_model": "fixed", "path_switch": None,
                                                 "path_tolerance": None})
     init = run.initial.model_copy(update={"spin_rate": spin})
     integ = run.integration.model_copy(update={"until": None, "save_every": 2, "step_tolerance": None})
     run_m = run.model_copy(update={"reduced": reduced, "initial": init, "integration": integ})
     run_w, setup0 = prepare_comparison(run_m, window)
-    y = np.asarray(result.solution.y[j], float)
     dt = float(run.integration.dt)
     point = PathPoint(f"cone {cone_deg:g} deg", "cone", float(d.t[j]), int(round(d.t[j] / dt)), y,  # step: nominal
                       float(d.E_d[j]), float(d.cone_angle[j]), float(d.spin_rate[j]), "family path")  # fmt: skip
@@ -98,8 +138,18 @@ def main() -> None:
     ap.add_argument("--points", default="15,20")
     ap.add_argument("--window", type=float, default=2.0)
     ap.add_argument("--full-dt", type=float, default=0.25e-3)
+    ap.add_argument("--results", help="a family run's results.nc: its path, not integrated again "
+                    "(each point where the path's spin is its member's, near the cone angle)")
+    ap.add_argument("--modes", type=int, default=16, help="with --results: the run's N")
     args = ap.parse_args()
     points = [float(v) for v in args.points.split(",")]
+    if args.results:
+        d, y, spins = path_from_results(args.results, args.modes)
+        for c in points:
+            j, member = results_point(d, spins, c)
+            print(json.dumps(window_row(d, y[j], j, member, args.modes, c, args.window, args.full_dt,
+                                        args.case), default=float), flush=True)  # fmt: skip
+        return
     result = family_path(args.case, max(points) + 0.01)
     for c in points:
         print(json.dumps(point_row(result, c, args.window, args.full_dt, args.case), default=float), flush=True)
