@@ -366,3 +366,18 @@ def test_gas_law_pressure_has_no_manifold_potential():
     with pytest.raises(ValueError, match="gas-law"):
         rsys.reduced_system(m, "Q4")
     rsys.reduced_system(m, "Q")
+
+
+def test_closed_cubic_force_tensor_equals_finite_differences(small_modal_model):
+    """The closed-form E_mnpq of an SVK membrane under constant pressure (rom.quartic_closed)
+    against the exact finite differences of the second-order force it replaces (C of a cubic
+    force is D²f's change along w over 3α, for any α)."""
+    from quadmodes.rom.quartic_closed import cubic_force_tensor_closed
+    from quadmodes.rom.reduced import cubic_force_tensor, symmetrise
+
+    mm = small_modal_model
+    shapes = mm.modes.shapes
+    closed = cubic_force_tensor_closed(mm.structure, shapes)
+    assert closed is not None
+    fd = symmetrise(cubic_force_tensor(mm.structure, mm.x, shapes))
+    np.testing.assert_allclose(closed, fd, rtol=0, atol=1e-9 * abs(fd).max())

@@ -117,16 +117,25 @@ def test_family_needs_a_spinning_reference(workdir):  # noqa: F811
     _ = dataclasses  # (kept for symmetry with the other run tests)
 
 
-def test_family_refuses_a_controlled_step(workdir):  # noqa: F811
-    """The family's members step at the fixed dt: a step_tolerance would be silently ignored,
-    so the case is refused, naming the field."""
-    run = _family_run(workdir, '\npath_model = "spin-family"')
+def test_family_with_a_controlled_step(workdir):  # noqa: F811
+    """A family with integration.step_tolerance: the members step at the controlled step (not
+    the fixed dt), switch, and conserve |H| through the switches and E + E_d as the fixed step
+    does."""
+    _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6')
     text = (workdir / "fam.toml").read_text(encoding="utf-8")
     (workdir / "fam.toml").write_text(text.replace("[integration]", "[integration]\nstep_tolerance = 1e-3"),
                                       encoding="utf-8")  # fmt: skip
-    assert run.reduced.path_model == "spin-family"
-    with pytest.raises(CaseError, match="integration.step_tolerance"):
-        load_run_case(workdir / "fam.toml")
+    run = load_run_case(workdir / "fam.toml")
+    result = sim.simulate(run, max_chunks=4)
+    assert result.complete and len(result.family) >= 1
+    assert result.solution.dt is None  # the controlled step's samples
+    d = result.diagnostics
+    assert np.all(np.diff(d.t) > 0)
+    assert np.max(np.abs(d.H_norm - d.H_norm[0])) <= 1e-10 * d.H_norm[0]
+    eb = d.E + d.E_d
+    assert np.max(np.abs(eb - eb[0])) <= 1e-6 * abs(eb[0])
+    for sw in result.family:
+        assert sw.h_change <= 1e-12
 
 
 def test_compare_refuses_a_family_path(tmp_path):
@@ -180,3 +189,77 @@ def test_member_spins_are_a_grid_and_the_nearest_point_integrates():
         for f in (1.001 / np.sqrt(1 + a), 1.0, 0.999 * np.sqrt(1 + a)):
             assert sf.grid_spin(centre * f, w0, a) == pytest.approx(centre, rel=2e-6)
     assert sf.grid_spin(w0, w0, a) == pytest.approx(w0, rel=1e-12)
+
+
+@pytest.mark.parametrize(("stop_at", "controlled"), [(2, False), (3, False), (3, True)])
+def test_interrupted_family_resumes_to_the_same_path(workdir, monkeypatch, tmp_path, stop_at,  # noqa: F811
+                                                     controlled):  # fmt: skip
+    """Ctrl-C at the ``stop_at``-th chunk (after a switch; fixed or controlled step), the
+    checkpoint resumed: the same samples, switches and members as the uninterrupted run, bit
+    for bit."""
+    from quadmodes.runs.chunked import Interrupted
+    from quadmodes.runs.run_checkpoint import RunCheckpoint
+
+    run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
+    if controlled:
+        text = (workdir / "fam.toml").read_text(encoding="utf-8")
+        (workdir / "fam.toml").write_text(text.replace("[integration]", "[integration]\nstep_tolerance = 1e-3"),
+                                          encoding="utf-8")  # fmt: skip
+        run = load_run_case(workdir / "fam.toml")
+    whole = sim.simulate(run)
+    setup = sim.prepare(run)
+    path = tmp_path / "checkpoint.npz"
+    calls, original = [], sf.SwitchMonitor.after_chunk
+
+    def after_chunk(self, state, integ, h):
+        calls.append(state.steps)
+        if len(calls) == stop_at:
+            raise KeyboardInterrupt
+        return original(self, state, integ, h)
+
+    with monkeypatch.context() as m:
+        m.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+        with pytest.raises(Interrupted) as stop:
+            sim.execute(setup, checkpoint=RunCheckpoint(path, setup, 0.0))
+    assert stop.value.saved and len(stop.value.partial.family) >= 1
+    start = RunCheckpoint(path, setup).load()
+    resumed = sim.execute(setup, checkpoint=RunCheckpoint(path, setup, 0.0), resume=start)
+    assert resumed.complete
+    np.testing.assert_array_equal(resumed.solution.t, whole.solution.t)
+    np.testing.assert_array_equal(resumed.solution.y, whole.solution.y)
+    np.testing.assert_array_equal(resumed.diagnostics.E + resumed.diagnostics.E_d,
+                                  whole.diagnostics.E + whole.diagnostics.E_d)  # fmt: skip
+    assert resumed.family == whole.family
+
+
+def test_members_built_ahead_give_the_same_path(workdir, monkeypatch):  # noqa: F811
+    """The next member built ahead in a worker process (runs.family_prefetch) or at the switch
+    in the run's own: the same members (the cache stores them exactly), the same path."""
+    from quadmodes.runs import family_prefetch
+
+    run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
+    monkeypatch.setattr(family_prefetch, "ENABLED", False)
+    alone = sim.simulate(run)
+    monkeypatch.setattr(family_prefetch, "ENABLED", True)
+    monkeypatch.setattr(family_prefetch, "MIN_CORES", 1)
+    ahead = sim.simulate(run)
+    assert len(alone.family) >= 2
+    np.testing.assert_array_equal(ahead.solution.y, alone.solution.y)
+    assert ahead.family == alone.family
+
+
+def test_measured_limit_from_neighbours():
+    """The spin part's limit of a segment from its neighbours' measurements: the whole step x
+    (δ = 1 − e^{−2x}) where both errors are within tolerance, else x scaled to where the worse
+    reaches its tolerance (2 % coning rate, 1 % frequencies); None without a measurement."""
+    w = 2 * np.pi * 40.0
+    step = np.exp(-0.015)
+
+    def switch(eps_c, eps_f):
+        return sf.Switch(1.0, 1, w, w * step, 0.0, 0.0, 1.0, eps_c, eps_f)
+
+    assert sf.measured_limit([switch(0.01, 1e-5)], 0)[0] == pytest.approx(-np.expm1(-0.03), rel=1e-12)
+    assert sf.measured_limit([switch(0.04, 1e-5)], 0)[0] == pytest.approx(-np.expm1(-0.015), rel=1e-12)
+    assert sf.measured_limit([switch(0.01, 0.04)], 1)[0] == pytest.approx(-np.expm1(-0.0075), rel=1e-12)
+    assert sf.measured_limit([switch(np.nan, 0.0)], 0)[0] is None
+    assert sf.measured_limit([], 0)[0] is None

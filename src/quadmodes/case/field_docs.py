@@ -204,6 +204,9 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "path_switch apart, the one nearest the path's spin integrating (reference spinning)",
         "path_switch": "with path_model = \"spin-family\": the spacing of the members' spins "
         "(a fraction of the spin; default 0.0075: departures up to about 0.41 %)",
+        "path_tolerance": "with path_model = \"spin-family\": members chosen adaptively, each "
+        "used where its energy-sink coning rate is within this fraction of a member's about the "
+        "path's spin (measured between neighbours; instead of path_switch)",
     },
     "RunInitial": {
         "spin_rate": "initial spin rate Ω about the spin axis",

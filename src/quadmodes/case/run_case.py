@@ -114,13 +114,6 @@ class RunCase(Section):
                     "(or [spinup] for a hub-driven spin-up of a clamped beam)",
                     table,
                 )
-        if self.reduced.path_model == "spin-family" and self.integration.step_tolerance is not None:
-            raise field_error(  # the family's switching loop steps with the fixed step
-                "case_rule",
-                'not yet used with reduced.path_model = "spin-family" (its members integrate at '
-                "the fixed integration.dt); remove step_tolerance or use path_model = \"fixed\"",
-                "integration.step_tolerance",
-            )
         return self
 
     @field_validator("name")

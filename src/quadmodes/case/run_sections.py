@@ -72,6 +72,11 @@ def _switch(x: float) -> str | None:
     return None if 0.0 < x <= 0.05 else "must be in (0, 0.05] (a fraction of the spin, e.g. 0.0075)"
 
 
+def _path_tolerance(x: float) -> str | None:
+    """in (0, 0.02]"""
+    return None if 0.0 < x <= 0.02 else "must be in (0, 0.02] (a fraction of the coning rate, e.g. 0.01)"
+
+
 class RunReduced(Section):
     """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
     formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
@@ -97,7 +102,10 @@ class RunReduced(Section):
     ``path_model``: ``"fixed"`` (default) integrates the whole path with the one model;
     ``"spin-family"`` (with ``reference = "spinning"``) integrates it by the models about the
     spins of a grid ``path_switch`` apart (a fraction, default 0.0075), switching to the one
-    nearest the path's spin as it changes (:mod:`quadmodes.runs.spin_family`)."""
+    nearest the path's spin as it changes (:mod:`quadmodes.runs.spin_family`);
+    ``path_tolerance`` instead chooses the members adaptively: each is used over the spins where
+    its energy-sink coning rate is within that fraction of the rate of a member about the
+    path's spin, measured between neighbours (:mod:`quadmodes.runs.family_spacing`)."""
 
     modes: Annotated[int | Literal["auto"], BeforeValidator(_modes),
                      FieldMeta("5", allowed='whole number ≥ 1, or "auto"')] = 5  # fmt: skip
@@ -106,6 +114,7 @@ class RunReduced(Section):
     reference: choice("rest", "spinning") = "rest"
     path_model: choice("fixed", "spin-family") = "fixed"
     path_switch: quantity("dimensionless", "0.0075", _switch, optional=True) = None
+    path_tolerance: quantity("dimensionless", "0.01", _path_tolerance, optional=True) = None
 
     @model_validator(mode="after")
     def check_margin(self) -> Self:
@@ -128,10 +137,17 @@ class RunReduced(Section):
                 'expanded about spinning states); set them, or path_model = "fixed"',
                 "path_model",
             )
-        if self.path_switch is not None and self.path_model != "spin-family":
+        for name in ("path_switch", "path_tolerance"):
+            if getattr(self, name) is not None and self.path_model != "spin-family":
+                raise field_error(
+                    "case_rule",
+                    'is used only with path_model = "spin-family"; remove it or set that',
+                    name,
+                )
+        if self.path_switch is not None and self.path_tolerance is not None:
             raise field_error(
                 "case_rule",
-                'is used only with path_model = "spin-family"; remove it or set that',
+                "sets the members' spacing that path_tolerance chooses adaptively; set one",
                 "path_switch",
             )
         return self

@@ -15,8 +15,6 @@ self-describing NetCDF file by :mod:`quadmodes.rom.artifact`.
 
 from __future__ import annotations
 
-import itertools
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +32,7 @@ from quadmodes.fe.model import (
     total_mass,
 )
 from quadmodes.fe.pressure import PressureSet
+from quadmodes.rom.quartic_closed import cubic_force_tensor_closed, symmetrise
 from quadmodes.structure.bordered import bordered_solver
 from quadmodes.structure.modes import remove_rigid_part
 from quadmodes.structure.spinning import centrifugal_softening
@@ -263,12 +262,6 @@ def has_polynomial_potential(structure: Structure) -> bool:
     return not any(isinstance(e, PressureSet) and e.gas_law_exponent for e in structure.elements)
 
 
-def symmetrise(t: np.ndarray) -> np.ndarray:
-    """Average of ``t`` ``(N, …, N)`` over all permutations of its axes (fully symmetric part)."""
-    perms = list(itertools.permutations(range(t.ndim)))
-    return sum(np.transpose(t, p) for p in perms) / math.factorial(t.ndim)
-
-
 def pair_forces(structure: Structure, x: np.ndarray, shapes: np.ndarray) -> np.ndarray:
     """``B_x(u^m, u^n)`` ``(N, N, n, 3)`` (N per unit² of the shapes), symmetric in (m, n), for
     shapes ``(N, n, 3)`` about state ``x`` ``(n, 3)`` (m)."""
@@ -325,7 +318,9 @@ def manifold_potential_tensors(
     b = pair_forces(structure, x, shapes)
     bf = b.reshape(n_modes, n_modes, -1)
     t3 = np.einsum("pi,mni->mnp", phi, kg) + np.einsum("pi,mni->mnp", phi, bf) / 3.0
-    e = cubic_force_tensor(structure, x, shapes, b, progress)
+    e = cubic_force_tensor_closed(structure, shapes)  # the membrane's, 10³ × faster
+    if e is None:
+        e = cubic_force_tensor(structure, x, shapes, b, progress)
     t4 = 0.5 * np.einsum("mni,pqi->mnpq", gf, kg) + np.einsum("mni,pqi->mnpq", gf, bf) + 0.25 * e
     return symmetrise(t3), symmetrise(t4)
 

@@ -138,6 +138,8 @@ class ChunkProgress:
     t_done: float | None = None
     h_next: float | None = None
     grid: tuple = ()
+    # a spin-family run (quadmodes.runs.family_checkpoint): the family so far, for its checkpoint
+    family: dict | None = None
 
     def local_step(self, t: float, h: float) -> tuple[float, int]:
         """(the step (s) of the chunk holding the interval that ends at t, the index of the

@@ -9,7 +9,8 @@ resolved), ``model_key`` (the reduced model's content key), ``y0`` (7+2N,) the i
 (J): the samples kept so far, ``y_last`` (7+2N,), ``e_d_offset`` (J), ``stat_<name>`` (work
 counters), ``wall_s`` (s of integration so far); a run with a controlled step
 (:mod:`quadmodes.runs.step_chunks`) adds ``t_done`` (s), ``h_next`` (s) and ``grid`` (chunks, 4:
-t start s, steps before, step s, estimate, the energy balance's longest next step s).
+t start s, steps before, step s, estimate, the energy balance's longest next step s); a
+spin-family run adds the family so far (``family_*``, :mod:`quadmodes.runs.family_checkpoint`).
 
 The same (run, model, initial state) is required to resume: a different one is refused with a
 message that names the settings that differ.
@@ -79,6 +80,8 @@ class RunCheckpoint:
     def save(self, progress: ChunkProgress, wall_s: float) -> None:
         """Write ``progress`` (after ``wall_s`` s of integration) atomically."""
         t, y, e_d = progress.merged(self.y0, len(self.y0))
+        if not progress.t:  # a spin family's segment at its start: no samples yet
+            t, y, e_d = np.zeros(0), np.zeros((0, len(progress.y_last))), np.zeros(0)
         data = {
             "format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION,
             "case_toml": self.case_toml, "model_key": self.model_key, "y0": self.y0,
@@ -91,6 +94,8 @@ class RunCheckpoint:
         if progress.t_done is not None:  # a controlled step: where it stands, what comes next
             data.update(t_done=progress.t_done, h_next=progress.h_next,
                         grid=np.array(progress.grid, float).reshape(-1, 5))  # fmt: skip
+        if progress.family is not None:  # a spin-family run (runs.family_checkpoint)
+            data.update({f"family_{k}": v for k, v in progress.family.items()})
         with atomic_path(self.path, fsync=True) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **data)
         self._last = time.monotonic()
@@ -133,12 +138,14 @@ class RunCheckpoint:
         if not controlled:
             stats.pop("n_probe_steps", None)
         progress = ChunkProgress(
-            steps=int(data["steps"]), chunk=int(data["chunk"]), t=(data["t"],), y=(data["y"],),
-            e_d=(data["e_d"],), stats=stats,
+            steps=int(data["steps"]), chunk=int(data["chunk"]), stats=stats,
+            **(dict(t=(data["t"],), y=(data["y"],), e_d=(data["e_d"],)) if len(data["t"])
+               else dict(t=(), y=(), e_d=())),
             y_last=data["y_last"].copy(), e_d_offset=float(data["e_d_offset"]),
             t_done=float(data["t_done"]) if controlled else None,
             h_next=float(data["h_next"]) if controlled else None,
             grid=(tuple((float(a), int(b), float(c), float(d), float(e))
                         for a, b, c, d, e in data["grid"]) if controlled else ()),
+            family={k[7:]: v for k, v in data.items() if k.startswith("family_")} or None,
         )  # fmt: skip
         return progress, float(data["wall_s"])

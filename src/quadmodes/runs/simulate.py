@@ -256,12 +256,13 @@ def execute(
     if run.reduced.path_model == "spin-family":  # a family of models along the path
         from quadmodes.runs import spin_family
 
-        spin_family.check_family_run(run, resume)
+        spin_family.check_family_run(run)
         try:
             return _family_result(setup, spin_family.run_family(  # its switches: per chunk
-                setup, progress, MAX_CHUNKS if max_chunks is None else max_chunks))
+                setup, progress, MAX_CHUNKS if max_chunks is None else max_chunks,
+                checkpoint=checkpoint, resume=resume))
         except Interrupted as stop:
-            raise Interrupted(_family_result(setup, stop.partial), False, stop.reason) from None
+            raise Interrupted(_family_result(setup, stop.partial), stop.saved, stop.reason) from None
     try:
         chunks = integrate_run(  # the fixed step, or a controlled one (runs.step_chunks)
             system, init.y0, run.integration, progress, run.name, max_chunks,

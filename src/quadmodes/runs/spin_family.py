@@ -49,15 +49,22 @@ from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
 from quadmodes.runs import chunked
+from quadmodes.runs import family_checkpoint as fck
+from quadmodes.runs.family_prefetch import Prefetcher
+from quadmodes.runs.family_spacing import (  # noqa: F401  (the family's switching, re-exported)
+    DEFAULT_TOLERANCE,
+    HYSTERESIS,
+    SPIN_RESOLUTION_HZ,
+    SwitchMonitor,
+    grid_spin,
+    member_hz,
+    member_spin,
+    neighbour_errors,
+    spacing_from,
+)
+from quadmodes.runs.step_chunks import integrate_run
+from quadmodes.runs.step_chunks import start as controlled_start
 
-#: Default spacing of the members' spins (relative): 0.75 %, so the spin departs from its
-#: member's by at most about 0.41 % (the centrifugal load by 0.83 %, inside the path check's
-#: 2 %; the cone growth by about 0.45 %, docs/path-validity.md).
-DEFAULT_TOLERANCE = 0.0075
-#: Members are expanded about spins rounded to this (Hz), so that paths share cached members.
-SPIN_RESOLUTION_HZ = 1e-4
-#: A switch waits until the spin is nearer another grid point by this factor on half a spacing.
-HYSTERESIS = 1.1
 #: Gauss–Newton iterations of the chart fit (the charts are 1 % apart: 3 reach round-off).
 FIT_ITERATIONS = 8
 
@@ -66,7 +73,9 @@ FIT_ITERATIONS = 8
 class Switch:
     """One switch: time (s) and step, spins from and to (rad/s), the relative change of |H|
     the map made, the energy defect (J: T + V + Π(X_k) of the new member's state minus the old
-    one's, module docstring) and the path's energy there (J)."""
+    one's, module docstring), the path's energy there (J), and the old member measured at the
+    new one's spin against it (:func:`~quadmodes.runs.family_spacing.neighbour_errors`): the
+    coning rate's and the rotating-frame frequencies' relative errors (NaN: not measured)."""
 
     time: float
     step: int
@@ -75,6 +84,8 @@ class Switch:
     h_change: float
     energy_defect: float
     energy: float
+    sink_error: float = math.nan
+    frequency_error: float = math.nan
 
     def describe(self) -> str:
         return (f"t = {self.time:.6g} s: {self.spin_from / (2 * math.pi):.5g} → "
@@ -132,71 +143,6 @@ def mapped_state(sys0, model0, sys1, model1, y: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------
-# when to switch
-# ---------------------------------------------------------------------------------------------
-
-
-def member_hz(spin: float) -> float:
-    """The spin (Hz) a member about ``spin`` (rad/s) is expanded about: rounded to
-    :data:`SPIN_RESOLUTION_HZ`."""
-    return round(spin / (2 * math.pi) / SPIN_RESOLUTION_HZ) * SPIN_RESOLUTION_HZ
-
-
-def member_spin(system, y: np.ndarray) -> np.ndarray:
-    """Spin about the member's reference axis ω·e (k,) rad/s of states y (k, 7+2N)."""
-    w_ref = np.asarray(system.reference_omega, float)
-    return rsys.split_state(system, np.atleast_2d(y))[1] @ (w_ref / np.linalg.norm(w_ref))
-
-
-def grid_spin(spin: float, spin0: float, spacing: float) -> float:
-    """The member spin (rad/s) for ``spin``: the point of the geometric grid
-    Ω₀(1 + spacing)^k nearest it (in ln Ω), rounded to :data:`SPIN_RESOLUTION_HZ`."""
-    k = round(math.log(spin / spin0) / math.log1p(spacing))
-    return 2 * math.pi * member_hz(spin0 * (1.0 + spacing) ** k)
-
-
-class SwitchMonitor:
-    """``after_chunk`` of :func:`quadmodes.runs.chunked.integrate_in_chunks`: the run's
-    ``until`` event first (``event``, or None), then the switch: at the first new sample whose
-    spin about the member's axis is nearer another point of the grid of member spins
-    (:func:`grid_spin`; by :data:`HYSTERESIS` × half a spacing, so a spin hovering at a midpoint
-    does not switch back and forth) the chunk is cut there and the segment stopped
-    (``spin``: the new member's)."""
-
-    def __init__(self, system, spin0: float, spacing: float, event=None):
-        self.system, self.spin0, self.spacing, self.event = system, spin0, spacing, event
-        self.spin_ref = float(np.linalg.norm(system.reference_omega))
-        self.limit = HYSTERESIS * 0.5 * math.log1p(spacing)
-        self.spin: float | None = None
-
-    def after_resume(self, state, integ, h: float):
-        return state
-
-    def after_chunk(self, state, integ, h: float):
-        if self.event is not None:
-            state = self.event.after_chunk(state, integ, h)
-            if state.stop is not None:
-                return state
-        if not state.t or not len(state.y[-1]):
-            return state
-        t_new, y_new, ed_new = state.t[-1], state.y[-1], state.e_d[-1]
-        spins = member_spin(self.system, y_new)
-        hits = np.flatnonzero(np.abs(np.log(spins / self.spin_ref)) > self.limit)
-        if not len(hits):
-            return state
-        j = int(hits[0])
-        target = grid_spin(float(spins[j]), self.spin0, self.spacing)
-        if abs(target - self.spin_ref) < 0.5 * 2 * math.pi * SPIN_RESOLUTION_HZ:
-            return state  # the member about that spin is this one
-        self.spin = target
-        pieces = dict(t=(*state.t[:-1], t_new[: j + 1]), y=(*state.y[:-1], y_new[: j + 1]),
-                      e_d=(*state.e_d[:-1], ed_new[: j + 1]))  # fmt: skip
-        return dataclasses.replace(state, steps=int(round(t_new[j] / h)), y_last=y_new[j].copy(),
-                                   e_d_offset=float(ed_new[j]), stop=chunked._Stop(0, "switch", ""),
-                                   **pieces)  # fmt: skip
-
-
-# ---------------------------------------------------------------------------------------------
 # the run
 # ---------------------------------------------------------------------------------------------
 
@@ -232,56 +178,162 @@ def _energy(system, y: np.ndarray) -> float:
     return float(dyn.kinetic_energy(system, y) + dyn.potential_energy(system, y))
 
 
-def _segment_progress(y: np.ndarray, steps: int, chunk: int, e_d: float) -> chunked.ChunkProgress:
-    """A chunk progress that starts a new member at step ``steps`` from state ``y``."""
-    start = chunked.ChunkProgress.start(y, chunk)
-    return dataclasses.replace(start, steps=steps, e_d_offset=e_d)
+def _segment_chunks(integ, max_chunks: int, last: Segment | None, d_next: float) -> int:
+    """The chunk count parameter of the next segment: the run's ``max_chunks``, more where the
+    segment ahead is short (a quarter of its expected time, from the rate the last segment's
+    spin changed over ``d_next``, its range in ln Ω): a switch cuts its chunk, and the rest of
+    the chunk is integrated for nothing."""
+    if last is None or len(last.solution.t) < 2 or not d_next > 0:
+        return max_chunks
+    t, y = last.solution.t, last.solution.y
+    spins = member_spin(last.setup.system, y[[0, -1]])
+    rate = abs(math.log(spins[-1] / spins[0])) / max(float(t[-1] - t[0]), 1e-12)
+    if not rate > 0:
+        return max_chunks
+    expected = 2.0 * d_next / rate
+    return int(min(max(max_chunks, math.ceil(4.0 * integ.duration / expected)), 100 * max_chunks))
 
 
-def integrate_family(setup, tolerance: float = DEFAULT_TOLERANCE, progress=None,
-                     max_chunks: int = chunked.MAX_CHUNKS):  # fmt: skip
-    """(segments, switches, ChunkedRun of the last segment, wall time s) of a prepared run
-    (:class:`~quadmodes.runs.simulate.RunSetup` about a spinning state) integrated by a family
-    of members (module docstring). Times and steps are the run's global ones."""
+def _segment_progress(integ, final, y: np.ndarray, t: float, steps: int, chunk: int,
+                      e_d: float) -> chunked.ChunkProgress:  # fmt: skip
+    """A chunk progress that starts a new member at time t (s), step ``steps``, from state y:
+    the fixed step's chunk of ``chunk`` steps, or (a controlled step) the step the last segment
+    proposed, its last chunk kept in the grid (the next step's energy-balance bound)."""
+    if getattr(integ, "step_tolerance", None) is None:
+        start = chunked.ChunkProgress.start(y, chunk)
+        return dataclasses.replace(start, steps=steps, e_d_offset=e_d)
+    start = controlled_start(y, final.h_next if final is not None else integ.dt)
+    return dataclasses.replace(start, steps=steps, e_d_offset=e_d, t_done=t,
+                               grid=final.grid[-1:] if final is not None else ())  # fmt: skip
+
+
+@dataclass(eq=False)
+class _Family:
+    """The state of :func:`integrate_family` between segments (what its checkpoint holds)."""
+
+    setup: object
+    spacing: object
+    structure: object
+    segments: list
+    switches: list
+    member: object
+    y0: np.ndarray
+    offset: float
+    pi_k: float
+    chunks: int
+    spins: list  # the spins (rad/s) the members were asked for (the first: the run's)
+    wall: float = 0.0
+
+    def pack(self) -> dict:
+        return fck.pack(self.segments, self.switches, self.spins, self.offset,
+                        self.spacing.state(), self.y0, self.chunks)  # fmt: skip
+
+
+def _start_family(setup, max_chunks: int, resume, progress):
+    """(the :class:`_Family` at its start or at a checkpoint's segment, its resume or None)."""
     from quadmodes.runs.deformation_check import deformation_structure
+
+    structure = deformation_structure(setup)
+    spin0 = setup.model.reference_spin
+    fam = resume[0].family if resume is not None else None
+    if fam is None:
+        return _Family(setup, spacing_from(setup.run, spin0), structure, [], [], setup,
+                       setup.initial.y0, 0.0, _potential_at(structure, setup.model),
+                       max_chunks, [spin0]), resume  # fmt: skip
+    members = [setup if k == 0 else _member(setup, float(w), progress)
+               for k, w in enumerate(fam["spins"])]  # fmt: skip
+    sols = fck.unpack_solutions(fam, setup.run.integration.method,
+                                None if setup.run.integration.step_tolerance else
+                                setup.run.integration.duration / setup.run.integration.n_steps)  # fmt: skip
+    segments = [Segment(m, sol, float(off))
+                for m, sol, off in zip(members, sols, fam["offsets"], strict=False)]  # fmt: skip
+    state = _Family(setup, spacing_from(setup.run, spin0, fam["spacing"]), structure, segments,
+                    [Switch(float(r[0]), int(r[1]), *map(float, r[2:])) for r in fam["switches"]], members[-1], np.asarray(fam["y0"], float),
+                    float(fam["offsets"][-1]), _potential_at(structure, members[-1].model),
+                    int(fam["chunks"]), [float(w) for w in fam["spins"]], float(resume[1]))  # fmt: skip
+    return state, (dataclasses.replace(resume[0], family=None), resume[1])
+
+
+def _switch(fam: _Family, part, monitor, prefetch, progress) -> tuple:
+    """Map the end of the segment ``part`` onto the member ``monitor.spin``: the switch
+    recorded, the family moved on; returns the next segment's resume."""
+    member, integ = fam.member, fam.setup.run.integration
+    y_end, t_end = part.solution.y[-1], float(part.solution.t[-1])
+    prefetch.wait(monitor.spin)
+    nxt = _member(member, monitor.spin, progress)
+    y1 = mapped_state(member.system, member.model, nxt.system, nxt.model, y_end)
+    e_before, e_after = _energy(member.system, y_end), _energy(nxt.system, y1)
+    pi_next = _potential_at(fam.structure, nxt.model)
+    h0 = np.linalg.norm(dyn.momentum_inertial(member.system, y_end))
+    h1 = np.linalg.norm(dyn.momentum_inertial(nxt.system, y1))
+    final = monitor.final
+    step = final.steps if final is not None else int(round(t_end / (integ.duration / integ.n_steps)))
+    last = Solution(part.solution.t[-1:], y_end[None, :], "", {}, 0, "")
+    cone = float(diagnostics(member.system, last, spin_axis=fam.setup.initial.spin_axis).cone_angle[-1])
+    eps_c, eps_f = neighbour_errors(member.system, nxt.system, cone)
+    jump = abs(math.log(nxt.model.reference_spin / member.model.reference_spin))
+    fam.spacing.switched(eps_c / jump if jump > 0 else math.nan)
+    fam.switches.append(Switch(t_end, step, member.model.reference_spin, nxt.model.reference_spin,
+                               abs(h1 / h0 - 1.0), (e_after + pi_next) - (e_before + fam.pi_k),
+                               e_before + fam.offset, eps_c, eps_f))  # fmt: skip
+    fam.offset, fam.pi_k = fam.offset + e_before - e_after, pi_next  # E continuous at the switch
+    fam.member, fam.y0 = nxt, y1
+    fam.spins.append(float(monitor.spin))
+    fam.chunks = _segment_chunks(integ, fam.chunks, fam.segments[-1], fam.spacing.limit())
+    chunk = chunked._chunk_steps(integ.n_steps, integ.save_every, fam.chunks)
+    return (_segment_progress(integ, final, y1, t_end, step, chunk,
+                              float(part.solution.dissipated[-1])), fam.wall)  # fmt: skip
+
+
+def integrate_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS, *,
+                     checkpoint=None, resume=None):  # fmt: skip
+    """(segments, switches, ChunkedRun of the last segment, wall time s, spacing) of a prepared
+    run (:class:`~quadmodes.runs.simulate.RunSetup` about a spinning state) integrated by a
+    family of members (module docstring), each segment at the run's fixed or controlled step
+    (:func:`quadmodes.runs.step_chunks.integrate_run`). Times and steps are the run's global
+    ones. ``checkpoint`` (the run's :class:`~quadmodes.runs.run_checkpoint.RunCheckpoint`):
+    saved at each segment's start and whenever due; ``resume``: its (progress, wall) of this
+    run, the family continued where it stood (:mod:`quadmodes.runs.family_checkpoint`)."""
+    fam, resume = _start_family(setup, max_chunks, resume, progress)
+    ckpt = None if checkpoint is None else fck.FamilyCheckpoint(checkpoint, fam.pack)
+    prefetch = Prefetcher(setup)
+    try:
+        return _segments(fam, resume, ckpt, prefetch, progress)
+    finally:
+        prefetch.close()
+
+
+def _segments(fam: _Family, resume, ckpt, prefetch: Prefetcher, progress):
+    """The loop of :func:`integrate_family`, segment after segment, the next member built
+    ahead (:mod:`quadmodes.runs.family_prefetch`) in the direction of the last switch."""
     from quadmodes.runs.events import run_event
 
-    run, integ = setup.run, setup.run.integration
-    h = integ.duration / integ.n_steps
-    chunk = chunked._chunk_steps(integ.n_steps, integ.save_every, max_chunks)
-    structure = deformation_structure(setup)
-    pi0 = _potential_at(structure, setup.model)
-    segments, switches, resume, wall = [], [], None, 0.0
-    member, y0, offset, pi_k = setup, setup.initial.y0, 0.0, pi0
+    run = fam.setup.run
     while True:
-        event = run_event(member.system, dataclasses.replace(member.initial, y0=y0), run)
-        monitor = SwitchMonitor(member.system, setup.model.reference_spin, tolerance, event)
+        member = fam.member
+        if fam.switches:
+            sign = 1.0 if fam.switches[-1].spin_to > fam.switches[-1].spin_from else -1.0
+            prefetch.ahead(fam.spacing.predicted(float(np.linalg.norm(member.system.reference_omega)), sign))
+        event = run_event(member.system, dataclasses.replace(member.initial, y0=fam.y0), run)
+        t0 = float(fam.switches[-1].time) if fam.switches else 0.0
+        monitor = SwitchMonitor(member.system, fam.spacing, event, t0)
         start = time.perf_counter()
         try:
-            part = chunked.integrate_in_chunks(member.system, y0, integ, progress, run.name,
-                                               max_chunks, resume=resume, event=monitor)  # fmt: skip
+            part = integrate_run(member.system, fam.y0, run.integration, progress, run.name,
+                                 fam.chunks, checkpoint=ckpt, resume=resume, event=monitor)  # fmt: skip
         except chunked.Interrupted as stop:  # Ctrl-C: the path so far, raised by run_family
-            segments.append(Segment(member, stop.partial.solution, offset))
-            raise Stopped(segments, switches, stop.partial, wall, stop.reason) from None
-        wall += time.perf_counter() - start
-        segments.append(Segment(member, part.solution, offset))
-        if monitor.spin is None or part.reason:
-            return segments, switches, part, wall
-        y_end, t_end = part.solution.y[-1], float(part.solution.t[-1])
-        nxt = _member(member, monitor.spin, progress)
-        y1 = mapped_state(member.system, member.model, nxt.system, nxt.model, y_end)
-        e_before = _energy(member.system, y_end)
-        e_after = _energy(nxt.system, y1)
-        pi_next = _potential_at(structure, nxt.model)
-        defect = (e_after + pi_next) - (e_before + pi_k)
-        h0 = np.linalg.norm(dyn.momentum_inertial(member.system, y_end))
-        h1 = np.linalg.norm(dyn.momentum_inertial(nxt.system, y1))
-        step = int(round(t_end / h))
-        switches.append(Switch(t_end, step, member.model.reference_spin, nxt.model.reference_spin,
-                               abs(h1 / h0 - 1.0), defect, e_before + offset))  # fmt: skip
-        offset, pi_k = offset + e_before - e_after, pi_next  # E continuous at the switch
-        resume = (_segment_progress(y1, step, chunk, float(part.solution.dissipated[-1])), wall)
-        member, y0 = nxt, y1
+            fam.segments.append(Segment(member, stop.partial.solution, fam.offset))
+            raise Stopped(fam, stop.partial, stop.reason, stop.saved) from None
+        fam.wall += time.perf_counter() - start
+        done = float(part.solution.t[-1]) >= run.integration.duration * (1.0 - 1e-12)
+        if monitor.spin is None or part.reason or done:  # (a switch at the very end: none)
+            fam.segments.append(Segment(member, part.solution, fam.offset))
+            return fam, part
+        segment = Segment(member, part.solution, fam.offset)
+        fam.segments.append(segment)
+        resume = _switch(fam, part, monitor, prefetch, progress)
+        if ckpt is not None:  # the new segment's start: a resume continues from here
+            ckpt.save(resume[0], fam.wall)
 
 
 def merged_diagnostics(segments, spin_axis) -> Diagnostics:
@@ -306,7 +358,11 @@ def merged_solution(segments, last) -> Solution:
 
     sols = [seg.solution for seg in segments]
     stats = {key: sum(s.stats.get(key, 0) for s in sols) for key in ("n_steps", "n_rhs",
-             "n_newton", "n_jac")}  # fmt: skip
+             "n_newton", "n_jac", "n_probe_steps", "n_chunks")}  # fmt: skip
+    for key, pick in (("dt_min_s", min), ("dt_max_s", max)):  # a controlled step's range
+        found = [s.stats[key] for s in sols if s.stats.get(key) is not None]
+        if found:
+            stats[key] = pick(found)
     stats["wall_s"] = last.wall_s
     return Solution(np.concatenate([cut(k, s.t) for k, s in enumerate(sols)]),
                     np.concatenate([cut(k, s.y) for k, s in enumerate(sols)]),
@@ -315,7 +371,7 @@ def merged_solution(segments, last) -> Solution:
                     last.solution.dt)  # fmt: skip
 
 
-def check_family_run(run, resume) -> None:
+def check_family_run(run) -> None:
     """Refuse what a spin-family run does not support yet (one line, the field named)."""
     if run.reduced.reference != "spinning":
         raise CaseError('reduced.path_model = "spin-family" needs reduced.reference = "spinning"; '
@@ -323,17 +379,39 @@ def check_family_run(run, resume) -> None:
     if run.reduced.formulation not in ("Q", "P", "L"):
         raise CaseError(f'reduced.path_model = "spin-family" takes formulation Q, P or L, not '
                         f'{run.reduced.formulation}', field="reduced.formulation")  # fmt: skip
-    if resume is not None:
-        raise CaseError('--resume: a reduced.path_model = "spin-family" run cannot be resumed '
-                        "yet; run it again without --resume", field="--resume")  # fmt: skip
 
 
-def family_path_validity(segments, diag):
+def measured_limit(switches, k: int) -> tuple[float | None, str]:
+    """(the measured limit of the spin part of δ of segment k, how) from the neighbours'
+    measurements (``Switch.sink_error``, ``frequency_error``: the old member at the new one's
+    spin, |ln Ω| = x apart): the switch out of segment k (its member measured), else the one
+    into it (its neighbour's, the sensitivity being smooth along the path); as
+    :func:`quadmodes.runs.spin_check.spin_limit` does with a rebuilt model: x if both are within
+    their tolerances (2 %, 1 %), else where the worse reaches its tolerance (linear in x); in δ
+    (in Ω²) 1 − e^{−2x}. None: nothing measured."""
+    from quadmodes.runs.spin_check import FREQUENCY_TOLERANCE, SINK_TOLERANCE
+
+    sw = switches[k] if k < len(switches) else (switches[k - 1] if k else None)
+    if sw is None or not (math.isfinite(sw.sink_error) and math.isfinite(sw.frequency_error)):
+        return None, ""
+    x = abs(math.log(sw.spin_to / sw.spin_from))
+    scale = min(1.0, SINK_TOLERANCE / max(sw.sink_error, 1e-300),
+                FREQUENCY_TOLERANCE / max(sw.frequency_error, 1e-300))  # fmt: skip
+    basis = (f"measured between the members about {sw.spin_from / (2 * math.pi):.5g} and "
+             f"{sw.spin_to / (2 * math.pi):.5g} Hz: {100 * sw.sink_error:.2g} % in the coning rate, "
+             f"{100 * sw.frequency_error:.2g} % in the frequencies")  # fmt: skip
+    return float(-math.expm1(-2.0 * x * scale)), basis
+
+
+def family_path_validity(segments, diag, switches=()):
     """The path's :class:`~quadmodes.runs.path_validity.PathValidity`: each segment checked
-    against its own member (centrifugal load, rotating-frame stiffness), the first to leave its
-    member's range gives where the path leaves; with the FE checks (``setup.fe_checks``, as
-    ``quadmodes run``) the modal amplitudes of the last segment against its member's FE
-    condensed energy."""
+    against its own member (centrifugal load, rotating-frame stiffness; where the a-priori
+    centrifugal bound fails, the spin part judged by the range measured between neighbouring
+    members, :func:`measured_limit`, the tilt by the a-priori bound, as a one-model run's
+    :func:`~quadmodes.runs.path_validity.with_measured_range` does with a rebuilt model), the
+    first to leave its member's range gives where the path leaves; with the FE checks
+    (``setup.fe_checks``, as ``quadmodes run``) the modal amplitudes of the last segment against
+    its member's FE condensed energy."""
     from quadmodes.runs import path_validity as pv
 
     k0, found = 0, None
@@ -344,6 +422,9 @@ def family_path_validity(segments, diag):
             seg.solution, t=seg.solution.t[1:], y=seg.solution.y[1:],
             dissipated=seg.solution.dissipated[1:])  # fmt: skip
         path = pv.path_validity(seg.setup, sol, sub)
+        limit, basis = measured_limit(switches, k)
+        if path.centrifugal_max > path.centrifugal_limit and limit is not None:
+            path = pv.path_validity(seg.setup, sol, sub, limit, basis)
         if k == len(segments) - 1 and seg.setup.fe_checks:
             path = pv.with_amplitude_check(path, seg.setup, sol, sub)
         found = path if found is None or (path.left_at is not None and found.left_at is None) else found
@@ -371,37 +452,44 @@ class FamilyRun:
 
 
 class Stopped(KeyboardInterrupt):
-    """Ctrl-C inside :func:`integrate_family`: the segments, switches, last ChunkedRun and
-    wall time (s) so far and the reason (turned into a
-    :class:`~quadmodes.runs.chunked.Interrupted` carrying the :class:`FamilyRun` by
-    :func:`run_family`)."""
+    """Ctrl-C inside :func:`integrate_family`: the family so far (its segments, switches and
+    wall time), the last segment's partial ChunkedRun, the reason and whether a checkpoint holds
+    it (turned into a :class:`~quadmodes.runs.chunked.Interrupted` carrying the
+    :class:`FamilyRun` by :func:`run_family`)."""
 
-    def __init__(self, segments, switches, last, wall, reason: str):
+    def __init__(self, fam, last, reason: str, saved: bool = False):
         super().__init__(reason)
-        self.parts = (segments, switches, last, wall)
+        self.parts, self.saved = (fam, last), saved
 
 
-def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS) -> FamilyRun:
-    """:func:`integrate_family` of a prepared run with the tolerance of its
-    ``reduced.path_switch``, merged (:class:`FamilyRun`). Ctrl-C raises
-    :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial`` is the :class:`FamilyRun`
-    so far (not checkpointed: a family run is not resumed yet)."""
-    tolerance = setup.run.reduced.path_switch or DEFAULT_TOLERANCE
+def run_family(setup, progress=None, max_chunks: int = chunked.MAX_CHUNKS, *, checkpoint=None,
+               resume=None) -> FamilyRun:  # fmt: skip
+    """:func:`integrate_family` of a prepared run (members by its ``reduced.path_switch`` or
+    ``reduced.path_tolerance``), merged (:class:`FamilyRun`); ``checkpoint``, ``resume``: as
+    there. Ctrl-C raises :class:`~quadmodes.runs.chunked.Interrupted` whose ``partial`` is the
+    :class:`FamilyRun` so far (saved to the checkpoint, if any)."""
     try:
-        return _merged(setup, tolerance, *integrate_family(setup, tolerance, progress, max_chunks))
+        return _merged(*integrate_family(setup, progress, max_chunks, checkpoint=checkpoint,
+                                         resume=resume))  # fmt: skip
     except Stopped as stop:
-        raise chunked.Interrupted(_merged(setup, tolerance, *stop.parts), False, str(stop)) from None
+        raise chunked.Interrupted(_merged(*stop.parts), stop.saved, str(stop)) from None
 
 
-def _merged(setup, tolerance, segments, switches, last, wall) -> FamilyRun:
+def _merged(fam: _Family, last) -> FamilyRun:
+    setup, segments, switches = fam.setup, fam.segments, fam.switches
     diag = merged_diagnostics(segments, setup.initial.spin_axis)
-    spins = ", ".join(f"{seg.setup.model.reference_spin / (2 * math.pi):.5g}" for seg in segments)
-    notes = [f"spin family (members {100 * tolerance:.3g} % apart in spin): {len(segments)} "
-             f"members about {spins} Hz"]  # fmt: skip
+    spins = ", ".join(f"{w / (2 * math.pi):.7g}" for w in fam.spins)
+    notes = [f"spin family ({fam.spacing.describe()}): {len(segments)} members about {spins} Hz"]
     if switches:
         worst_h = max(sw.h_change for sw in switches)
         worst_e = max(abs(sw.energy_defect / sw.energy) for sw in switches)
         notes.append(f"spin family: {len(switches)} switches, |H| changed by ≤ {worst_h:.1e}, "
                      f"energy defect ≤ {worst_e:.1e} relative (against the FE potential; E kept continuous)")  # fmt: skip
-    return FamilyRun(merged_solution(segments, last), diag, family_path_validity(segments, diag),
-                     tuple(notes), tuple(switches), last, wall)  # fmt: skip
+        sink = [sw.sink_error for sw in switches if math.isfinite(sw.sink_error)]
+        freq = [sw.frequency_error for sw in switches if math.isfinite(sw.frequency_error)]
+        if sink:
+            notes.append(f"spin family: neighbouring members differ by {100 * min(sink):.2g}–"
+                         f"{100 * max(sink):.2g} % in the coning rate and ≤ {100 * max(freq, default=0):.2g} % "
+                         "in the rotating-frame frequencies, each at the next one's spin")  # fmt: skip
+    return FamilyRun(merged_solution(segments, last), diag, family_path_validity(segments, diag, switches),
+                     tuple(notes), tuple(switches), last, fam.wall)  # fmt: skip

@@ -13,9 +13,11 @@ when Φ is a subset of the damping modes.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
-from quadmodes.fe.model import Structure, mass_matrix
+from quadmodes.fe.model import Structure, mass_matrix, tangent_stiffness
 from quadmodes.structure.labels import DEGENERATE_TOLERANCE, PAIR_TOLERANCE, label_modes
 from quadmodes.structure.modes import compute_modes
 
@@ -65,17 +67,44 @@ def pairs_whole(frequencies_hz, labels, cutoff_hz: float) -> int:
         k = i
     return k
 
+#: The modes :func:`modes_below` computed last, by the content of their problem (a spin family
+#: builds one model per member about the same state at rest: its damping modes are the same).
+_MODES_MEMO: dict = {}
+_MEMO_SIZE = 4
+
+
+def _problem_key(structure: Structure, x: np.ndarray, count: int) -> str:
+    """A digest of the eigenproblem of :func:`compute_modes` (stiffness at x, mass, free DOFs)."""
+    k, m = tangent_stiffness(structure, x).tocsr(), mass_matrix(structure).tocsr()
+    h = hashlib.sha256()
+    for a in (x, k.data, k.indices, k.indptr, m.data, m.indices, structure.free_dofs):
+        h.update(np.ascontiguousarray(a).tobytes())
+    h.update(str(count).encode())
+    return h.hexdigest()
+
+
+def _modes_and_labels(structure: Structure, x: np.ndarray, count: int):
+    """(:func:`compute_modes`, their labels), memoised on the problem's content."""
+    key = _problem_key(structure, x, count)
+    if key not in _MODES_MEMO:
+        m = compute_modes(structure, x, count)
+        if len(_MODES_MEMO) >= _MEMO_SIZE:
+            _MODES_MEMO.pop(next(iter(_MODES_MEMO)))
+        _MODES_MEMO[key] = (m, label_modes(structure, x, m.shapes))
+    return _MODES_MEMO[key]
+
+
 def modes_below(
     structure: Structure, x: np.ndarray, cutoff_hz: float, count: int = 16
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Every elastic mode of ``structure`` about ``x`` (n,3) below ``cutoff_hz`` (pairs whole):
     ``(frequencies Hz (K,), shapes (K,n,3), labels)``. :func:`compute_modes` with a request
-    doubled from ``count`` until a mode beyond the kept ones is found."""
+    doubled from ``count`` until a mode beyond the kept ones is found (memoised on the
+    eigenproblem's content: the members of a spin family share their damping modes)."""
     n_free = structure.free_dofs.size
     while True:
-        m = compute_modes(structure, x, count)
+        m, labels = _modes_and_labels(structure, x, count)
         f = np.asarray(m.frequencies_hz, float)
-        labels = label_modes(structure, x, m.shapes)
         k = pairs_whole(f, labels, cutoff_hz)
         if k < len(f) or count >= n_free - 12:
             return f[:k], m.shapes[:k], labels[:k]
