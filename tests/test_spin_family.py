@@ -263,3 +263,49 @@ def test_measured_limit_from_neighbours():
     assert sf.measured_limit([switch(0.01, 0.04)], 1)[0] == pytest.approx(-np.expm1(-0.0075), rel=1e-12)
     assert sf.measured_limit([switch(np.nan, 0.0)], 0)[0] is None
     assert sf.measured_limit([], 0)[0] is None
+
+
+def test_every_segment_that_could_leave_the_potential_is_checked(workdir, monkeypatch):  # noqa: F811
+    """The modal-amplitude check of a family path covers every member, not only the last: with
+    the potential's error made proportional to ‖s‖ (failing above the median of the segments'
+    largest ‖s‖), the path leaves in the earliest segment whose largest ‖s‖ fails, at or before
+    its largest ‖s‖, and the FE model is consulted at most once per failing segment plus one
+    (and the one-model check with its bisections in the earliest failing one)."""
+    from quadmodes.runs import family_validity as fv
+    from quadmodes.runs import path_validity as pv
+
+    run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
+    setup = sim.prepare(run, check_deformation=True)
+    assert setup.fe_checks
+    seen, real_check = {}, fv.checked_amplitudes
+    monkeypatch.setattr(fv, "checked_amplitudes", lambda parts: seen.setdefault("parts", parts) and real_check(parts))
+    result = sim.execute(setup)
+    parts = seen["parts"]
+    assert len(result.family) >= 3 and len(parts) == len(result.family) + 1
+    assert "modal amplitudes" in result.path.checked and not result.path.unchecked
+    assert result.path.amplitude_error <= pv.DEFORMATION_ENERGY_TOLERANCE  # 10° cone, no bending
+
+    def amplitudes(part):
+        return np.linalg.norm(rsys.split_state(part[0].system, np.asarray(part[1].y))[2], axis=1)
+
+    peaks = np.array([amplitudes(p).max() for p in parts])
+    level = float(np.median(peaks))  # the potential "fails" above it
+    calls = []
+
+    def error(setup_k, y, structure):
+        a = float(np.linalg.norm(rsys.split_state(setup_k.system, np.asarray(y))[2]))
+        calls.append(a)
+        return pv.DEFORMATION_ENERGY_TOLERANCE * a / level, None
+
+    monkeypatch.setattr(pv, "_amplitude_error", error)
+    monkeypatch.setattr("quadmodes.runs.deformation_check.deformation_structure", lambda s: None)
+    paths = real_check(parts)
+    failing = np.flatnonzero(peaks > level)
+    first = int(failing.min())
+    t = np.asarray(parts[first][1].t)
+    assert paths[first].left_at is not None
+    assert t[0] <= paths[first].left_at <= t[int(np.argmax(amplitudes(parts[first])))]
+    assert all(paths[k].left_at is None for k in range(first))
+    assert all(paths[k].left_at is not None for k in failing)
+    assert all("modal amplitudes" in p.checked and not p.unchecked for p in paths)
+    assert len(calls) <= len(failing) + 1 + (1 + pv.AMPLITUDE_BISECTIONS)  # + the one-model check

@@ -62,6 +62,7 @@ from quadmodes.runs.family_spacing import (  # noqa: F401  (the family's switchi
     neighbour_errors,
     spacing_from,
 )
+from quadmodes.runs.family_validity import family_path_validity, measured_limit  # noqa: F401
 from quadmodes.runs.step_chunks import integrate_run
 from quadmodes.runs.step_chunks import start as controlled_start
 
@@ -379,61 +380,6 @@ def check_family_run(run) -> None:
     if run.reduced.formulation not in ("Q", "P", "L"):
         raise CaseError(f'reduced.path_model = "spin-family" takes formulation Q, P or L, not '
                         f'{run.reduced.formulation}', field="reduced.formulation")  # fmt: skip
-
-
-def measured_limit(switches, k: int) -> tuple[float | None, str]:
-    """(the measured limit of the spin part of δ of segment k, how) from the neighbours'
-    measurements (``Switch.sink_error``, ``frequency_error``: the old member at the new one's
-    spin, |ln Ω| = x apart): the switch out of segment k (its member measured), else the one
-    into it (its neighbour's, the sensitivity being smooth along the path); as
-    :func:`quadmodes.runs.spin_check.spin_limit` does with a rebuilt model: x if both are within
-    their tolerances (2 %, 1 %), else where the worse reaches its tolerance (linear in x); in δ
-    (in Ω²) 1 − e^{−2x}. None: nothing measured."""
-    from quadmodes.runs.spin_check import FREQUENCY_TOLERANCE, SINK_TOLERANCE
-
-    sw = switches[k] if k < len(switches) else (switches[k - 1] if k else None)
-    if sw is None or not (math.isfinite(sw.sink_error) and math.isfinite(sw.frequency_error)):
-        return None, ""
-    x = abs(math.log(sw.spin_to / sw.spin_from))
-    scale = min(1.0, SINK_TOLERANCE / max(sw.sink_error, 1e-300),
-                FREQUENCY_TOLERANCE / max(sw.frequency_error, 1e-300))  # fmt: skip
-    basis = (f"measured between the members about {sw.spin_from / (2 * math.pi):.5g} and "
-             f"{sw.spin_to / (2 * math.pi):.5g} Hz: {100 * sw.sink_error:.2g} % in the coning rate, "
-             f"{100 * sw.frequency_error:.2g} % in the frequencies")  # fmt: skip
-    return float(-math.expm1(-2.0 * x * scale)), basis
-
-
-def family_path_validity(segments, diag, switches=()):
-    """The path's :class:`~quadmodes.runs.path_validity.PathValidity`: each segment checked
-    against its own member (centrifugal load, rotating-frame stiffness; where the a-priori
-    centrifugal bound fails, the spin part judged by the range measured between neighbouring
-    members, :func:`measured_limit`, the tilt by the a-priori bound, as a one-model run's
-    :func:`~quadmodes.runs.path_validity.with_measured_range` does with a rebuilt model), the
-    first to leave its member's range gives where the path leaves; with the FE checks
-    (``setup.fe_checks``, as ``quadmodes run``) the modal amplitudes of the last segment against
-    its member's FE condensed energy."""
-    from quadmodes.runs import path_validity as pv
-
-    k0, found = 0, None
-    for k, seg in enumerate(segments):
-        n = len(seg.solution.t) - (1 if k else 0)
-        sub = Diagnostics(**{key: v[k0 : k0 + n] for key, v in diag.as_dict().items()})
-        sol = seg.solution if not k else dataclasses.replace(
-            seg.solution, t=seg.solution.t[1:], y=seg.solution.y[1:],
-            dissipated=seg.solution.dissipated[1:])  # fmt: skip
-        path = pv.path_validity(seg.setup, sol, sub)
-        limit, basis = measured_limit(switches, k)
-        if path.centrifugal_max > path.centrifugal_limit and limit is not None:
-            path = pv.path_validity(seg.setup, sol, sub, limit, basis)
-        if k == len(segments) - 1 and seg.setup.fe_checks:
-            path = pv.with_amplitude_check(path, seg.setup, sol, sub)
-        found = path if found is None or (path.left_at is not None and found.left_at is None) else found
-        worst = max(found.centrifugal_max, path.centrifugal_max)
-        found = dataclasses.replace(found, centrifugal_max=worst,
-                                    amplitude_error=path.amplitude_error,
-                                    checked=path.checked, unchecked=path.unchecked)  # fmt: skip
-        k0 += n
-    return found
 
 
 @dataclass(frozen=True, eq=False)
