@@ -36,10 +36,11 @@ from quadmodes.analysis.path_point import (
     first_reached,
     located_point,
     path_run,
+    read_path_results,
 )
 from quadmodes.case import CaseError
 from quadmodes.runs.events import event_monitor
-from quadmodes.runs.family_samples import MEMBER_SPIN_VARIABLE, Members, sample_member_spins
+from quadmodes.runs.family_samples import Members, sample_member_spins
 from quadmodes.runs.spin_family import mapped_state
 
 
@@ -92,37 +93,10 @@ def integrated_family_point(run, at: str, members: Members, progress=None) -> Pa
 def results_family_point(results: Path, run, at: str, members: Members) -> PathPoint:
     """The :class:`PathPoint` of ``at`` on the samples of a ``results.nc`` of ``run``'s family
     path (its first member's key, its time step and the members' spins per sample must be
-    there; :class:`~quadmodes.case.CaseError` naming ``--results`` otherwise)."""
-    import xarray as xr
-
-    results = Path(results)
-    try:
-        ds = xr.open_dataset(results)
-    except (OSError, ValueError) as exc:
-        raise CaseError(f"--results: cannot read {results} ({type(exc).__name__})",
-                        field="--results") from None  # fmt: skip
-    first = members.model(run.reference_spin)
-    key = str(first.provenance.get("content_key", ""))
-    with ds:
-        if "quaternion" not in ds or str(ds.attrs.get("reduced_model_key", "")) != key:
-            raise CaseError(f"--results: {results} is not a run of this run case's reduced model "
-                            f"(key {key}); run it again or drop --results", field="--results")  # fmt: skip
-        if MEMBER_SPIN_VARIABLE not in ds:
-            raise CaseError(f"--results: {results} does not say which member integrated each "
-                            f"sample (no {MEMBER_SPIN_VARIABLE}: a one-model path, or a family "
-                            "path written before it was stored); run it again or drop --results",
-                            field="--results")  # fmt: skip
-        if float(ds.attrs.get("dt", math.nan)) != float(run.integration.dt):
-            raise CaseError(f"--results: {results} was run at another time step; drop --results",
-                            field="--results")  # fmt: skip
-        t = ds["time"].values
-        y = np.hstack([ds["quaternion"].values, ds["omega_body"].values,
-                       ds["modal_coordinates"].values, ds["modal_velocities"].values])  # fmt: skip
-        e_d, spins = ds["dissipated_energy"].values, ds[MEMBER_SPIN_VARIABLE].values
-        axis = np.asarray(ds.attrs["spin_axis_body"], float)
-        left = float(ds.attrs.get("path_left_at", math.nan))
-        message = str(ds.attrs.get("path_message", ""))
-    integ = run.integration.model_copy(update={"method": str(ds.attrs.get("method", "midpoint"))})
+    there: :func:`~quadmodes.analysis.path_point.read_path_results`)."""
+    r = read_path_results(results, run, members.model(run.reference_spin), family=True)
+    t, y, e_d, spins, axis = r["t"], r["y"], r["e_d"], r["spins"], r["axis"]
+    left, message, integ = r["left"], r["message"], r["integration"]
     point = family_point_on_samples(members, integ, at, t, y, e_d, spins, axis, str(results))
     if math.isfinite(left) and left <= point.time:  # the run's own verdict on its path
         return replace(point, path_valid=False, path_message=message)

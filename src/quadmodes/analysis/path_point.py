@@ -186,11 +186,16 @@ def integrated_point(run: RunCase, at: str, model=None, progress=None) -> PathPo
     return replace(point, path_valid=False, path_message=path.message())
 
 
-def results_point(results: Path, run: RunCase, system, model, at: str) -> PathPoint:
-    """The :class:`PathPoint` of ``at`` on the samples of a ``results.nc`` written by a run of
-    ``run`` with ``model`` (its reduced-model key must be the model's; raises
-    :class:`~quadmodes.case.CaseError` naming ``--results`` otherwise)."""
+def read_path_results(results: Path, run: RunCase, model, family: bool = False) -> dict:
+    """The samples of a ``results.nc`` written by a run of ``run`` whose (first) model is
+    ``model``: ``{"t" (K,) s, "y" (K, 7 + 2N), "e_d" (K,) J, "axis" (3,), "left" s (nan: in range
+    all along), "message", "integration" (the run's, with the file's method), "spins" (K,) rad/s
+    of the member that integrated each sample (``family``; else None)}``. Raises
+    :class:`~quadmodes.case.CaseError` naming ``--results`` for a file that is unreadable, of
+    another model or time step, a family path read as a one-model path or the reverse."""
     import xarray as xr
+
+    from quadmodes.runs.family_samples import MEMBER_SPIN_VARIABLE
 
     results = Path(results)
     try:
@@ -203,21 +208,38 @@ def results_point(results: Path, run: RunCase, system, model, at: str) -> PathPo
         if "quaternion" not in ds or str(ds.attrs.get("reduced_model_key", "")) != key:
             raise CaseError(f"--results: {results} is not a run of this run case's reduced model "
                             f"(key {key}); run it again or drop --results", field="--results")  # fmt: skip
-        if 'path_model = "spin-family"' in str(ds.attrs.get("case_toml", "")):
+        if not family and 'path_model = "spin-family"' in str(ds.attrs.get("case_toml", "")):
             raise CaseError(f"--results: {results} is a spin-family path (its samples are in "
                             "the charts of several models); compare the run case it was made "
                             'with (reduced.path_model = "spin-family")', field="--results")  # fmt: skip
+        if family and MEMBER_SPIN_VARIABLE not in ds:
+            raise CaseError(f"--results: {results} does not say which member integrated each "
+                            f"sample (no {MEMBER_SPIN_VARIABLE}: a one-model path, or a family "
+                            "path written before it was stored); run it again or drop --results",
+                            field="--results")  # fmt: skip
         if float(ds.attrs.get("dt", math.nan)) != float(run.integration.dt):
             raise CaseError(f"--results: {results} was run at another time step; drop --results",
                             field="--results")  # fmt: skip
-        t = ds["time"].values
-        y = np.hstack([ds["quaternion"].values, ds["omega_body"].values,
-                       ds["modal_coordinates"].values, ds["modal_velocities"].values])  # fmt: skip
-        e_d = ds["dissipated_energy"].values
-        axis = np.asarray(ds.attrs["spin_axis_body"], float)
-        left = float(ds.attrs.get("path_left_at", math.nan))
-        message = str(ds.attrs.get("path_message", ""))
-    integ = run.integration.model_copy(update={"method": str(ds.attrs.get("method", "midpoint"))})
+        return {
+            "t": ds["time"].values,
+            "y": np.hstack([ds["quaternion"].values, ds["omega_body"].values,
+                            ds["modal_coordinates"].values, ds["modal_velocities"].values]),
+            "e_d": ds["dissipated_energy"].values,
+            "axis": np.asarray(ds.attrs["spin_axis_body"], float),
+            "left": float(ds.attrs.get("path_left_at", math.nan)),
+            "message": str(ds.attrs.get("path_message", "")),
+            "integration": run.integration.model_copy(
+                update={"method": str(ds.attrs.get("method", "midpoint"))}),
+            "spins": ds[MEMBER_SPIN_VARIABLE].values if family else None,
+        }  # fmt: skip
+
+
+def results_point(results: Path, run: RunCase, system, model, at: str) -> PathPoint:
+    """The :class:`PathPoint` of ``at`` on the samples of a ``results.nc`` written by a run of
+    ``run`` with ``model`` (:func:`read_path_results`)."""
+    r = read_path_results(results, run, model)
+    t, y, e_d, axis, integ = r["t"], r["y"], r["e_d"], r["axis"], r["integration"]
+    left, message = r["left"], r["message"]
     point = point_on_samples(system, integ, at, t, y, e_d, axis, str(results))
     if math.isfinite(left) and left <= point.time:  # the run's own verdict on its path
         return replace(point, path_valid=False, path_message=message)
