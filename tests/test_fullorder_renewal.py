@@ -5,19 +5,15 @@ same schedule inline (bit for bit), and that the run gives the one-thread run's 
 Newton tolerance; the thread count's default. On the small capsule of conftest.py with its
 ties treated as too many to condense (the path of paper-membrane)."""
 
-import math
 
 import numpy as np
 import pytest
+from test_fullorder_kernels import _spin_start
 
 import quadmodes.fullorder.renewal as rn
 from quadmodes.errors import InputError
-from quadmodes.fe.model import centre_of_mass
-from quadmodes.fullorder import FullOrderOptions, initial_state_from_reduced, integrate_full_order
+from quadmodes.fullorder import FullOrderOptions, integrate_full_order
 from quadmodes.fullorder import newton as nwt
-from quadmodes.rom import dynamics as dyn
-from quadmodes.rom import system as rsys
-from quadmodes.runs.initial import largest_nodal_displacement
 
 H = 2.5e-4
 SERIES = ("H_norm", "H_discrete", "E", "E_d", "T", "modal_coordinates")
@@ -80,12 +76,7 @@ def runs(small_modal_model, small_reduced_model):
     """40 steps (10 Hz, 5° cone, 1 mm bending, ζ = 2 %) on the Krylov path: one thread (the
     rationed renewal), two threads (the pipeline) and the pipeline's schedule inline."""
     model, m = small_reduced_model, small_modal_model
-    system = rsys.reduced_system(model, "Q")
-    omega = dyn.coning_omega(model.J0, 2 * np.pi * 10.0, math.radians(5.0))
-    s0 = np.zeros(model.n_modes)
-    s0[2] = 1e-3 / largest_nodal_displacement(model, 2)
-    y0 = rsys.pack_state(system, omega=omega, s=s0)
-    x0, v0 = initial_state_from_reduced(model, y0, p=centre_of_mass(m.structure, m.x))
+    x0, v0 = _spin_start(small_modal_model, small_reduced_model)
 
     def run(threads, background=True):
         with pytest.MonkeyPatch.context() as mp:
