@@ -210,3 +210,19 @@ def test_a_member_without_samples_is_checked(family, tmp_path):
     assert result.complete and len(result.family) >= 3 and result.path is not None
     h = result.diagnostics.H_norm
     assert np.max(np.abs(h / h[0] - 1.0)) <= 1e-12
+
+
+def test_member_run_of_an_adaptive_family_is_a_one_model_run(tmp_path):
+    """An adaptive family (``path_tolerance``, no ``path_switch``) maps onto its member's
+    one-model run too (compare --at on such a path needs it): the member about the given
+    spin, with neither family field left."""
+    from conftest import SMALL_CAPSULE
+
+    (tmp_path / "small.toml").write_text(SMALL_CAPSULE, encoding="utf-8")
+    text = Path(_family_case(tmp_path)).read_text(encoding="utf-8")
+    (tmp_path / "adaptive.toml").write_text(text.replace("path_switch = 1e-5", "path_tolerance = 0.01"),
+                                            encoding="utf-8")  # fmt: skip
+    run = fs.member_run(load_run_case(str(tmp_path / "adaptive.toml")), 290.0)
+    assert run.reduced.path_model == "fixed"
+    assert run.reduced.path_tolerance is None and run.reduced.path_switch is None
+    assert run.initial.spin_rate == pytest.approx(290.0, rel=1e-15)

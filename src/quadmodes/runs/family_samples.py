@@ -50,7 +50,8 @@ def member_run(run, spin: float):
     :func:`~quadmodes.analysis.full_order_runs.setup_for_run`) is the member the family path
     used, from the same cache entry; its initial state is replaced by the caller's, and it has
     no ``until`` event (a window from a point of the path runs its whole length)."""
-    reduced = run.reduced.model_copy(update={"path_model": "fixed", "path_switch": None})
+    reduced = run.reduced.model_copy(update={"path_model": "fixed", "path_switch": None,
+                                                 "path_tolerance": None})
     initial = run.initial.model_copy(update={"spin_rate": float(spin)})
     integ = run.integration.model_copy(update={"until": None})
     return run.model_copy(update={"reduced": reduced, "initial": initial, "integration": integ})
