@@ -232,22 +232,6 @@ def test_interrupted_family_resumes_to_the_same_path(workdir, monkeypatch, tmp_p
     assert resumed.family == whole.family
 
 
-def test_members_built_ahead_give_the_same_path(workdir, monkeypatch):  # noqa: F811
-    """The next member built ahead in a worker process (runs.family_prefetch) or at the switch
-    in the run's own: the same members (the cache stores them exactly), the same path."""
-    from quadmodes.runs import family_prefetch
-
-    run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
-    monkeypatch.setattr(family_prefetch, "ENABLED", False)
-    alone = sim.simulate(run)
-    monkeypatch.setattr(family_prefetch, "ENABLED", True)
-    monkeypatch.setattr(family_prefetch, "MIN_CORES", 1)
-    ahead = sim.simulate(run)
-    assert len(alone.family) >= 2
-    np.testing.assert_array_equal(ahead.solution.y, alone.solution.y)
-    assert ahead.family == alone.family
-
-
 def test_measured_limit_from_neighbours():
     """The spin part's limit of a segment from its neighbours' measurements: the whole step x
     (δ = 1 − e^{−2x}) where both errors are within tolerance, else x scaled to where the worse

@@ -1,0 +1,192 @@
+"""Members of a spin family built ahead in a worker process (quadmodes.runs.family_prefetch,
+quadmodes.runs.family_worker).
+
+The small capsule spun at 300 rad/s, coning 10°, members 1e-6 apart in spin (its spin wanders:
+a switch every chunk or two in 0.04 s). Asserted: a library user's script without an
+``if __name__ == "__main__":`` guard runs once and its run completes (a multiprocessing child
+imported the script again and the run failed); the path with every member after the first built
+by the worker, in its own process, is the path with every member built in the run's process,
+bit for bit (fresh caches both); a worker that cannot start or fails is logged once and the run
+goes on, the same path; the worker and its request files do not outlive the run (its end, Ctrl-C).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_run import run_toml
+
+from quadmodes.case import load_run_case
+from quadmodes.runs import family_prefetch as fp
+from quadmodes.runs import simulate as sim
+from quadmodes.runs import spin_family as sf
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+
+def _family_case(folder: Path) -> Path:
+    from conftest import SMALL_CAPSULE
+
+    (folder / "small.toml").write_text(SMALL_CAPSULE, encoding="utf-8")
+    text = run_toml(spin='"300 rad/s"', cone='"10 deg"', amplitude='"0 in"', duration='"0.04 s"',
+                    dt='"0.2 ms"', save_every="50")  # fmt: skip
+    text = text.replace('formulation = "Q"', 'formulation = "Q"\nreference = "spinning"\n'
+                        'path_model = "spin-family"\npath_switch = 1e-6')  # fmt: skip
+    (folder / "fam.toml").write_text(text, encoding="utf-8")
+    return folder / "fam.toml"
+
+
+@pytest.fixture
+def family(tmp_path, monkeypatch):
+    """(the run case, a function giving a fresh private cache folder); request files in a
+    private temporary folder (``tmp``, empty when a run has cleaned up)."""
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    caches = iter(range(10))
+
+    def fresh_cache() -> None:
+        monkeypatch.setenv("QUADMODES_CACHE", str(tmp_path / f"cache{next(caches)}"))
+
+    return load_run_case(_family_case(tmp_path)), fresh_cache, tmp_path / "tmp"
+
+
+@pytest.fixture
+def workers(monkeypatch):
+    """The worker processes the prefetchers of this test started (forced on: one core is
+    enough)."""
+    monkeypatch.setattr(fp, "ENABLED", True)
+    monkeypatch.setattr(fp, "MIN_CORES", 1)
+    started, start = [], fp.Prefetcher._start
+
+    def recorded(self):
+        start(self)
+        started.append(self.worker)
+
+    monkeypatch.setattr(fp.Prefetcher, "_start", recorded)
+    return started
+
+
+def _builds_in_this_process(monkeypatch) -> list:
+    """The spins (rad/s) of the reduced models built in this process from now on."""
+    from quadmodes.models import build
+
+    spins, real = [], build.build_reduced_model
+    monkeypatch.setattr(build, "build_reduced_model",
+                        lambda case, n, progress=None, spin=0.0, axis=None:
+                        spins.append(spin) or real(case, n, progress, spin, axis))  # fmt: skip
+    return spins
+
+
+def test_unguarded_script_runs_once(tmp_path):
+    """A script calling the library at its top level (no ``__main__`` guard), building ahead
+    forced on: it completes (status 0), its top-level code ran once, members were switched."""
+    case = _family_case(tmp_path)
+    script = tmp_path / "user_script.py"
+    script.write_text(textwrap.dedent(f"""
+        from quadmodes.case import load_run_case
+        from quadmodes.runs import family_prefetch
+        from quadmodes.runs.simulate import simulate
+
+        family_prefetch.MIN_CORES = 1
+        with open({str(tmp_path / "ran.txt")!r}, "a") as f:
+            f.write("ran\\n")
+        result = simulate(load_run_case({str(case)!r}))
+        print("members", len(result.family) + 1, result.complete)
+    """), encoding="utf-8")  # fmt: skip
+    env = {**os.environ, "QUADMODES_CACHE": str(tmp_path / "cache"), "PYTHONPATH": str(SRC),
+           "OPENBLAS_NUM_THREADS": "1"}  # fmt: skip
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert (tmp_path / "ran.txt").read_text().splitlines() == ["ran"]
+    members, complete = done.stdout.split()[1:]
+    assert int(members) >= 3 and complete == "True"
+    assert "failed" not in done.stderr
+
+
+def test_members_built_ahead_give_the_same_path(family, workers, monkeypatch):
+    """Every member after the first built by the worker (asked for in the order the path
+    takes them), each run in a fresh cache: the run's process builds only the first member, and
+    the path is the one of members all built in the run's process, bit for bit."""
+    run, fresh_cache, tmp = family
+    monkeypatch.setattr(fp, "ENABLED", False)
+    fresh_cache()
+    alone = sim.simulate(run)
+    order = [sw.spin_to for sw in alone.family]
+    assert len(order) >= 2
+    monkeypatch.setattr(fp, "ENABLED", True)
+
+    class AllAhead(fp.Prefetcher):
+        """Asks for every member of the path when the run starts."""
+
+        def __init__(self, setup):
+            super().__init__(setup)
+            self.ahead(None)
+
+        def ahead(self, spin):
+            for w in order:
+                super().ahead(w)
+
+    monkeypatch.setattr(sf, "Prefetcher", AllAhead)
+    fresh_cache()
+    built = _builds_in_this_process(monkeypatch)
+    ahead = sim.simulate(run)
+    assert built == [run.reference_spin]  # the first member; the rest from the worker
+    np.testing.assert_array_equal(ahead.solution.y, alone.solution.y)
+    np.testing.assert_array_equal(ahead.diagnostics.E + ahead.diagnostics.E_d,
+                                  alone.diagnostics.E + alone.diagnostics.E_d)  # fmt: skip
+    assert ahead.family == alone.family
+    assert len(workers) == 1 and workers[0].poll() is not None  # ended with the run
+    assert not list(tmp.iterdir())  # no request file left
+
+
+@pytest.mark.parametrize("broken", ["interpreter", "module"])
+def test_failing_worker_does_not_fail_the_run(family, workers, monkeypatch, caplog, broken):
+    """A worker that cannot start (no such interpreter) or ends at once (no such module): one
+    warning, the members built in the run's process, the path the same."""
+    run, fresh_cache, tmp = family
+    fresh_cache()
+    monkeypatch.setattr(fp, "ENABLED", False)
+    alone = sim.simulate(run)
+    monkeypatch.setattr(fp, "ENABLED", True)
+    if broken == "interpreter":
+        monkeypatch.setattr(fp.sys, "executable", str(tmp / "no-such-python"))
+    else:
+        monkeypatch.setattr(fp, "WORKER_MODULE", "quadmodes.runs.no_such_worker")
+    fresh_cache()
+    with caplog.at_level(logging.WARNING, logger=fp.__name__):
+        result = sim.simulate(run)
+    warned = [r for r in caplog.records if r.name == fp.__name__]
+    assert len(warned) == 1 and "ahead failed" in warned[0].getMessage()
+    assert result.complete
+    np.testing.assert_array_equal(result.solution.y, alone.solution.y)
+    assert all(w.poll() is not None for w in workers) and not list(tmp.iterdir())
+
+
+def test_ctrl_c_leaves_no_worker(family, workers, monkeypatch):
+    """Ctrl-C in the run's third chunk (members asked for ahead): the run stops with its
+    partial path, the worker has ended and no request file is left."""
+    from quadmodes.runs.chunked import Interrupted
+
+    run, fresh_cache, tmp = family
+    fresh_cache()
+    calls, original = [], sf.SwitchMonitor.after_chunk
+
+    def after_chunk(self, state, integ, h):
+        calls.append(state.steps)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return original(self, state, integ, h)
+
+    monkeypatch.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+    with pytest.raises(Interrupted):
+        sim.execute(sim.prepare(run))
+    assert workers and all(w.poll() is not None for w in workers)
+    assert not list(tmp.iterdir())
