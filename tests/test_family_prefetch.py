@@ -190,3 +190,29 @@ def test_ctrl_c_leaves_no_worker(family, workers, monkeypatch):
         sim.execute(sim.prepare(run))
     assert workers and all(w.poll() is not None for w in workers)
     assert not list(tmp.iterdir())
+
+
+@pytest.mark.timeout(120)
+def test_answers_waited_for_out_of_order(family, workers):
+    """Two members asked for, the second waited for first, then the first (a guess the path
+    did not take at once): no wait hangs on an answer read on the way, both are in the cache
+    (found there, not built in this process), nothing logged."""
+    from quadmodes.models import cache
+
+    run, fresh_cache, tmp = family
+    fresh_cache()
+    setup = sim.prepare(run)
+    spins = [run.reference_spin * (1.0 + 2e-6), run.reference_spin * (1.0 - 2e-6)]
+    prefetch = fp.Prefetcher(setup, enabled=True)
+    try:
+        for w in spins:
+            prefetch.ahead(w)
+        for w in spins[::-1]:
+            prefetch.wait(w)
+        assert prefetch.enabled and not prefetch.pending
+    finally:
+        prefetch.close()
+    case, axis = setup.model_case, run.reference_axis
+    for w in spins:
+        assert cache.find_model(case, 5, cache.cache_path(case, 5, w, axis), w, axis)[1] == "hit"
+    assert workers[0].poll() is not None and not list(tmp.iterdir())

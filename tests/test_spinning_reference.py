@@ -200,3 +200,28 @@ def test_full_order_initial_deformation_is_relaxed(small_modal_model, small_redu
         assert np.linalg.norm(f - mass @ basis @ coeff) <= 1e-6 * np.linalg.norm(f) + 1e-12
         sizes.append(np.abs(y).max())
     assert sizes[1] / sizes[0] > 4.5  # O(s³): 8 for an exact cube, 4 would be O(s²)
+
+
+def test_damping_modes_at_rest_solved_once_for_every_spin(small_modal_model, monkeypatch):
+    """Models about 300 and 306 rad/s sharing the modal model's solved modes (its
+    ``SolvedModes``, as every member of a spin family does): the eigenproblems at rest (the
+    damping modes, the stiffness check's lowest mode) solved for the first spin only, half the
+    solves of two models solved afresh; each model the same as solved afresh, bit for bit."""
+    from quadmodes.structure import damping as sd
+
+    m, calls, real = small_modal_model, [], sd.compute_modes
+    monkeypatch.setattr(sd, "compute_modes", lambda s, x, n, **k: calls.append(n) or real(s, x, n, **k))
+
+    def model(spin, memo):
+        eq, modes, labels = spinning_modes(m.structure, m.x, 6, spin)
+        return reduce_spinning(m.structure, m.x, eq, modes.frequencies_hz[:5], modes.shapes[:5],
+                               labels[:5], ZETA, memo=memo)  # fmt: skip
+
+    memo = sd.SolvedModes()
+    shared = [model(w, memo) for w in (300.0, 306.0)]
+    n_shared = len(calls)
+    fresh = [model(w, None) for w in (300.0, 306.0)]
+    assert n_shared >= 2 and len(calls) - n_shared == 2 * n_shared
+    for a, b in zip(shared, fresh, strict=True):
+        for name in ("C", "Phi", "X", "frequencies_hz"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))

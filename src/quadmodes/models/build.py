@@ -239,6 +239,7 @@ def _build_spinning(case: Case, n_modes: int, spin: float, progress,
     return reduce_spinning(
         modal.structure, modal.x, eq, freqs[:n_modes], modes.shapes[:n_modes], labels[:n_modes],
         damping_ratio_of(case), progress, _provenance(case, modal, n_modes, spin, axis),
+        memo=modal.solved,  # the damping modes at rest: solved once for every spin
     )  # fmt: skip
 
 

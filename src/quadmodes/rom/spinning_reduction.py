@@ -31,6 +31,7 @@ import numpy as np
 from quadmodes.fe.model import Structure, inertia_tensor
 from quadmodes.rom.reduced import ReducedModel, SpinningReference, reduce
 from quadmodes.structure.damping import (
+    SolvedModes,
     damping_state,
     default_cutoff,
     modes_below,
@@ -108,6 +109,7 @@ def reduce_spinning(
     progress=None,
     provenance: dict | None = None,
     damping_cutoff_hz: float | None = None,
+    memo: SolvedModes | None = None,
 ) -> ReducedModel:
     """:func:`~quadmodes.rom.reduced.reduce` about the relative equilibrium ``eq`` with the
     retained modes (frequencies Hz (N,), shapes (N,n,3) 1/√kg, labels) of :func:`spinning_modes`
@@ -115,14 +117,17 @@ def reduce_spinning(
     for a structure without stiffness at rest,
     :func:`~quadmodes.structure.damping.damping_state`) below
     ``damping_cutoff_hz`` (Hz; default
-    :func:`~quadmodes.structure.damping.default_cutoff` of the spin and the retained modes)."""
+    :func:`~quadmodes.structure.damping.default_cutoff` of the spin and the retained modes).
+    ``memo``: the modes solved about ``x_rest`` so far (the modal model's
+    :class:`~quadmodes.structure.damping.SolvedModes`: the damping modes at rest solved once for
+    all the spins a structure is expanded about)."""
     spin_hz = abs(float(eq.spin)) / (2.0 * np.pi)
     cutoff = damping_cutoff_hz or default_cutoff(spin_hz, frequencies_hz)
     c, where = None, "at rest"
     if zeta > 0.0:
-        x_d, state = damping_state(structure, x_rest, eq.x, float(eq.spin))
+        x_d, state = damping_state(structure, x_rest, eq.x, float(eq.spin), memo)
         where = "at rest" if state == "rest" else "of the spinning state"
-        f_d, phi_d, _ = modes_below(structure, x_d, cutoff)
+        f_d, phi_d, _ = modes_below(structure, x_d, cutoff, memo=memo)
         c = projected_damping(structure, shapes, f_d, phi_d, zeta)
     info = dict(provenance or {})
     info.update(reference="spinning", reference_spin_hz=spin_hz,

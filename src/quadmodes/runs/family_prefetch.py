@@ -79,7 +79,8 @@ class Prefetcher:
         self.python = sys.executable if python is None else python
         self.worker: subprocess.Popen | None = None
         self.errors = None  # the worker's stderr (an unnamed temporary file)
-        self.pending: dict[float, str] = {}  # spin (rad/s) -> request file, asked, not answered
+        self.pending: dict[float, str] = {}  # spin (rad/s) -> request file, not waited for
+        self.answers: dict[str, str] = {}  # request file -> "ok" or why it failed, not waited for
 
     def ahead(self, spin: float | None) -> None:
         """Ask for the member about ``spin`` (rad/s; None: no prediction)."""
@@ -107,29 +108,33 @@ class Prefetcher:
 
     def wait(self, spin: float) -> None:
         """Wait for a build of ``spin`` asked for (its failure is logged: the caller builds)."""
-        name = self.pending.pop(spin, None)
+        name = self.pending.get(spin)
         if name is None or self.worker is None:
             return
         try:
-            answer = self._answer(name)
+            while name not in self.answers:
+                self._read_answer()
         except BaseException:  # Ctrl-C while waiting: the worker does not outlive the wait
             self.close()
             raise
+        del self.pending[spin]
+        answer = self.answers.pop(name)
         if answer != "ok":
             self._failed(spin, answer)
 
-    def _answer(self, name: str) -> str:
-        """The worker's answer to the request ``name``: "ok", or why it failed (the answers to
-        the requests before it read on the way)."""
-        while True:
-            line = self.worker.stdout.readline().decode(errors="replace").rstrip("\n")
-            if not line:  # the worker ended
-                status = self.worker.wait()
-                return f"the worker ended (exit status {status}){self._stderr_tail()}"
+    def _read_answer(self) -> None:
+        """The worker's next answer line into :attr:`answers` (request file → "ok" or why it
+        failed); the worker's end: every request still unanswered failed."""
+        line = self.worker.stdout.readline().decode(errors="replace").rstrip("\n")
+        if not line:
+            why = f"the worker ended (exit status {self.worker.wait()}){self._stderr_tail()}"
+            self.answers.update({n: why for n in self.pending.values() if n not in self.answers})
+            return
+        for name in self.pending.values():
             if line == f"ok {name}":
-                return "ok"
-            if line.startswith(f"failed {name} "):
-                return line[len(f"failed {name} ") :]
+                self.answers[name] = "ok"
+            elif line.startswith(f"failed {name} "):
+                self.answers[name] = line[len(f"failed {name} ") :]
 
     def _stderr_tail(self) -> str:
         """The last line the worker wrote to stderr, as ": LINE" (or "")."""
@@ -164,6 +169,7 @@ class Prefetcher:
             with contextlib.suppress(OSError):
                 os.unlink(name)
         self.pending.clear()
+        self.answers.clear()
         if self.errors is not None:
             self.errors.close()
             self.errors = None

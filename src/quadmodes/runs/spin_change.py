@@ -273,7 +273,7 @@ def spin_change_model(case, n_modes: int, spin: float, progress=None) -> Reduced
     return reduce_spinning(
         modal.structure, modal.x, eq, modes.frequencies_hz[idx], modes.shapes[idx],
         [labels[i] for i in idx], damping_ratio_of(case), progress,
-        {"case": case.name, "modes": "driven by a spin change (hub torque)"},
+        {"case": case.name, "modes": "driven by a spin change (hub torque)"}, memo=modal.solved,
     )  # fmt: skip
 
 

@@ -30,17 +30,20 @@ CUTOFF_FACTOR = 3.0
 STIFFLESS_RATIO = 0.1
 
 
-def damping_state(structure: Structure, x_rest: np.ndarray, x_spin: np.ndarray, spin: float):
+def damping_state(structure: Structure, x_rest: np.ndarray, x_spin: np.ndarray, spin: float,
+                  memo: SolvedModes | None = None):  # fmt: skip
     """``(x, "rest" | "spinning")``: the state whose tangent's modes carry the modal damping.
     At rest (``x_rest`` (n,3) m, the prestressed state: the definition of every inflated body),
     unless the structure has no stiffness there on the scale of the spin ``spin`` (rad/s): its
     lowest elastic frequency at rest below :data:`STIFFLESS_RATIO` × the spin (a spin-stiffened
     blade: its modes at rest are all ≈ 0 Hz and a damping ζ·2ω on them would vanish); then the
     spinning state ``x_spin`` (its tangent includes the centrifugal prestress). A membrane
-    without pressure never has a state at rest (its x_rest is its spinning state already)."""
+    without pressure never has a state at rest (its x_rest is its spinning state already).
+    ``memo``: the solved modes at rest (:class:`SolvedModes`), if any."""
     if not spin or x_rest is x_spin or np.array_equal(x_rest, x_spin):
         return x_rest, "rest"
-    lowest = np.asarray(compute_modes(structure, x_rest, 1).frequencies_hz, float)
+    solved = memo.modes(structure, x_rest, 1)[0] if memo is not None else compute_modes(structure, x_rest, 1)
+    lowest = np.asarray(solved.frequencies_hz, float)
     if lowest.size and 2.0 * np.pi * lowest[0] >= STIFFLESS_RATIO * abs(float(spin)):
         return x_rest, "rest"
     return x_spin, "spinning"
@@ -67,13 +70,34 @@ def pairs_whole(frequencies_hz, labels, cutoff_hz: float) -> int:
         k = i
     return k
 
-#: The modes :func:`modes_below` computed last, by the content of their problem (a spin family
-#: builds one model per member about the same state at rest: its damping modes are the same).
-_MODES_MEMO: dict = {}
-_MEMO_SIZE = 4
+class SolvedModes:
+    """The modes (:func:`compute_modes`) and labels of the eigenproblems already solved about
+    the states of one structure, by the problem's content (:func:`problem_key`), the last
+    :data:`SIZE` used last kept. Owned by what they belong to, never global: the modal model at rest
+    (:class:`quadmodes.structure.pipeline.ModalModel`), whose spinning models (every member of a
+    spin family, the spin check's neighbours) share its damping modes at rest."""
+
+    #: Problems kept, the least recently used dropped first (at rest: the stiffness check's
+    #: one mode and the damping modes' requests 16, 32, 64, ...).
+    SIZE = 8
+
+    def __init__(self):
+        self.solved: dict[str, tuple] = {}
+
+    def modes(self, structure: Structure, x: np.ndarray, count: int):
+        """(:func:`compute_modes` of ``structure`` about ``x`` (n,3) m, their labels)."""
+        key = problem_key(structure, x, count)
+        found = self.solved.pop(key, None)
+        if found is None:
+            m = compute_modes(structure, x, count)
+            found = (m, label_modes(structure, x, m.shapes))
+            if len(self.solved) >= self.SIZE:
+                self.solved.pop(next(iter(self.solved)))
+        self.solved[key] = found  # the most recently used last
+        return found
 
 
-def _problem_key(structure: Structure, x: np.ndarray, count: int) -> str:
+def problem_key(structure: Structure, x: np.ndarray, count: int) -> str:
     """A digest of the eigenproblem of :func:`compute_modes` (stiffness at x, mass, free DOFs)."""
     k, m = tangent_stiffness(structure, x).tocsr(), mass_matrix(structure).tocsr()
     h = hashlib.sha256()
@@ -83,27 +107,25 @@ def _problem_key(structure: Structure, x: np.ndarray, count: int) -> str:
     return h.hexdigest()
 
 
-def _modes_and_labels(structure: Structure, x: np.ndarray, count: int):
-    """(:func:`compute_modes`, their labels), memoised on the problem's content."""
-    key = _problem_key(structure, x, count)
-    if key not in _MODES_MEMO:
-        m = compute_modes(structure, x, count)
-        if len(_MODES_MEMO) >= _MEMO_SIZE:
-            _MODES_MEMO.pop(next(iter(_MODES_MEMO)))
-        _MODES_MEMO[key] = (m, label_modes(structure, x, m.shapes))
-    return _MODES_MEMO[key]
+def _solve(structure: Structure, x: np.ndarray, count: int, memo: SolvedModes | None):
+    """(:func:`compute_modes`, labels): from ``memo`` when given, else solved here."""
+    if memo is not None:
+        return memo.modes(structure, x, count)
+    m = compute_modes(structure, x, count)
+    return m, label_modes(structure, x, m.shapes)
 
 
 def modes_below(
-    structure: Structure, x: np.ndarray, cutoff_hz: float, count: int = 16
-) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    structure: Structure, x: np.ndarray, cutoff_hz: float, count: int = 16,
+    memo: SolvedModes | None = None,
+) -> tuple[np.ndarray, np.ndarray, list[str]]:  # fmt: skip
     """Every elastic mode of ``structure`` about ``x`` (n,3) below ``cutoff_hz`` (pairs whole):
     ``(frequencies Hz (K,), shapes (K,n,3), labels)``. :func:`compute_modes` with a request
-    doubled from ``count`` until a mode beyond the kept ones is found (memoised on the
-    eigenproblem's content: the members of a spin family share their damping modes)."""
+    doubled from ``count`` until a mode beyond the kept ones is found (from ``memo`` when given:
+    the members of a spin family share their damping modes at rest)."""
     n_free = structure.free_dofs.size
     while True:
-        m, labels = _modes_and_labels(structure, x, count)
+        m, labels = _solve(structure, x, count, memo)
         f = np.asarray(m.frequencies_hz, float)
         k = pairs_whole(f, labels, cutoff_hz)
         if k < len(f) or count >= n_free - 12:

@@ -11,7 +11,7 @@ reduction and the full-order runs call them.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -59,6 +59,7 @@ from quadmodes.mesh.surface import (
     surface_area,
 )
 from quadmodes.structure.boom_labels import boom_labels
+from quadmodes.structure.damping import SolvedModes
 from quadmodes.structure.flat_spin import flat_spinning_equilibrium
 from quadmodes.structure.labels import label_modes
 from quadmodes.structure.modes import ModalResult, compute_modes
@@ -293,7 +294,9 @@ FLAT_SPIN_AXIS = np.array([0.0, 0.0, 1.0])
 class ModalModel:
     """Everything the modal stage produced for a case. ``spinning``: for a membrane without
     stiffness at rest (a ``disc``), the relative equilibrium at the case's ``[spin]`` that ``x``
-    is, about which ``modes`` are those of the rotating-frame stiffness; else None."""
+    is, about which ``modes`` are those of the rotating-frame stiffness; else None.
+    ``solved``: the eigenproblems about its states solved so far (the damping modes at rest of
+    the models expanded about its spinning states, solved once for all of them)."""
 
     case: Case
     structure: Structure
@@ -302,6 +305,7 @@ class ModalModel:
     modes: ModalResult
     labels: list[str]
     spinning: SpinningEquilibrium | None = None
+    solved: SolvedModes = field(default_factory=SolvedModes, compare=False, repr=False)
 
 
 def reference_state(
