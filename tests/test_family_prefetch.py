@@ -216,3 +216,13 @@ def test_answers_waited_for_out_of_order(family, workers):
     for w in spins:
         assert cache.find_model(case, 5, cache.cache_path(case, 5, w, axis), w, axis)[1] == "hit"
     assert workers[0].poll() is not None and not list(tmp.iterdir())
+
+
+def test_worker_environment(monkeypatch, tmp_path):
+    """The worker: one BLAS/OpenMP thread, this process's cache folder, this package's code."""
+    monkeypatch.setenv("QUADMODES_CACHE", str(tmp_path / "c"))
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    env = fp.worker_environment()
+    assert all(env[k] == "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"))
+    assert env["QUADMODES_CACHE"] == str(tmp_path / "c")
+    assert env["PYTHONPATH"].split(os.pathsep)[0] == os.path.realpath(SRC)  # a source tree: first
