@@ -12,6 +12,7 @@ goes on, the same path; the worker and its request files do not outlive the run 
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import subprocess
@@ -226,3 +227,40 @@ def test_worker_environment(monkeypatch, tmp_path):
     assert all(env[k] == "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"))
     assert env["QUADMODES_CACHE"] == str(tmp_path / "c")
     assert env["PYTHONPATH"].split(os.pathsep)[0] == os.path.realpath(SRC)  # a source tree: first
+
+
+def test_worker_answers_every_request_and_refuses_main(tmp_path):
+    """The worker alone: a request file that is missing and one naming a class of ``__main__``
+    (never looked up: refused) each get their ``failed`` line; the worker exits 0 at the end of
+    its input."""
+    missing, main = tmp_path / "missing.pickle", tmp_path / "main.pickle"
+    main.write_bytes(b"c__main__\nScript\n)R.")  # GLOBAL __main__.Script, called: protocol 0
+    done = subprocess.run([sys.executable, "-P", "-m", fp.WORKER_MODULE], input=f"{missing}\n{main}\n",
+                          env=fp.worker_environment(), capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert len(lines) == 2 and lines[0].startswith(f"failed {missing} FileNotFoundError")
+    assert lines[1].startswith(f"failed {main} UnpicklingError: the request names __main__.Script: refused")
+    assert not main.exists()  # removed once read
+
+
+def test_a_model_built_here_is_laid_out_as_one_read_from_the_cache(tmp_path, monkeypatch):
+    """A member built in this process and the same member read from the cache (built ahead by
+    the worker): the same arrays, all C-contiguous (einsum and BLAS sum in an order that
+    depends on the layout: a path with transposed views departed at round-off)."""
+    from conftest import SMALL_CAPSULE
+
+    from quadmodes.case import case_from_toml
+    from quadmodes.models import build
+    from quadmodes.rom import artifact
+
+    monkeypatch.setenv("QUADMODES_CACHE", str(tmp_path / "cache"))
+    info = {}
+    built = build.reduced_model_for(case_from_toml(SMALL_CAPSULE, source="small"), 5, spin=300.0, info=info)
+    read = artifact.load_reduced_model(info["path"])
+    arrays = [f.name for f in dataclasses.fields(built) if isinstance(getattr(built, f.name), np.ndarray)]
+    assert {"G", "S2", "J2u", "C", "Phi"} <= set(arrays)
+    for name in arrays:
+        a, b = getattr(built, name), getattr(read, name)
+        assert a.flags.c_contiguous and b.flags.c_contiguous, name
+        np.testing.assert_array_equal(a, b, err_msg=name)

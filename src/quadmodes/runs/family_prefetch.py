@@ -125,8 +125,9 @@ class Prefetcher:
     def _read_answer(self) -> None:
         """The worker's next answer line into :attr:`answers` (request file → "ok" or why it
         failed); the worker's end: every request still unanswered failed."""
-        line = self.worker.stdout.readline().decode(errors="replace").rstrip("\n")
-        if not line:
+        raw = self.worker.stdout.readline()
+        line = raw.decode(errors="replace").rstrip("\n")
+        if not raw:
             why = f"the worker ended (exit status {self.worker.wait()}){self._stderr_tail()}"
             self.answers.update({n: why for n in self.pending.values() if n not in self.answers})
             return

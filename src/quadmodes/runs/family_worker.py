@@ -12,8 +12,9 @@ module is refused: the caller's script is never imported.
 
 Protocol: each line on stdin is the path of a request file, a pickle the run wrote for this
 worker alone (``mkstemp``: its owner's only) ``{"case", "n_modes", "spin" (rad/s), "axis"}``,
-removed once read; for each, one line on stdout: ``ok PATH`` or ``failed PATH REASON``. End of
-stdin (the run closed it, or ended): the worker exits. A SIGTERM unwinds like Ctrl-C, so an
+removed once read; for each, one line on stdout: ``ok PATH`` or ``failed PATH REASON`` (nothing
+else: what else writes to stdout goes to stderr). End of stdin (the run closed it, or ended):
+the worker exits. A SIGTERM unwinds like Ctrl-C, so an
 interrupted cache write leaves no temporary file (:mod:`quadmodes.io.atomic`).
 """
 
@@ -68,9 +69,13 @@ def _terminated(signum, frame):  # noqa: ARG001  (a signal handler's signature)
 def main() -> int:
     """Answer the requests on stdin until it ends; the exit status."""
     signal.signal(signal.SIGTERM, _terminated)
+    answers = os.fdopen(os.dup(1), "w", encoding="utf-8")  # the answers' own channel: whatever
+    os.dup2(2, 1)  # else writes to stdout (a library's print, C code) goes to stderr instead
+    sys.stdout = sys.stderr
     for line in sys.stdin:
         if line.strip():
-            print(build(line.strip()), flush=True)
+            answers.write(build(line.strip()) + "\n")
+            answers.flush()
     return 0
 
 
