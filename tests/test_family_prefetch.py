@@ -6,8 +6,11 @@ a switch every chunk or two in 0.04 s). Asserted: a library user's script withou
 ``if __name__ == "__main__":`` guard runs once and its run completes (a multiprocessing child
 imported the script again and the run failed); the path with every member after the first built
 by the worker, in its own process, is the path with every member built in the run's process,
-bit for bit (fresh caches both); a worker that cannot start or fails is logged once and the run
-goes on, the same path; the worker and its request files do not outlive the run (its end, Ctrl-C).
+bit for bit (fresh caches both), and a model built in the process is laid out as one read from
+the cache; a worker that cannot start or fails is logged once and the run goes on, the same
+path; the worker and its request files do not outlive the run (its end, Ctrl-C, an error); the
+worker answers every request, never looks up a class of ``__main__``, and its answers can be
+waited for in any order; it runs with one BLAS thread and this process's cache and code.
 """
 
 from __future__ import annotations
@@ -171,9 +174,10 @@ def test_failing_worker_does_not_fail_the_run(family, workers, monkeypatch, capl
     assert all(w.poll() is not None for w in workers) and not list(tmp.iterdir())
 
 
-def test_ctrl_c_leaves_no_worker(family, workers, monkeypatch):
-    """Ctrl-C in the run's third chunk (members asked for ahead): the run stops with its
-    partial path, the worker has ended and no request file is left."""
+@pytest.mark.parametrize("stop", [KeyboardInterrupt, RuntimeError])
+def test_a_stopped_run_leaves_no_worker(family, workers, monkeypatch, stop):
+    """Ctrl-C (or an error) in the run's third chunk, members asked for ahead: the run stops
+    (Ctrl-C: with its partial path), the worker has ended and no request file is left."""
     from quadmodes.runs.chunked import Interrupted
 
     run, fresh_cache, tmp = family
@@ -183,11 +187,11 @@ def test_ctrl_c_leaves_no_worker(family, workers, monkeypatch):
     def after_chunk(self, state, integ, h):
         calls.append(state.steps)
         if len(calls) == 3:
-            raise KeyboardInterrupt
+            raise stop
         return original(self, state, integ, h)
 
     monkeypatch.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
-    with pytest.raises(Interrupted):
+    with pytest.raises(Interrupted if stop is KeyboardInterrupt else stop):
         sim.execute(sim.prepare(run))
     assert workers and all(w.poll() is not None for w in workers)
     assert not list(tmp.iterdir())
