@@ -268,3 +268,23 @@ def test_a_model_built_here_is_laid_out_as_one_read_from_the_cache(tmp_path, mon
         a, b = getattr(built, name), getattr(read, name)
         assert a.flags.c_contiguous and b.flags.c_contiguous, name
         np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+def test_worker_says_when_the_cache_cannot_keep_the_member(tmp_path):
+    """A cache folder that cannot be made (under a file): the member is built but not stored, so
+    the run would not find it: the worker answers ``failed`` (the run stops building ahead)."""
+    import pickle
+
+    from conftest import SMALL_CAPSULE
+
+    from quadmodes.case import case_from_toml
+
+    (tmp_path / "file").write_text("not a folder")
+    request = tmp_path / "request.pickle"
+    request.write_bytes(pickle.dumps({"case": case_from_toml(SMALL_CAPSULE, source="small"),
+                                      "n_modes": 5, "spin": 300.0, "axis": None}))  # fmt: skip
+    env = {**fp.worker_environment(), "QUADMODES_CACHE": str(tmp_path / "file" / "cache")}
+    done = subprocess.run([sys.executable, "-P", "-m", fp.WORKER_MODULE], input=f"{request}\n",
+                          env=env, capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(f"failed {request} the member was built but not saved")

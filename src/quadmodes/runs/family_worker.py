@@ -49,16 +49,20 @@ def read_request(path: str) -> dict:
 
 def build(path: str) -> str:
     """The member of the request file ``path`` built into the cache (or found there): the
-    answer line, ``ok PATH`` or ``failed PATH REASON``."""
+    answer line, ``ok PATH`` or ``failed PATH REASON`` (also when the cache could not store it:
+    a read-only cache, where building ahead is work for nothing)."""
     from quadmodes.models.build import reduced_model_for
 
+    info: dict = {}
     try:
         request = read_request(path)
         reduced_model_for(request["case"], request["n_modes"], spin=request["spin"],
-                          axis=request["axis"])  # fmt: skip
+                          axis=request["axis"], info=info)  # fmt: skip
     except Exception as exc:  # noqa: BLE001  (the run builds the member itself then)
         reason = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
         return f"failed {path} {reason}"
+    if str(info.get("cache", "")).startswith("not saved"):  # the run would not find it
+        return f"failed {path} the member was built but {info['cache']} in the model cache"
     return f"ok {path}"
 
 
