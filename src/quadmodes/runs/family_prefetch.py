@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
 import pickle
 import site
@@ -57,7 +58,8 @@ def worker_environment() -> dict[str, str]:
 
     env = {**os.environ, **WORKER_ENV, "QUADMODES_CACHE": str(cache_dir())}
     root = os.path.realpath(Path(__file__).resolve().parents[2])
-    sites = {os.path.realpath(p) for p in [*site.getsitepackages(), site.getusersitepackages()]}
+    found = [*getattr(site, "getsitepackages", list)(), site.getusersitepackages()]
+    sites = {os.path.realpath(p) for p in found}
     if root not in sites:  # a source tree (else the interpreter finds this package anyway)
         path = env.get("PYTHONPATH")
         env["PYTHONPATH"] = root + (os.pathsep + path if path else "")
@@ -106,12 +108,17 @@ class Prefetcher:
             [self.python, "-P", "-m", WORKER_MODULE], env=worker_environment(),
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.errors)  # fmt: skip
 
-    def wait(self, spin: float) -> None:
-        """Wait for a build of ``spin`` asked for (its failure is logged: the caller builds)."""
+    def wait(self, spin: float, progress=None) -> None:
+        """Wait for a build of ``spin`` asked for (its failure is logged: the caller builds);
+        ``progress(stage, fraction)``: told while it waits."""
         name = self.pending.get(spin)
         if name is None or self.worker is None:
             return
+        stage = f"member about {spin / (2 * math.pi):.6g} Hz, built ahead"
+        waits = name not in self.answers and progress is not None
         try:
+            if waits:
+                progress(stage, 0.0)
             while name not in self.answers:
                 self._read_answer()
         except BaseException:  # Ctrl-C while waiting: the worker does not outlive the wait
@@ -119,6 +126,8 @@ class Prefetcher:
             raise
         del self.pending[spin]
         answer = self.answers.pop(name)
+        if waits:
+            progress(stage, 1.0)
         if answer != "ok":
             self._failed(spin, answer)
 

@@ -260,7 +260,7 @@ def _switch(fam: _Family, part, monitor, prefetch, progress) -> tuple:
     recorded, the family moved on; returns the next segment's resume."""
     member, integ = fam.member, fam.setup.run.integration
     y_end, t_end = part.solution.y[-1], float(part.solution.t[-1])
-    prefetch.wait(monitor.spin)
+    prefetch.wait(monitor.spin, progress)
     nxt = _member(member, monitor.spin, progress)
     y1 = mapped_state(member.system, member.model, nxt.system, nxt.model, y_end)
     e_before, e_after = _energy(member.system, y_end), _energy(nxt.system, y1)
