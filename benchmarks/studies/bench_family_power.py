@@ -10,9 +10,11 @@ the full order's series), each from the same state:
 * ``damping``: the reduced motion's field under the full order's damping operator against the
   reduced ṡᵀCṡ (with and without the quadratic modes' velocity), and the path check's amplitude
   error at the window's largest ‖s‖;
-* ``modes``: the full order again (2 s) with its modal coordinates saved and, with
+* ``modes``: the full order again (2 s) with its modal coordinates kept and, with
   ``--retained``, once more with its damping on the member's modes only; per mode the mean and
-  oscillating parts, R / F, and the share of the damped power.
+  oscillating parts, R / F, and the share of the damped power; the rear mass's mean axial
+  deformation, F − R, against what the third-order terms Q leaves out (strain V3, centrifugal
+  cubic, kinetic T3) would add.
 
     OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_family_power candidates DIR \\
         --points 10,45,60 --candidates Q,Qfine,B,Bc,Q4,Q4c
@@ -157,6 +159,34 @@ def per_mode(sol, res, model) -> list[dict]:
     return rows
 
 
+def cubic_axial(model, structure, res, sol) -> dict:
+    """The mean axial deformation of the rear mass (the model's "axial" mode) over 1–2 s, F and R,
+    and what the third-order terms Q leaves out would add to R's, each from R's own motion
+    divided by that mode's stiffness Λ_aa: the strain energy's V3 (−3 V3_amn s_m s_n), the
+    centrifugal potential's cubic at the reference spin (``bench_path_model.centrifugal_higher_order``)
+    and the kinetic energy's ``T3 = 2 (Φᵀ M g^{mn})_k ṡ_k s_m ṡ_n`` (Q's modal mass μ is constant:
+    ``∂T3/∂s_a = 2 Σ (ΦᵀM g^{an})_k ṡ_k ṡ_n``)."""
+    from benchmarks.studies.bench_path_model import centrifugal_higher_order
+
+    a = next(i for i, label in enumerate(model.labels) if str(label).startswith("axial"))
+    late_r, late_f = res.solution.t >= 1.0, sol.t >= 1.0
+    _, _, s, sd = rsys.split_state(res.system, res.solution.y)
+    s, sd = s[late_r], sd[late_r]
+    mphi = np.stack([structure.mass_scalar @ p for p in model.Phi])
+    gm = np.einsum("mnia,kia->kmn", model.G, mphi)  # (Φ_kᵀ M g^{mn})
+    v3c, _ = centrifugal_higher_order(model, structure.mass_scalar)
+    lam = float(model.Lam[a, a])
+    terms = {
+        "V3": -3 * np.einsum("mn,tm,tn->t", np.asarray(model.V3)[a], s, s).mean() / lam,
+        "centrifugal_cubic": -3 * np.einsum("mn,tm,tn->t", v3c[a], s, s).mean() / lam,
+        "kinetic_T3": 2 * np.einsum("kn,tk,tn->t", gm[:, a, :], sd, sd).mean() / lam,
+    }
+    s_f = np.asarray(sol.modal_coordinates, float)[late_f, a]
+    return {"mode": a, "mean_F": float(s_f.mean()), "mean_R": float(s[:, a].mean()),
+            "F_minus_R": float(s_f.mean() - s[:, a].mean()),
+            **{k: float(v) for k, v in terms.items()}, "sum": float(sum(terms.values()))}
+
+
 def modes(run, folder: Path, points, retained: bool) -> None:
     for deg in points:
         member = saved(folder, deg, "member")
@@ -168,6 +198,8 @@ def modes(run, folder: Path, points, retained: bool) -> None:
         sol = full_order_for_run(run_w, dt=0.25e-3, setup=start)
         for row in per_mode(sol, res, setup.model):
             print(json.dumps({"point_deg": deg, **row}), flush=True)
+        axial = cubic_axial(setup.model, setup.structure, res, sol)
+        print(json.dumps({"point_deg": deg, "axial_mean": axial}), flush=True)
         if retained:  # the full order's damping on the member's own modes only
             ret = full_order_for_run(run_w, dt=0.25e-3, setup=start, damping="retained")
             ratio = scored(cmp.series_from_full_order(ret), cmp.series_from_full_order(sol),
