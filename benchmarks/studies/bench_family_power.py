@@ -27,6 +27,7 @@ the full order's series), each from the same state:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -202,8 +203,9 @@ def modes(run, folder: Path, points, retained: bool) -> None:
         print(json.dumps({"point_deg": deg, "axial_mean": axial}), flush=True)
         if retained:  # the full order's damping on the member's own modes only
             ret = full_order_for_run(run_w, dt=0.25e-3, setup=start, damping="retained")
-            ratio = scored(cmp.series_from_full_order(ret), cmp.series_from_full_order(sol),
-                           setup.model, run_w.reduced.modes)  # fmt: skip
+            renamed = dataclasses.replace(cmp.series_from_full_order(ret), name="retained")
+            ratio = scored(renamed, cmp.series_from_full_order(sol), setup.model,
+                           run_w.reduced.modes)  # fmt: skip
             print(json.dumps({"point_deg": deg, "retained_over_independent": ratio}), flush=True)
 
 
