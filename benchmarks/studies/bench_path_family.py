@@ -75,6 +75,8 @@ def point_row(result, cone_deg: float, window: float, full_dt: float) -> dict:
     row.update(secular.score(full, {"member": red}, secular.quasi_steady_interval(window, tau)).row("member"))
     np.savez(f"family-full-{cone_deg:g}deg.npz", t=full.t, amplitude=full.amplitude, cone=full.cone_angle,
              spin=full.spin_rate, E_d=full.E_d, H=full.H_norm)  # fmt: skip
+    np.savez(f"family-member-{cone_deg:g}deg.npz", t=red.t, amplitude=red.amplitude, cone=red.cone_angle,
+             spin=red.spin_rate, E_d=red.E_d, H=red.H_norm, y0=point.y, member_spin=point.member_spin)  # fmt: skip
     return {"point_deg": cone_deg, "t_s": point.time, "step": point.step,
             "cone_deg": math.degrees(point.cone_angle), "path_spin_hz": point.spin_rate / (2 * math.pi),
             "member_hz": point.member_spin / (2 * math.pi),

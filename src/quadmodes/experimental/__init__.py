@@ -8,5 +8,8 @@ this package (tests/test_layout.py checks it).
   condensed energy W_c of :mod:`quadmodes.rom.manifold_energy` (docs/potentials.md);
 * :mod:`~quadmodes.experimental.condensed_potential`: the wrinkled structure's potential
   condensed on a snapshot-augmented basis (a ``ReducedSystem.nonlinear_potential``);
-* :mod:`~quadmodes.experimental.augmented_basis`: snapshot coordinates with mass.
+* :mod:`~quadmodes.experimental.augmented_basis`: snapshot coordinates with mass;
+* :mod:`~quadmodes.experimental.manifold_lagrangian`: the consistent fourth-order Lagrangian (the
+  exact kinetic energy of the quadratic manifold, Q4's potential, the full order's damping on the
+  manifold velocity), integrated by scipy (docs/path-validity.md).
 """
