@@ -270,7 +270,8 @@ def test_every_segment_that_could_leave_the_potential_is_checked(workdir, monkey
     the potential's error made proportional to ‖s‖ (failing above the median of the segments'
     largest ‖s‖), the path leaves in the earliest segment whose largest ‖s‖ fails, at or before
     its largest ‖s‖, and the FE model is consulted at most once per failing segment plus one
-    (and the one-model check with its bisections in the earliest failing one)."""
+    (and the one-model check's bisections in the earliest failing one, its solve at the largest
+    ‖s‖ the scan's): the verdict is the one-model check's on that segment, field for field."""
     from quadmodes.runs import family_validity as fv
     from quadmodes.runs import path_validity as pv
 
@@ -297,7 +298,7 @@ def test_every_segment_that_could_leave_the_potential_is_checked(workdir, monkey
         calls.append(a)
         return pv.DEFORMATION_ENERGY_TOLERANCE * a / level, None
 
-    monkeypatch.setattr(pv, "_amplitude_error", error)
+    monkeypatch.setattr(pv, "amplitude_error", error)
     monkeypatch.setattr("quadmodes.runs.deformation_check.deformation_structure", lambda s: None)
     paths = real_check(parts)
     failing = np.flatnonzero(peaks > level)
@@ -308,4 +309,8 @@ def test_every_segment_that_could_leave_the_potential_is_checked(workdir, monkey
     assert all(paths[k].left_at is None for k in range(first))
     assert all(paths[k].left_at is not None for k in failing)
     assert all("modal amplitudes" in p.checked and not p.unchecked for p in paths)
-    assert len(calls) <= len(failing) + 1 + (1 + pv.AMPLITUDE_BISECTIONS)  # + the one-model check
+    # the earliest failing segment's solve at its largest ‖s‖ is the scan's, not repeated
+    assert len(calls) <= len(failing) + 1 + pv.AMPLITUDE_BISECTIONS
+    calls.clear()
+    alone = pv.with_amplitude_check(parts[first][3], *parts[first][:3], None)
+    assert alone == paths[first] and len(calls) == 1 + pv.AMPLITUDE_BISECTIONS  # the same verdict

@@ -8,7 +8,8 @@ amplitudes in its last member, but the potential's range can end several members
 end). The segments are checked in order of their largest ‖s‖ until one passes; those with a
 smaller largest ‖s‖ are then covered by it (the error grows with the amplitude, the assumption
 the one-model bisection makes too), so the cost is one FE solve per failing segment plus one,
-and the bisections of the one-model check in the earliest failing segment only.
+and the bisections of the one-model check in the earliest failing segment only (its solve at
+the largest ‖s‖ is the scan's, not repeated).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ def family_path_validity(segments, diag, switches=()):
     """The path's :class:`~quadmodes.runs.path_validity.PathValidity`: each segment checked
     against its own member (centrifugal load, rotating-frame stiffness; where the a-priori
     centrifugal bound fails, the spin part judged by the range measured between neighbouring
-    members, :func:`measured_limit`, the tilt by the a-priori bound, as a one-model run's
+    members, :func:`measured_limit`, the tilt's part by the a-priori bound, as a one-model run's
     :func:`~quadmodes.runs.path_validity.with_measured_range` does with a rebuilt model), the
     first to leave its member's range gives where the path leaves; with the FE checks
     (``setup.fe_checks``, as ``quadmodes run``) the modal amplitudes of every segment that
@@ -114,18 +115,19 @@ def checked_amplitudes(parts) -> list:
             continue
         structure = dc.deformation_structure(setup)
         y = np.asarray(sol.y[peaks[k][1]], float)
-        err = 0.0 if pv._round_off(setup, y) else pv._amplitude_error(setup, y, structure)[0]
+        found = (0.0, None) if pv.is_round_off_state(setup, y) else pv.amplitude_error(setup, y, structure)
+        err = float(found[0])
         if err <= pv.DEFORMATION_ENERGY_TOLERANCE:
-            covered_by = float(err)
+            covered_by = err
             paths[k] = dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
-                                           unchecked=(), amplitude_error=float(err))  # fmt: skip
+                                           unchecked=(), amplitude_error=err)  # fmt: skip
         else:
-            failing.append((k, float(err), structure))
+            failing.append((k, err, structure, found))
     if failing:
-        k, _, structure = min(failing, key=lambda f: f[0])
+        k, _, structure, found = min(failing, key=lambda f: f[0])
         setup, sol, sub, path = parts[k]
-        paths[k] = pv.with_amplitude_check(path, setup, sol, sub, structure)
-        for j, err, _ in failing:
+        paths[k] = pv.with_amplitude_check(path, setup, sol, sub, structure, peak_error=found)
+        for j, err, _, _ in failing:
             if j != k:
                 setup, sol, sub, path = parts[j]
                 reason = (f"the reduced potential is {100 * err:.3g} % off the FE model's condensed "
@@ -133,5 +135,5 @@ def checked_amplitudes(parts) -> list:
                           f"{setup.model.reference_spin / (2 * math.pi):.6g} Hz")
                 done = dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
                                            unchecked=(), amplitude_error=err)  # fmt: skip
-                paths[j] = pv._with_failures(done, [(peaks[j][1], reason)], sol.t, sub)
+                paths[j] = pv.with_failures(done, [(peaks[j][1], reason)], sol.t, sub)
     return paths
