@@ -21,7 +21,9 @@ segment at its largest ‖s‖), in that member's chart:
         --times-from /work/wt/family60-out/fo/fo.jsonl /work/wt/family60-out/fo/fo2.jsonl
 
 ``--results``: a results.nc of that case written with the member of each sample
-(``model_reference_spin``). Prints one JSON line a point, then a table.
+(``model_reference_spin``). Prints one JSON line a point, then a table. With ``--members K``
+instead of ``--times-from``: every member's energy error at its K samples of largest ‖s‖ (what
+the family's amplitude check sees at one of them), one JSON line a member.
 """
 
 from __future__ import annotations
@@ -92,6 +94,23 @@ def point_row(members: Members, run, r: dict, t_point: float, window: float, set
             "wall_s": time.perf_counter() - start}  # fmt: skip
 
 
+def member_rows(members: Members, run, r: dict, top: int, cone_deg: np.ndarray):
+    """Per member (in the path's order): its largest ‖s‖, the energy error there and the
+    largest over its ``top`` samples of largest ‖s‖ (one JSON line each)."""
+    t, y, spins = r["t"], r["y"], r["spins"]
+    for spin in np.unique(spins)[::-1]:
+        kk = np.flatnonzero(spins == spin)
+        setup = sim.prepare(member_run(run, spin), members.model(spin), model_case=members.model_case)
+        structure = dc.deformation_structure(setup)
+        amp = np.linalg.norm(y[kk, 7 : 7 + setup.system.n_modes], axis=1)
+        best = kk[np.argsort(-amp)[:top]]
+        errs = [pv.amplitude_error(setup, y[j], structure)[0] for j in best]
+        print(json.dumps({"member_hz": spin / (2 * math.pi), "cone_deg": [float(cone_deg[kk[0]]), float(cone_deg[kk[-1]])],
+                          "peak_amplitude": float(amp.max()), "error_at_peak": float(errs[0]),
+                          "error_max": float(max(errs)), "t_error_max": float(t[best[int(np.argmax(errs))]])}),
+              flush=True)  # fmt: skip
+
+
 def _times(files: list[str]) -> list[tuple[float, float]]:
     """(cone mark (deg), path time (s)) of the points in the JSON lines of ``files``."""
     rows = [json.loads(line) for f in files for line in open(f, encoding="utf-8") if line.strip()]
@@ -102,12 +121,19 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("case")
     ap.add_argument("--results", required=True)
-    ap.add_argument("--times-from", nargs="+", required=True)
+    ap.add_argument("--times-from", nargs="+")
+    ap.add_argument("--members", type=int, default=0)
     ap.add_argument("--window", type=float, default=2.0)
     args = ap.parse_args()
     run = sim.prepare(load_run_case(args.case)).run  # its modes resolved
     members = Members(run)
     r = read_path_results(args.results, run, members.model(run.reference_spin), family=True)
+    if args.members:
+        import xarray as xr
+
+        with xr.open_dataset(args.results) as ds:
+            member_rows(members, run, r, args.members, ds["cone_angle_deg"].values)
+        return
     rows, setups = [], {}
     for cone, t_point in _times(args.times_from):
         row = {"cone_mark_deg": cone, **point_row(members, run, r, t_point, args.window, setups)}
