@@ -330,3 +330,18 @@ def test_every_segment_is_checked_at_its_own_amplitude(workdir, monkeypatch):  #
     assert paths[largest].left_at is None and paths[largest].amplitude_error == 0.01
     assert paths[weak].left_at is not None and paths[weak].amplitude_error == 0.03
     assert all(paths[k].left_at is None for k in range(len(parts)) if k != weak)
+
+
+def test_later_failing_members_are_one_entry():
+    """The failing members after the earliest: how many, their errors' range and spins; those
+    whose condensed energy did not converge (inf) counted, not printed as a number."""
+    from types import SimpleNamespace
+
+    from quadmodes.runs.family_validity import later_failures
+
+    parts = [(SimpleNamespace(model=SimpleNamespace(reference_spin=2 * np.pi * f)),) for f in (30, 29, 28)]
+    got = later_failures(parts, [(0, 0.03), (1, np.inf), (2, 0.05)])
+    assert "3–5 %" in got and "3 later members (about 30 to 28 Hz)" in got and "of 1 of them" in got
+    assert "inf" not in got
+    assert "did not converge" in later_failures(parts, [(1, np.inf)])
+    assert "2.5 % off" in later_failures(parts, [(1, 0.025)]) and "member about 29 Hz" in later_failures(parts, [(1, 0.025)])

@@ -135,10 +135,14 @@ def checked_amplitudes(parts) -> list:
 def later_failures(parts, failing) -> str:
     """One reason for the failing segments after the earliest (``failing``: (segment index,
     error, …) each): how many, their errors and members' spins."""
-    errs = [f[1] for f in failing]
+    errs = [f[1] for f in failing if math.isfinite(f[1])]
     spins = [parts[f[0]][0].model.reference_spin / (2 * math.pi) for f in failing]
     members = (f"the member about {spins[0]:.6g} Hz" if len(failing) == 1 else
                f"{len(failing)} later members (about {spins[0]:.6g} to {spins[-1]:.6g} Hz)")  # fmt: skip
+    unsolved = len(failing) - len(errs)
+    if not errs:
+        return f"the FE model's condensed energy did not converge at the largest modal amplitude of {members}"
     size = f"{100 * errs[0]:.3g} %" if len(errs) == 1 else f"{100 * min(errs):.3g}–{100 * max(errs):.3g} %"
     return (f"the reduced potential is {size} off the FE model's condensed energy at the largest "
-            f"modal amplitude of {members}")
+            f"modal amplitude of {members}"
+            + (f" (of {unsolved} of them the condensed energy did not converge)" if unsolved else ""))
