@@ -43,6 +43,85 @@ def test_departure_of_a_tilt_is_its_sine(beta_deg):
     assert centrifugal_departure(7.0 * n, 7.0 * E1)[0] == pytest.approx(math.sin(b), rel=1e-12)
 
 
+def _even_part_norm(omega, omega_ref):
+    """‖½(D(ω_t) + D(−ω_t))‖₂ / Ω_ref² with D(x) = C(Ωe + x) − C(ω_ref): the part of the
+    departure even in the tilt ω_t (what lasts in the body: its odd part turns with ω_t),
+    computed from the matrices, not from the closed form."""
+    e = omega_ref / np.linalg.norm(omega_ref)
+    axial = (omega @ e) * e
+    tilt = omega - axial
+
+    def c(v):
+        return np.outer(v, v) - (v @ v) * np.eye(3)
+
+    even = 0.5 * (c(axial + tilt) + c(axial - tilt)) - c(omega_ref)
+    return np.abs(np.linalg.eigvalsh(even)).max() / (omega_ref @ omega_ref)
+
+
+@pytest.mark.parametrize("beta_deg", [0.5, 1.75, 8.0, 30.0])
+def test_a_tilt_at_fixed_spin_lasts_by_its_square(beta_deg):
+    """ω = Ω(e + tan β t), t ⊥ e: C(ω) − C(Ωe) = Ω²tanβ (etᵀ + teᵀ) [odd in the tilt: it turns
+    with ω_t in the body, zero mean over a turn] + Ω²tan²β (ttᵀ − I) [even: what lasts, norm
+    tan²β]. The quasi-static departure is tan²β, the even part's norm, and the mean over a turn
+    of ω_t is no larger; the whole departure is larger than the odd part's tan β·(norm 1)."""
+    from quadmodes.runs.centrifugal_load import quasi_static_departure, tilt_departure
+
+    b, omega = math.radians(beta_deg), 40.0
+    phase = np.linspace(0.0, 2 * math.pi, 73)[:-1]
+    w = omega * np.c_[np.ones(len(phase)), math.tan(b) * np.cos(phase), math.tan(b) * np.sin(phase)]
+    ref = omega * E1
+    got = quasi_static_departure(w, ref)
+    np.testing.assert_allclose(got, math.tan(b) ** 2, rtol=1e-12)
+    np.testing.assert_allclose(tilt_departure(w, ref), math.tan(b) ** 2, rtol=1e-12)
+    np.testing.assert_allclose(got, [_even_part_norm(wk, ref) for wk in w], rtol=0, atol=1e-14)
+
+    def c(v):
+        return np.outer(v, v) - (v @ v) * np.eye(3)
+
+    mean = np.mean([c(wk) - c(ref) for wk in w], axis=0) / omega**2
+    assert np.abs(np.linalg.eigvalsh(mean)).max() == pytest.approx(math.tan(b) ** 2, rel=1e-12)
+    assert np.all(centrifugal_departure(w, ref) >= math.tan(b) - 1e-12)
+
+
+@pytest.mark.parametrize("eps", [-0.1, -0.01, 0.003, 0.05])
+def test_a_spin_change_lasts_whole(eps):
+    """A pure spin change has no tilt: its quasi-static departure is the whole, |(1+ε)² − 1|."""
+    from quadmodes.runs.centrifugal_load import quasi_static_departure, tilt_departure
+
+    got = quasi_static_departure((1 + eps) * 30.0 * E1, 30.0 * E1)
+    assert got[0] == pytest.approx(abs((1 + eps) ** 2 - 1), rel=1e-12)
+    assert got[0] == pytest.approx(centrifugal_departure((1 + eps) * 30.0 * E1, 30.0 * E1)[0], rel=1e-12)
+    assert tilt_departure((1 + eps) * 30.0 * E1, 30.0 * E1)[0] == 0.0
+
+
+def test_quasi_static_departure_is_the_even_part_for_any_angular_velocity():
+    """Spin change and tilt together (random ω about a random axis): the closed form
+    max(|Ω² − Ω_ref²|, ||ω|² − Ω_ref²|, |ω_t|²)/Ω_ref² is the norm of the even part."""
+    from quadmodes.runs.centrifugal_load import quasi_static_departure
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        ref = rng.normal(size=3) * 10.0
+        w = ref * (1 + 0.1 * rng.normal()) + rng.normal(size=3) * rng.uniform(0.01, 5.0)
+        assert quasi_static_departure(w, ref)[0] == pytest.approx(_even_part_norm(w, ref), rel=1e-10)
+
+
+@pytest.mark.parametrize("axial,transverse", [(0.0175, 1.0), (2.0, 1.0), (1.0, 0.95)])
+def test_nutation_ratio_of_an_axisymmetric_body(axial, transverse):
+    """ν = |I_a − I_t| / I_t (torque-free, body frame), whatever the frame J0 is given in; about
+    the intermediate axis the tilt grows: NaN."""
+    from quadmodes.runs.centrifugal_load import NUTATION_RATIO, nutation_ratio, tilt_turns
+
+    rot = np.linalg.qr(np.random.default_rng(3).normal(size=(3, 3)))[0]
+    body = SimpleNamespace(reference_omega=rot @ (5.0 * E1),
+                           J0=rot @ np.diag([axial, transverse, transverse]) @ rot.T)  # fmt: skip
+    nu = abs(axial - transverse) / transverse
+    assert nutation_ratio(body) == pytest.approx(nu, rel=1e-10)
+    assert tilt_turns(body) == (nu >= NUTATION_RATIO)
+    middle = SimpleNamespace(reference_omega=5.0 * E1, J0=np.diag([2.0, 1.0, 3.0]))
+    assert math.isnan(nutation_ratio(middle)) and not tilt_turns(middle)
+
+
 def test_spin_range_ends_on_the_limit():
     lo, hi = spin_range(100.0)
     d = centrifugal_departure(np.array([lo * E1, hi * E1]), 100.0 * E1)
@@ -225,7 +304,8 @@ def _nutating(j0, beta_deg: float, omega_ref: float = 1.0, samples: int = 9):
 
 
 PLANAR = np.diag([2.0, 1.0, 1.0])  # a lamina normal to e1: I_axis = I_1 + I_2
-TALL = np.diag([2.0, 1.2, 1.2])  # the same with height along e1 (Σ m x₁² = 0.2)
+TALL = np.diag([2.0, 1.2, 1.2])  # the same with height along e1 (Σ m x₁² = 0.2), ν = 0.67
+ROUND = np.diag([1.0, 0.95, 0.95])  # nearly spherical: its tilt turns slowly (ν = 0.053)
 
 
 @pytest.mark.parametrize("beta_deg", [1.0, 6.0, 9.92])
@@ -241,23 +321,29 @@ def test_planar_departure_is_second_order_in_the_tilt(beta_deg):
     assert is_planar(setup.system)
     np.testing.assert_allclose(load_departure(setup.system, w), tb**2, rtol=1e-12)
     tall = dataclasses.replace(setup.system, J0=TALL)
-    assert not is_planar(tall)
-    assert load_departure(tall, w)[0] > math.sin(math.radians(beta_deg))
+    assert not is_planar(tall)  # its tilt turns: the quasi-static part, tan²β as well
+    np.testing.assert_allclose(load_departure(tall, w), tb**2, rtol=1e-12)
+    round_ = dataclasses.replace(setup.system, J0=ROUND)  # its tilt stands nearly still
+    assert load_departure(round_, w)[0] > math.sin(math.radians(beta_deg))
 
 
 def test_a_planar_body_is_not_out_of_range_by_its_rigid_tilt(monkeypatch):
     """The free disc's 5° cone (β = 9.92°): a 3° cone (β ≈ 6°, tan²β = 1.1 %) is inside the a-priori
-    bound for a planar body and outside for a body with height (sin β = 10 %); at 5° the
+    bound for a planar body and for a body with height whose tilt turns in the body (its
+    quasi-static part, tan²β), outside for a nearly round one (sin β = 10 %); at 5° the
     planar body's δ = tan²β = 3.06 % is measured against the model rebuilt about |ω| (the spin
-    of the largest in-plane departure), which decides; a body with height stays out at t = 0,
-    and so does the planar body when the rebuilt model disagrees."""
+    of the largest in-plane departure), which decides; a body with height stays out at t = 0
+    (its tilt's second-order part, 3.06 % > 2 %, is judged a priori), and so does the planar
+    body when the rebuilt model disagrees."""
     from quadmodes.runs import path_validity as pv
     from quadmodes.runs import spin_check
 
     setup, sol, diag = _nutating(PLANAR, 6.0)
     assert path_validity(setup, sol, diag).left_at is None
     tall = SimpleNamespace(system=dataclasses.replace(setup.system, J0=TALL))
-    out = path_validity(tall, sol, diag)
+    assert path_validity(tall, sol, diag).left_at is None
+    round_ = SimpleNamespace(system=dataclasses.replace(setup.system, J0=ROUND))
+    out = path_validity(round_, sol, diag)
     assert out.left_at == 0.0 and "in the body's plane" not in out.left_reason
 
     setup, sol, diag = _nutating(PLANAR, 9.92)
@@ -274,6 +360,7 @@ def test_a_planar_body_is_not_out_of_range_by_its_rigid_tilt(monkeypatch):
     monkeypatch.setattr(spin_check, "measured_error", lambda s, w: (float(abs(w @ E1)), 0.0))
     still = pv.with_measured_range(path_validity(tall, sol, diag), tall, sol, diag)
     assert still.left_at == 0.0 and "tilted by 9.92 deg" in still.left_reason
+    assert "second-order" in still.left_reason
 
 
 @pytest.fixture(scope="module")
@@ -326,3 +413,49 @@ def test_a_model_about_the_paths_spin_has_no_coning_rate_error(capsule_models, m
     half = spin_check.sink_error(run, 304.5 * e, 0.1)
     assert full > 0.0 and math.isfinite(full)
     assert 1.6 <= full / half <= 2.4, (full, half)
+
+
+def test_a_prolate_path_is_ended_by_its_amplitudes_not_its_tilt(monkeypatch):
+    """A prolate body (I_a/I_t = 0.0175, paper-41hz's) coning 6° → 60° about a model at its spin:
+    its tilt, tan β = (I_a/I_t) tan θ, turns in the body (ν = 0.98). The whole departure sin β
+    passes 2 % at θ = 48.8° (where the check used to end the path); the quasi-static part
+    tan²β stays below 9.2e-4, so the path is ended by its modal amplitudes, where they fail
+    (the potential's error made 2 % at the amplitude of 55°), located by the bisection."""
+    from test_integrators import hand_model
+
+    from quadmodes.runs import path_validity as pv
+
+    ratio, spin = 0.0175, 2 * math.pi * 41.0
+    model = hand_model(np.diag([ratio, 1.0, 1.0]), lam=[(2 * math.pi * 4.0) ** 2, (2 * math.pi * 9.0) ** 2])
+    sys = dataclasses.replace(rsys.reduced_system(model, "Q"), reference_omega=spin * E1)
+    cone = np.radians(np.arange(6.0, 60.01, 0.25))
+    tilt, phase = ratio * np.tan(cone), 0.98 * spin * 0.01 * np.arange(len(cone))
+    w = spin * np.c_[np.ones(len(cone)), tilt * np.cos(phase), tilt * np.sin(phase)]
+    amp = 1e-3 * np.tan(cone)
+    y = np.array([rsys.pack_state(sys, omega=wk, s=a * np.array([1.0, 0.5])) for wk, a in zip(w, amp, strict=True)])
+    t = 10.0 * np.arange(len(cone))
+    sol, setup = SimpleNamespace(t=t, y=y), SimpleNamespace(system=sys)
+    diag = SimpleNamespace(spin_rate=np.full(len(t), spin), cone_angle=cone)
+
+    whole = centrifugal_departure(w, spin * E1)
+    assert math.degrees(cone[int(np.argmax(whole > CENTRIFUGAL_LIMIT))]) == pytest.approx(48.8, abs=0.3)
+    path = path_validity(setup, sol, diag)
+    assert path.left_at is None and path.centrifugal_max == pytest.approx((ratio * math.tan(cone[-1])) ** 2)
+    assert path.unchecked == ("modal amplitudes",)
+
+    norm = np.linalg.norm([1.0, 0.5])
+    fail_at = 1e-3 * math.tan(math.radians(55.0)) * norm
+
+    def error(setup_k, yk, structure):
+        a = float(np.linalg.norm(rsys.split_state(setup_k.system, np.asarray(yk))[2]))
+        return pv.DEFORMATION_ENERGY_TOLERANCE * a / fail_at, None
+
+    monkeypatch.setattr(pv, "amplitude_error", error)
+    monkeypatch.setattr(pv, "is_round_off_state", lambda s, yk: False)
+    out = pv.with_amplitude_check(path, setup, sol, diag, structure=object())
+    s_norm = amp * norm
+    step = (s_norm[-1] - s_norm[0]) / 2**pv.AMPLITUDE_BISECTIONS  # the bisection's resolution
+    k = int(np.flatnonzero(t == out.left_at)[0])
+    assert fail_at - step <= s_norm[k] and s_norm[k - 1] <= fail_at
+    assert "reduced potential" in out.left_reason and not out.valid
+    assert all("tilt" not in r and "centrifugal" not in r for _, r in out.failures)

@@ -3,12 +3,18 @@ judged against its own member, and the modal amplitudes of every segment that co
 potential's range checked against its member's FE model.
 
 Why every segment and not the last one only: a path that grows its cone reaches its largest
-amplitudes in its last member, but the potential's range can end several members earlier
-(paper-41hz-coarse to 60°: the amplitude check fails from about 45°, 15 members before the
-end). The segments are checked in order of their largest ‖s‖ until one passes; those with a
-smaller largest ‖s‖ are then covered by it (the error grows with the amplitude, the assumption
-the one-model bisection makes too), so the cost is one FE solve per failing segment plus one,
-and the bisections of the one-model check in the earliest failing segment only.
+amplitudes in its last members, but the potential's range can end many members earlier
+(paper-41hz-coarse to 60°: from about 31°, 30 members before the end). Why every segment, and
+not those of the largest ‖s‖ until one passes (the rule before): the error at a given ‖s‖ is
+not the same in every member, nor along every direction of s. Measured on that path
+(docs/path-validity.md, "The amplitude check on every member"): the member about 29.35 Hz passed
+at its largest ‖s‖ (1.82 %, 6.86×10⁻⁴) and so "covered" twelve members of smaller largest ‖s‖
+that each fail at theirs (2.14–2.83 %, from 35.25 Hz, cone 31°), and the last member, 4.65 % at
+6.15×10⁻⁴. So each segment is checked at its own largest ‖s‖ (one FE solve each: 0.3–1 s on the
+coarse mesh), and the earliest failing one located by the one-model check's bisections (its
+solve at the largest ‖s‖ is the scan's, not repeated). Within a segment the error also moves
+with the direction of s at one ‖s‖ (1.8–3.1 % over the 8 samples of largest ‖s‖ of the 29.35 Hz
+member): the check is at one sample per segment, a spot check of that resolution.
 """
 
 from __future__ import annotations
@@ -48,7 +54,7 @@ def family_path_validity(segments, diag, switches=()):
     """The path's :class:`~quadmodes.runs.path_validity.PathValidity`: each segment checked
     against its own member (centrifugal load, rotating-frame stiffness; where the a-priori
     centrifugal bound fails, the spin part judged by the range measured between neighbouring
-    members, :func:`measured_limit`, the tilt by the a-priori bound, as a one-model run's
+    members, :func:`measured_limit`, the tilt's part by the a-priori bound, as a one-model run's
     :func:`~quadmodes.runs.path_validity.with_measured_range` does with a rebuilt model), the
     first to leave its member's range gives where the path leaves; with the FE checks
     (``setup.fe_checks``, as ``quadmodes run``) the modal amplitudes of every segment that
@@ -86,52 +92,57 @@ def family_path_validity(segments, diag, switches=()):
 
 def checked_amplitudes(parts) -> list:
     """The segments' paths (``parts``: (setup, solution, diagnostics, PathValidity) per
-    segment) with their modal amplitudes checked: in order of the segments' largest ‖s‖, each
-    at its largest ‖s‖ until one passes (the rest are covered by it: marked checked, with that
-    error as a bound); the earliest failing segment by the one-model check
+    segment) with their modal amplitudes checked: every segment at its largest ‖s‖ (module
+    docstring: a segment of smaller amplitude is not covered by one that passed); the earliest
+    failing segment by the one-model check
     (:func:`~quadmodes.runs.path_validity.with_amplitude_check`, which locates where it leaves),
     the later failing ones marked failing at their largest ‖s‖."""
     from quadmodes.runs import deformation_check as dc
     from quadmodes.runs import path_validity as pv
 
-    def peak(part):
-        setup, sol = part[0], part[1]
-        if len(sol.t) == 0:
-            return 0.0, 0
-        amp = np.linalg.norm(rsys.split_state(setup.system, np.asarray(sol.y, float))[2], axis=1)
-        return float(amp.max()), int(np.argmax(amp))
-
-    peaks = [peak(p) for p in parts]
     paths = [p[3] for p in parts]
-    failing, covered_by = [], None
-    for k in sorted(range(len(parts)), key=lambda k: -peaks[k][0]):
-        setup, sol, sub, path = parts[k]
+    failing = []
+    for k, (setup, sol, _, path) in enumerate(parts):
         if "modal amplitudes" not in path.unchecked or len(sol.t) == 0:
             continue
-        if covered_by is not None:  # a segment of larger amplitude passed
-            paths[k] = dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
-                                           unchecked=(), amplitude_error=covered_by)  # fmt: skip
-            continue
-        structure = dc.deformation_structure(setup)
-        y = np.asarray(sol.y[peaks[k][1]], float)
-        err = 0.0 if pv._round_off(setup, y) else pv._amplitude_error(setup, y, structure)[0]
-        if err <= pv.DEFORMATION_ENERGY_TOLERANCE:
-            covered_by = float(err)
-            paths[k] = dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
-                                           unchecked=(), amplitude_error=float(err))  # fmt: skip
+        y = np.asarray(sol.y, float)
+        peak = int(np.argmax(np.linalg.norm(rsys.split_state(setup.system, y)[2], axis=1)))
+        if pv.is_round_off_state(setup, y[peak]):
+            found, structure = (0.0, None), None
         else:
-            failing.append((k, float(err), structure))
-    if failing:
-        k, _, structure = min(failing, key=lambda f: f[0])
-        setup, sol, sub, path = parts[k]
-        paths[k] = pv.with_amplitude_check(path, setup, sol, sub, structure)
-        for j, err, _ in failing:
-            if j != k:
-                setup, sol, sub, path = parts[j]
-                reason = (f"the reduced potential is {100 * err:.3g} % off the FE model's condensed "
-                          f"energy at the largest modal amplitude of the member about "
-                          f"{setup.model.reference_spin / (2 * math.pi):.6g} Hz")
-                done = dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
+            structure = dc.deformation_structure(setup)
+            found = pv.amplitude_error(setup, y[peak], structure)
+        err = float(found[0])
+        if err <= pv.DEFORMATION_ENERGY_TOLERANCE:
+            paths[k] = dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
                                            unchecked=(), amplitude_error=err)  # fmt: skip
-                paths[j] = pv._with_failures(done, [(peaks[j][1], reason)], sol.t, sub)
+        else:
+            failing.append((k, err, structure, found, peak))
+    if failing:
+        k, _, structure, found, _ = failing[0]
+        setup, sol, sub, path = parts[k]
+        paths[k] = pv.with_amplitude_check(path, setup, sol, sub, structure, peak_error=found)
+        for j, err, _, _, _ in failing[1:]:
+            paths[j] = dataclasses.replace(paths[j], checked=(*paths[j].checked, "modal amplitudes"),
+                                           unchecked=(), amplitude_error=err)  # fmt: skip
+        if len(failing) > 1:  # the later ones, one entry (from the first of them)
+            j, peak = failing[1][0], failing[1][4]
+            sol, sub = parts[j][1], parts[j][2]
+            paths[j] = pv.with_failures(paths[j], [(peak, later_failures(parts, failing[1:]))], sol.t, sub)
     return paths
+
+
+def later_failures(parts, failing) -> str:
+    """One reason for the failing segments after the earliest (``failing``: (segment index,
+    error, …) each): how many, their errors and members' spins."""
+    errs = [f[1] for f in failing if math.isfinite(f[1])]
+    spins = [parts[f[0]][0].model.reference_spin / (2 * math.pi) for f in failing]
+    members = (f"the member about {spins[0]:.6g} Hz" if len(failing) == 1 else
+               f"{len(failing)} later members (about {spins[0]:.6g} to {spins[-1]:.6g} Hz)")  # fmt: skip
+    unsolved = len(failing) - len(errs)
+    if not errs:
+        return f"the FE model's condensed energy did not converge at the largest modal amplitude of {members}"
+    size = f"{100 * errs[0]:.3g} %" if len(errs) == 1 else f"{100 * min(errs):.3g}–{100 * max(errs):.3g} %"
+    return (f"the reduced potential is {size} off the FE model's condensed energy at the largest "
+            f"modal amplitude of {members}"
+            + (f" (of {unsolved} of them the condensed energy did not converge)" if unsolved else ""))

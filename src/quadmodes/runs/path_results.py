@@ -21,18 +21,13 @@ import xarray as xr
 
 from quadmodes.io import cf
 from quadmodes.rom import system as rsys
+from quadmodes.runs.centrifugal_load import departure_kind, load_departure, load_departure_about
 from quadmodes.runs.events import cone_times
 from quadmodes.runs.family_samples import (
     MEMBER_SPIN_LONG_NAME,
     MEMBER_SPIN_VARIABLE,
     is_family,
     sample_member_spins,
-)
-from quadmodes.runs.path_validity import (
-    centrifugal_departure,
-    is_planar,
-    load_departure,
-    plane_departure,
 )
 
 
@@ -46,10 +41,10 @@ def path_variables(result) -> tuple[dict, dict]:
         "to 1 kg)")}  # fmt: skip
     w_ref = np.asarray(result.system.reference_omega, float)
     if np.any(w_ref):
-        plane = " (its in-plane block: a planar body)" if is_planar(result.system) else ""
         data["centrifugal_departure"] = cf.variable(
             ("time",), _departure(result, w), "1", "departure of the centrifugal load "
-            f"from the reduced model's reference, |C(omega) - C(omega_ref)|_2 / Omega_ref^2{plane}")  # fmt: skip
+            "from the reduced model's reference, |C(omega) - C(omega_ref)|_2 / Omega_ref^2 "
+            f"({departure_kind(result.system)})")  # fmt: skip
     if is_family(result.run):  # which member's chart each sample is in
         data[MEMBER_SPIN_VARIABLE] = cf.variable(
             ("time",), _member_spins(result), "rad/s", MEMBER_SPIN_LONG_NAME)
@@ -93,7 +88,7 @@ def _departure(result, w: np.ndarray) -> np.ndarray:
     for spin in np.unique(spins):
         k = spins == spin
         ref = spin * e
-        out[k] = plane_departure(w[k], ref) if is_planar(result.system) else centrifugal_departure(w[k], ref)
+        out[k] = load_departure_about(result.system, w[k], ref)
     return out
 
 

@@ -8,22 +8,29 @@ tilts in the body, so the run leaves the state its model was built for. Three ch
 saved sample of the path:
 
 * **Centrifugal load** (models about a spinning state): the centrifugal acceleration field is
-  C(ω) r with C(ω) = ωωᵀ − |ω|² I; its departure from the model's is
-  δ = ‖C(ω) − C(ω_ref)‖₂ / Ω_ref² (the largest change of the acceleration per unit distance,
-  relative to the reference's Ω_ref²; magnitude and direction of ω both enter). The prestress
-  the centrifugal load causes is linear in it, so the part of the stiffness the model holds
-  fixed is off by at most δ of the centrifugal prestress, itself at most the whole stiffness:
-  the squared rotating-frame frequencies by at most δ, the frequencies by δ/2. With the model's
-  frequency tolerance of 1 % (:data:`FREQUENCY_TOLERANCE`: every rotating-frame branch of the
-  paper models within 1 % of the full order, docs/full-order.md) the limit is δ ≤ 2 %
-  (:data:`CENTRIFUGAL_LIMIT`): a spin within ±1 % of the reference, or an angular velocity
-  tilted by at most 1.1° from the reference axis. This is an upper bound of what the model
-  leaves out, far from tight (the 41 Hz model of paper-41hz-coarse at 37.7 Hz is within 0.09 %
-  of the model rebuilt there, docs/validation.md); where a path passes it and the run checks its
-  path against the FE model (``quadmodes run``), the range is measured instead
-  (:func:`with_measured_range`, :mod:`quadmodes.runs.spin_check`): the frequencies and, what
-  the run's answer is made of, the energy-sink coning rate (300 × more sensitive to the spin
-  than the frequencies on paper-41hz-coarse), each against the model rebuilt about the spin.
+  C(ω) r with C(ω) = ωωᵀ − |ω|² I. The model carries the load of every ω exactly (½ ωᵀJ1ω) and
+  holds fixed the stiffness of the prestress of ω_ref, which the stiff condensed degrees of
+  freedom would change quasi-statically; so its departure δ is the part of C(ω) − C(ω_ref) that
+  lasts in the body frame, relative to Ω_ref² (:mod:`quadmodes.runs.centrifugal_load`): the
+  spin's change and the tilt's second-order part, max(|Ω² − Ω_ref²|, ||ω|² − Ω_ref²|, |ω_t|²) /
+  Ω_ref² (tan²β for a tilt by β at a fixed spin). The tilt's first-order part turns in the body
+  at the nutation frequency: it is the coning forcing, whose response the modal-amplitude check
+  judges, and changes the prestress's effect on the coning response at second order only (a
+  body whose tilt does not turn, ν < ½, is judged by the whole ‖C(ω) − C(ω_ref)‖₂, sin β; a
+  planar body by the in-plane block). The prestress is linear in the load, so the part of the
+  stiffness the model holds fixed is off by at most δ of the centrifugal prestress, itself at
+  most the whole stiffness: the squared rotating-frame frequencies by at most δ, the
+  frequencies by δ/2. With the model's frequency tolerance of 1 % (:data:`FREQUENCY_TOLERANCE`:
+  every rotating-frame branch of the paper models within 1 % of the full order,
+  docs/full-order.md) the limit is δ ≤ 2 % (:data:`CENTRIFUGAL_LIMIT`): a spin within ±1 % of
+  the reference, or an angular velocity tilted by at most 8.0° (tan²β ≤ 2 %). This is an upper
+  bound of what the model leaves out, far from tight (the 41 Hz model of paper-41hz-coarse at
+  37.7 Hz is within 0.09 % of the model rebuilt there, docs/validation.md); where a path passes
+  it and the run checks its path against the FE model (``quadmodes run``), the spin's range is
+  measured instead (:func:`with_measured_range`, :mod:`quadmodes.runs.spin_check`): the
+  frequencies and, what the run's answer is made of, the energy-sink coning rate (300 × more
+  sensitive to the spin than the frequencies on paper-41hz-coarse), each against the model
+  rebuilt about the spin; the tilt's part keeps the a-priori bound.
 * **Rotating-frame stiffness**: Λ − ωᵀJ2ω positive definite at the path's angular velocities
   (on at most :data:`STIFFNESS_SAMPLES` samples and the one of largest |ω|), the check
   :mod:`quadmodes.runs.validity` makes at the initial spin.
@@ -47,6 +54,17 @@ import numpy as np
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 from quadmodes.runs import spin_check
+from quadmodes.runs.centrifugal_load import (  # noqa: F401  (the path check's departures, re-exported)
+    PLANAR_TOLERANCE,
+    centrifugal_departure,
+    is_planar,
+    load_departure,
+    plane_departure,
+    quasi_static_departure,
+    spin_and_tilt,
+    tilt_departure,
+    tilt_turns,
+)
 from quadmodes.runs.validity import DEFORMATION_ENERGY_TOLERANCE
 
 #: Relative frequency error the reduced models are held to (every rotating-frame branch within
@@ -147,21 +165,6 @@ class PathValidity:
         return ""
 
 
-def centrifugal_departure(omega: np.ndarray, omega_ref: np.ndarray) -> np.ndarray:
-    """δ (k,) = ‖C(ω) − C(ω_ref)‖₂ / |ω_ref|² for ω (k,3) rad/s, C(w) = wwᵀ − |w|² I (the
-    centrifugal acceleration per unit distance)."""
-    w = np.atleast_2d(np.asarray(omega, float))
-    w0 = np.asarray(omega_ref, float)
-
-    def c(v):
-        return np.einsum("...a,...b->...ab", v, v) - np.einsum("...a,...a->...", v, v)[
-            ..., None, None
-        ] * np.eye(3)
-
-    d = c(w) - c(w0)
-    return np.abs(np.linalg.eigvalsh(d)).max(axis=-1) / float(w0 @ w0)
-
-
 def spin_range(omega_ref: float, limit: float = CENTRIFUGAL_LIMIT) -> tuple[float, float]:
     """Spins (rad/s) about the reference axis whose δ = |Ω² − Ω_ref²| / Ω_ref² is ``limit``."""
     return omega_ref * math.sqrt(max(1.0 - limit, 0.0)), omega_ref * math.sqrt(1.0 + limit)
@@ -189,89 +192,44 @@ def _first(bad: np.ndarray) -> int | None:
     return int(hits[0]) if len(hits) else None
 
 
-def spin_and_tilt(omega: np.ndarray, omega_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The two parts of the departure for ω (k,3) rad/s from ω_ref = Ω_ref e: of the spin about
-    e, |(ω·e)² / Ω_ref² − 1| (δ of a pure spin change), and of the direction, sin β = |ω × e| / |ω|
-    (δ of a pure tilt by β), each (k,)."""
-    w = np.atleast_2d(np.asarray(omega, float))
-    spin_ref = float(np.linalg.norm(omega_ref))
-    e = np.asarray(omega_ref, float) / spin_ref
-    spin = np.abs((w @ e) ** 2 / spin_ref**2 - 1.0)
-    norm = np.linalg.norm(w, axis=1)
-    tilt = np.linalg.norm(np.cross(w, e), axis=1) / np.where(norm > 0, norm, 1.0)
-    return spin, tilt
-
-
-#: A body is planar (every mass in the plane normal to its reference axis: the free membrane
-#: disc, a flat sail on a flat hub) when its second moment of mass along the axis is below this
-#: fraction of the trace of its second-moment tensor (a flat spinning state: round-off).
-PLANAR_TOLERANCE = 1e-9
-
-
-def is_planar(system: rsys.ReducedSystem) -> bool:
-    """The body's mass lies in the plane normal to its reference angular velocity: its second
-    moment ``Σ m (r·e)²`` = ``eᵀ(½ tr J0 − J0)e`` within :data:`PLANAR_TOLERANCE` of the trace."""
+def _centrifugal_failure(t, w, system, spin_limit, basis: str):
+    """(sample index, reason) where the centrifugal load first leaves the range, or None: δ
+    (:func:`~quadmodes.runs.centrifugal_load.load_departure`) past :data:`CENTRIFUGAL_LIMIT` (a
+    priori), or with a measured ``spin_limit`` the spin part past it or the tilt's part past the
+    a-priori bound: its second-order part |ω_t|² / Ω_ref² where the tilt turns in the body, else
+    sin β. A planar body's δ is its in-plane departure, all of it judged as a spin part."""
     w_ref = np.asarray(system.reference_omega, float)
-    if not np.any(w_ref):
-        return False
-    e = w_ref / np.linalg.norm(w_ref)
-    j0 = np.asarray(system.J0, float)
-    second = 0.5 * np.trace(j0) * np.eye(3) - j0
-    return float(e @ second @ e) <= PLANAR_TOLERANCE * float(np.trace(second))
-
-
-def plane_departure(omega: np.ndarray, omega_ref: np.ndarray) -> np.ndarray:
-    """δ (k,) of a planar body: the departure of the in-plane block of C(ω), its only part that
-    deforms the body. On the body's points (r·e = 0) the out-of-plane part of C(ω) r is
-    (ω·e)(ω_t·r) e, the field of a rigid rotation about e × ω_t: it loads the rigid tilt, which
-    the rigid-body equations carry exactly (a free flat body nutates at exactly Ω, its tilt a
-    rotating-frame mode there), not the membrane. The in-plane block has the eigenvalues −(ω·e)²
-    (along ω's in-plane part) and −|ω|² (across it), so δ = max(|(ω·e)² − Ω²|, ||ω|² − Ω²|) / Ω²:
-    second order in the tilt β (tan²β at a fixed spin about e), against sin β for a body with
-    height (:func:`spin_and_tilt`)."""
-    w = np.atleast_2d(np.asarray(omega, float))
-    spin_ref = float(np.linalg.norm(omega_ref))
-    e = np.asarray(omega_ref, float) / spin_ref
-    axial = np.abs((w @ e) ** 2 / spin_ref**2 - 1.0)
-    whole = np.abs(np.einsum("ka,ka->k", w, w) / spin_ref**2 - 1.0)
-    return np.maximum(axial, whole)
-
-
-def load_departure(system: rsys.ReducedSystem, omega: np.ndarray) -> np.ndarray:
-    """δ (k,) of the path's angular velocities ``omega`` (k,3) rad/s: :func:`plane_departure` for
-    a planar body, else :func:`centrifugal_departure`."""
-    w_ref = np.asarray(system.reference_omega, float)
-    if is_planar(system):
-        return plane_departure(omega, w_ref)
-    return centrifugal_departure(omega, w_ref)
-
-
-def _centrifugal_failure(t, w, w_ref, spin_limit, basis: str, planar: bool = False):
-    """(sample index, reason) where the centrifugal load first leaves the range, or None: δ past
-    :data:`CENTRIFUGAL_LIMIT` (a priori), or with a measured ``spin_limit`` the spin part past it
-    or the tilt part past the a-priori bound. A ``planar`` body's δ is its in-plane departure
-    (:func:`plane_departure`), all of it judged as a spin part (no tilt part)."""
+    planar, turns = is_planar(system), tilt_turns(system)
     spin_hz = float(np.linalg.norm(w_ref)) / (2 * math.pi)
-    plane = " in the body's plane (planar body: the tilt's out-of-plane part is rigid)" if planar else ""
+    part = (" in the body's plane (planar body: the tilt's out-of-plane part is rigid)" if planar
+            else " in its quasi-static part (the tilt's first-order part turns in the body at "
+            "the nutation frequency: the coning forcing)" if turns else "")  # fmt: skip
     if spin_limit is None:
-        delta = plane_departure(w, w_ref) if planar else centrifugal_departure(w, w_ref)
+        delta = load_departure(system, w)
         k = _first(delta > CENTRIFUGAL_LIMIT)
         return None if k is None else (k, (
-            f"the centrifugal load departs by {100 * delta[k]:.3g} %{plane} from the model's at "
+            f"the centrifugal load departs by {100 * delta[k]:.3g} %{part} from the model's at "
             f"{spin_hz:.5g} Hz (limit {100 * CENTRIFUGAL_LIMIT:g} %: ±"
             f"{100 * FREQUENCY_TOLERANCE:g} % in the rotating-frame frequencies)"))  # fmt: skip
     if planar:
         spin, tilt = plane_departure(w, w_ref), np.zeros(len(w))
     else:
-        spin, tilt = spin_and_tilt(w, w_ref)
+        spin, sine = spin_and_tilt(w, w_ref)
+        tilt = tilt_departure(w, w_ref) if turns else sine
     ks, kt = _first(spin > spin_limit), _first(tilt > CENTRIFUGAL_LIMIT)
+    plane = part if planar else ""
     if ks is not None and (kt is None or ks <= kt):
         return ks, (f"the spin departs by {100 * spin[ks]:.3g} % (in Ω²){plane} from the model's "
                     f"{spin_hz:.5g} Hz (limit {100 * spin_limit:.3g} %: {basis})")  # fmt: skip
-    if kt is not None:
-        return kt, (f"the angular velocity is tilted by {math.degrees(math.asin(min(tilt[kt], 1.0))):.3g}"
-                    f" deg from the model's axis (limit sin β ≤ {100 * CENTRIFUGAL_LIMIT:g} %)")  # fmt: skip
-    return None
+    if kt is None:
+        return None
+    beta = math.degrees(math.asin(min(spin_and_tilt(w[kt], w_ref)[1][0], 1.0)))
+    if turns:
+        return kt, (f"the angular velocity is tilted by {beta:.3g} deg from the model's axis: the "
+                    f"quasi-static (second-order) part of its centrifugal load departs by "
+                    f"{100 * tilt[kt]:.3g} % (|ω_t|²/Ω², limit {100 * CENTRIFUGAL_LIMIT:g} %)")  # fmt: skip
+    return kt, (f"the angular velocity is tilted by {beta:.3g} deg from the model's axis (limit "
+                f"sin β ≤ {100 * CENTRIFUGAL_LIMIT:g} %: the tilt does not turn in the body)")  # fmt: skip
 
 
 def path_validity(setup, solution, diag, spin_limit: float | None = None,
@@ -293,7 +251,7 @@ def path_validity(setup, solution, diag, spin_limit: float | None = None,
     dmax = math.nan
     if spin_ref > 0.0:
         checked.insert(0, "centrifugal load")
-        fail = _centrifugal_failure(t, w, w_ref, spin_limit, basis, is_planar(system))
+        fail = _centrifugal_failure(t, w, system, spin_limit, basis)
         fails += [fail] if fail is not None else []
         dmax = float(load_departure(system, w).max()) if len(w) else 0.0
     idx, kmin = _stiffness(system, w)
@@ -309,12 +267,14 @@ def path_validity(setup, solution, diag, spin_limit: float | None = None,
                         float(kmin.min()) if len(kmin) else math.inf,
                         float(amp[peak]) if len(amp) else 0.0, float(t[peak]) if len(t) else 0.0,
                         None, checked=tuple(checked), unchecked=unchecked)  # fmt: skip
-    return _with_failures(path, fails, t, diag)
+    return with_failures(path, fails, t, diag)
 
 
-def _with_failures(path: PathValidity, fails: list, t, diag) -> PathValidity:
-    """``path`` with the failures (sample index, reason) of ``fails`` added to its
-    ``failures``; it leaves the range at the earliest of them all."""
+def with_failures(path: PathValidity, fails: list, t, diag) -> PathValidity:
+    """``path`` with the failures ``fails`` (a list of (sample index, reason)) on the samples of
+    times ``t`` (k,) s added to its ``failures``; it leaves the range at the earliest of them all
+    (its time, and the spin and cone angle of ``diag`` there). Used by every check of a path and
+    by a spin family's (:mod:`quadmodes.runs.family_validity`)."""
     if not fails:
         return path
     listed = sorted({*path.failures, *((float(t[k]), reason) for k, reason in fails)})
@@ -331,10 +291,14 @@ def _with_failures(path: PathValidity, fails: list, t, diag) -> PathValidity:
 AMPLITUDE_BISECTIONS = 4
 
 
-def _amplitude_error(setup, y: np.ndarray, structure) -> tuple[float, tuple | None]:
-    """(relative error of the reduced potential against the FE model's condensed energy at the
-    modal coordinates of state ``y`` (inf: the condensation failed), slack onset along it
-    (:func:`~quadmodes.runs.deformation_check.initial_slack_onset`, None: none))."""
+def amplitude_error(setup, y: np.ndarray, structure) -> tuple[float, tuple | None]:
+    """The modal-amplitude check at one state: (relative error |V − W_c| / W_c of the reduced
+    potential against the FE model's statically condensed energy at the modal coordinates of the
+    state ``y`` (7+2N,) of the prepared run ``setup`` (inf: the condensation failed; both
+    without the reference load's work, :func:`~quadmodes.runs.deformation_check.
+    initial_deformation_energies`), the slack onset along it (:func:`~quadmodes.runs.
+    deformation_check.initial_slack_onset`, None: none)). ``structure``: the FE structure
+    (:func:`~quadmodes.runs.deformation_check.deformation_structure`). One static FE solve."""
     from quadmodes.runs import deformation_check as dc
 
     at = dataclasses.replace(setup, initial=dataclasses.replace(setup.initial, y0=y))
@@ -348,8 +312,8 @@ def _amplitude_error(setup, y: np.ndarray, structure) -> tuple[float, tuple | No
     return (0.0 if reduced == 0 else math.inf), slack
 
 
-def with_amplitude_check(path: PathValidity, setup, solution, diag,
-                         structure=None) -> PathValidity:  # fmt: skip
+def with_amplitude_check(path: PathValidity, setup, solution, diag, structure=None,
+                         peak_error: tuple | None = None) -> PathValidity:  # fmt: skip
     """``path`` with its modal amplitudes checked against the FE model
     (:mod:`quadmodes.runs.deformation_check` at the state of a sample: the reduced potential
     within :data:`~quadmodes.runs.validity.DEFORMATION_ENERGY_TOLERANCE` of the condensed
@@ -357,7 +321,9 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag,
     judged, as for the initial deformation: the FE model is an SVK membrane too). First at the
     largest amplitude ‖s‖ of the path; if it fails, the amplitude where the range ends is
     bisected (:data:`AMPLITUDE_BISECTIONS` more solves, each at the first sample reaching the
-    amplitude) and the path leaves at the first sample past the largest amplitude found good."""
+    amplitude) and the path leaves at the first sample past the largest amplitude found good.
+    ``peak_error``: :func:`amplitude_error` at the path's largest ‖s‖ when already known (a spin
+    family's scan of its segments), not solved again."""
     from quadmodes.runs import deformation_check as dc
 
     if "modal amplitudes" not in path.unchecked:
@@ -366,10 +332,10 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag,
     amp = np.linalg.norm(rsys.split_state(setup.system, y)[2], axis=1)
     peak = int(np.argmax(amp))
     structure = structure or dc.deformation_structure(setup)
-    if _round_off(setup, y[peak]):  # no deformation: both energies are 0
+    if is_round_off_state(setup, y[peak]):  # no deformation: both energies are 0
         return dataclasses.replace(path, checked=(*path.checked, "modal amplitudes"),
                                    unchecked=(), amplitude_error=0.0)  # fmt: skip
-    err, slack = _amplitude_error(setup, y[peak], structure)
+    err, slack = peak_error if peak_error is not None else amplitude_error(setup, y[peak], structure)
     checked = dataclasses.replace(
         path, checked=(*path.checked, "modal amplitudes"), unchecked=(),
         amplitude_error=float(err), amplitude_slack_fraction=math.inf if slack is None else float(slack.fraction),
@@ -380,7 +346,7 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag,
     for _ in range(AMPLITUDE_BISECTIONS):
         level = 0.5 * (good + bad)
         j = int(np.argmax(amp >= level))
-        if _amplitude_error(setup, y[j], structure)[0] <= DEFORMATION_ENERGY_TOLERANCE:
+        if amplitude_error(setup, y[j], structure)[0] <= DEFORMATION_ENERGY_TOLERANCE:
             good = max(good, float(amp[j]))
         else:
             bad = min(bad, float(amp[j]))
@@ -392,12 +358,13 @@ def with_amplitude_check(path: PathValidity, setup, solution, diag,
               f"|s| = {good:.3g} kg^0.5 m")  # fmt: skip
     if slack is not None and slack.fraction < 1.0:
         reason += f"; the membrane loses tension at {100 * slack.fraction:.3g} % of it"
-    return _with_failures(checked, [(k, reason)], t, diag)
+    return with_failures(checked, [(k, reason)], t, diag)
 
 
-def _round_off(setup, y: np.ndarray) -> bool:
-    """The manifold displacement at state ``y`` is below the round-off of a deformation
-    (:func:`~quadmodes.runs.taut_path.is_round_off`)."""
+def is_round_off_state(setup, y: np.ndarray) -> bool:
+    """The manifold displacement at the state ``y`` (7+2N,) of the prepared run ``setup`` is
+    below the round-off of a deformation (:func:`~quadmodes.runs.taut_path.is_round_off`): its
+    amplitude check's error is 0 (both energies are 0), no FE solve."""
     from quadmodes.runs.taut_path import is_round_off
 
     return is_round_off(setup.model, rsys.split_state(setup.system, y)[2])
@@ -432,7 +399,7 @@ def with_tension_check(path: PathValidity, setup, solution, diag,
     path = dataclasses.replace(path, slack_at=tension.slack_at)
     t = np.asarray(solution.t, float)
     k = int(np.argmax(t >= tension.slack_at))
-    return _with_failures(path, [(k, tension_reason(tension))], t, diag)
+    return with_failures(path, [(k, tension_reason(tension))], t, diag)
 
 
 def run_path_validity(setup, solution, diag) -> PathValidity:
@@ -458,8 +425,8 @@ def with_measured_range(path: PathValidity, setup, solution, diag) -> PathValidi
     frequencies (within :data:`FREQUENCY_TOLERANCE`) and its energy-sink coning rate (within
     :data:`~quadmodes.runs.spin_check.SINK_TOLERANCE`: what the run's answer is made of) against
     the run's model's there; the limit of the spin part of δ is that departure if both agree,
-    else where the worse reaches its tolerance. The tilt keeps the a-priori bound (a tilted
-    steady spin is no state a model is built about)."""
+    else where the worse reaches its tolerance. The tilt's part keeps the a-priori bound (a
+    tilted steady spin is no state a model is built about)."""
     from quadmodes.runs.spin_check import spin_limit
 
     if not path.reference_spin or not path.centrifugal_max > path.centrifugal_limit:
