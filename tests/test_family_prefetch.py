@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from test_run import run_toml
+from test_spin_family import stop_at_chunk
 
 from quadmodes.case import load_run_case
 from quadmodes.runs import family_prefetch as fp
@@ -182,15 +183,7 @@ def test_a_stopped_run_leaves_no_worker(family, workers, monkeypatch, stop):
 
     run, fresh_cache, tmp = family
     fresh_cache()
-    calls, original = [], sf.SwitchMonitor.after_chunk
-
-    def after_chunk(self, state, integ, h):
-        calls.append(state.steps)
-        if len(calls) == 3:
-            raise stop
-        return original(self, state, integ, h)
-
-    monkeypatch.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+    stop_at_chunk(monkeypatch, 3, stop)
     with pytest.raises(Interrupted if stop is KeyboardInterrupt else stop):
         sim.execute(sim.prepare(run))
     assert workers and all(w.poll() is not None for w in workers)

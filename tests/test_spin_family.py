@@ -39,6 +39,21 @@ def _state(model, scale=1.0, seed=0):
     return sys, rsys.pack_state(sys, omega=w, s=s, sdot=sd, q=[0.9, 0.1, 0.3, np.sqrt(0.09)])
 
 
+
+def stop_at_chunk(monkeypatch, n: int, exc) -> list:
+    """Make the family's switch monitor raise ``exc`` after its ``n``-th chunk (the chunks'
+    step counts are appended to the list returned)."""
+    calls, original = [], sf.SwitchMonitor.after_chunk
+
+    def after_chunk(self, state, integ, h):
+        calls.append(state.steps)
+        if len(calls) == n:
+            raise exc
+        return original(self, state, integ, h)
+
+    monkeypatch.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+    return calls
+
 def test_chart_fit_inverts_the_members_field(members):
     m = members[0]
     _, y = _state(m)
@@ -162,16 +177,7 @@ def test_ctrl_c_gives_the_family_path_so_far(workdir, monkeypatch):  # noqa: F81
     path so far (incomplete), both members' samples in it."""
     from quadmodes.runs.chunked import Interrupted
 
-    calls = []
-    original = sf.SwitchMonitor.after_chunk
-
-    def after_chunk(self, state, integ, h):
-        calls.append(state.steps)
-        if len(calls) == 2:
-            raise KeyboardInterrupt
-        return original(self, state, integ, h)
-
-    monkeypatch.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+    stop_at_chunk(monkeypatch, 2, KeyboardInterrupt)
     run = _family_run(workdir, '\npath_model = "spin-family"\npath_switch = 1e-6', '"0.06 s"')
     with pytest.raises(Interrupted) as stop:
         sim.simulate(run)
@@ -209,16 +215,8 @@ def test_interrupted_family_resumes_to_the_same_path(workdir, monkeypatch, tmp_p
     whole = sim.simulate(run)
     setup = sim.prepare(run)
     path = tmp_path / "checkpoint.npz"
-    calls, original = [], sf.SwitchMonitor.after_chunk
-
-    def after_chunk(self, state, integ, h):
-        calls.append(state.steps)
-        if len(calls) == stop_at:
-            raise KeyboardInterrupt
-        return original(self, state, integ, h)
-
     with monkeypatch.context() as m:
-        m.setattr(sf.SwitchMonitor, "after_chunk", after_chunk)
+        stop_at_chunk(m, stop_at, KeyboardInterrupt)
         with pytest.raises(Interrupted) as stop:
             sim.execute(setup, checkpoint=RunCheckpoint(path, setup, 0.0))
     assert stop.value.saved and len(stop.value.partial.family) >= 1
