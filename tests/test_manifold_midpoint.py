@@ -48,6 +48,24 @@ def test_arrays_are_the_prototypes(capsule, small_modal_model):
     assert np.array_equal(mk.damping_matrix(arrays, s), model.C)
 
 
+def test_retained_damping_is_c_at_rest_and_dissipative(capsule, small_modal_model):
+    """With the model's own modes as damping modes, C(0) is the model's C (ΦᵀMΦ = I) and C(s)
+    is symmetric positive semi-definite; the step's dissipated energy closes E + E_d as with the
+    constant C (to its O(Δt²) energy error, small against E_d)."""
+    model, _, sys4 = capsule
+    mass = small_modal_model.structure.mass_scalar
+    arrays = mk.manifold_arrays(model, mass, mk.retained_damping(model))
+    c0 = mk.damping_matrix(arrays, np.zeros(model.n_modes))
+    assert np.allclose(c0, model.C, rtol=0, atol=1e-9 * np.max(np.abs(model.C)))
+    y0 = _state(model, 3e-3)
+    cs = mk.damping_matrix(arrays, y0[7 : 7 + model.n_modes])
+    assert np.allclose(cs, cs.T) and np.min(np.linalg.eigvalsh(cs)) > -1e-12 * np.max(np.abs(cs))
+    assert np.max(np.abs(cs - c0)) > 1e-3 * np.max(np.abs(c0))  # it does depend on s
+    _, y, ed = mm.run_manifold(sys4, arrays, y0, 5e-5, 200)
+    e = np.array([mm.energy(sys4, arrays, row) for row in y]) + ed
+    assert ed[-1] > 0 and np.max(np.abs(e - e[0])) < 1e-2 * ed[-1]
+
+
 def test_midpoint_agrees_with_the_prototype_to_second_order(capsule, small_modal_model):
     """Errors of the final (ω, ṡ) against DOP853 (rtol 1e-12) fall by 4 when Δt halves."""
     model, arrays, sys4 = capsule

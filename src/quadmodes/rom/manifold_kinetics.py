@@ -61,6 +61,21 @@ class ManifoldArrays:
         return self.tr.shape[0]
 
 
+@dataclass(frozen=True, eq=False)
+class ModalDamping:
+    """Damping modes: shapes (D, n, 3) 1/√kg mass-normalised, C (D, D) 1/s (the fields of
+    :class:`~quadmodes.fullorder.damping.DampingModes` that C(s) uses)."""
+
+    shapes: np.ndarray
+    C: np.ndarray
+
+
+def retained_damping(model) -> ModalDamping:
+    """The reduced model's own damping (its retained modes Φ and projected C) as damping modes:
+    C(0) = ΦᵀMΦ C ΦᵀMΦ = C, and C(s) adds the quadratic modes' velocity, 2 Σ s_n g^{kn} ṡ_k."""
+    return ModalDamping(np.asarray(model.Phi, float), np.asarray(model.C, float))
+
+
 def manifold_arrays(model, mass_scalar, damping_modes=None) -> ManifoldArrays:
     """The :class:`ManifoldArrays` of a reduced ``model`` (fields X (n,3), Phi (N,n,3), G
     (N,N,n,3)) with the structure's scalar mass matrix ``mass_scalar`` (n, n) kg (sparse or
