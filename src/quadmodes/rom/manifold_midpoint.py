@@ -37,7 +37,7 @@ class ManifoldMidpointStep(MidpointStep):
     def __init__(self, sys: ReducedSystem, dt: float, arrays: mk.ManifoldArrays):
         if not sys.quartic:
             raise ValueError("formulation QM needs the Q4 system of the model (its V3, V4)")
-        super().__init__(sys, dt, dense=True)
+        super().__init__(sys, dt)
         self.arrays = arrays
 
     def momenta(self, x, s):
