@@ -118,3 +118,30 @@ def test_small_amplitude_is_q4(capsule):
         rel.append(np.max(np.abs(s - sq)) / np.max(np.abs(sq)))
     assert 1.7 < rel[0] / rel[1] < 2.4, rel  # measured 0.078, 0.038
     assert rel[1] < 0.06
+
+
+def test_integrate_and_diagnostics_take_a_qm_system(capsule):
+    """``integrate`` of a QM system (``manifold_system``) runs the QM step (the same samples as
+    ``run_manifold``); the diagnostics' |H| and energy are QM's (|H| to round-off, E + E_d to
+    the O(Δt²) energy error); the explicit equations and the compiled backend are refused."""
+    from quadmodes.rom import dynamics as dyn
+    from quadmodes.rom.diagnostics import diagnostics
+    from quadmodes.rom.integrators import integrate
+
+    model, arrays, sys4 = capsule
+    sys_qm = mk.manifold_system(model, arrays)
+    y0 = _state(model, 2e-3)
+    sol = integrate(sys_qm, y0, (0.0, WINDOW), dt=5e-5, save_every=10, newton_tol=1e-12,
+                    max_newton=20, backend="numpy")  # fmt: skip
+    _, y, ed = mm.run_manifold(sys4, arrays, y0, 5e-5, 200, save_every=10)
+    assert sol.method == "midpoint-QM" and np.array_equal(sol.y, y) and np.allclose(sol.dissipated, ed)
+    d = diagnostics(sys_qm, sol)
+    h = np.linalg.norm(dyn.momentum_inertial(sys_qm, sol.y), axis=1)
+    assert np.max(np.abs(h - h[0])) <= 1e-13 * h[0]
+    e = dyn.energy(sys_qm, sol.y) + sol.dissipated
+    assert np.max(np.abs(e - e[0])) < 1e-2 * sol.dissipated[-1]
+    assert np.all(np.isfinite(d.cone_angle))
+    with pytest.raises(ValueError, match="QM"):
+        dyn.generalised_system(sys_qm, y0[7:12], y0[4:7], y0[12:])
+    with pytest.raises(ValueError, match="QM"):
+        integrate(sys_qm, y0, (0.0, WINDOW), dt=5e-5, backend="numba")

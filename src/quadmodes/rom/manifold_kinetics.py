@@ -150,3 +150,30 @@ def damping_matrix(ma: ManifoldArrays, s: np.ndarray) -> np.ndarray:
         return ma.C0
     b = ma.B0 + np.tensordot(s, ma.B1, 1)
     return b.T @ ma.Cd @ b
+
+
+def manifold_system(model, arrays: ManifoldArrays):
+    """The :class:`~quadmodes.rom.system.ReducedSystem` of formulation "QM": the model's Q4
+    system (its potential; its Q kinetics serve the Newton matrix) carrying ``arrays``."""
+    import dataclasses
+
+    from quadmodes.rom.system import reduced_system
+
+    return dataclasses.replace(reduced_system(model, "Q4"), formulation="QM", manifold=arrays)
+
+
+def state_momenta(ma: ManifoldArrays, y: np.ndarray) -> np.ndarray:
+    """𝕄(s)ν (..., 3+N) = (h, p) of states ``y = [q, ω, s, ṡ]`` (..., 7+2N)."""
+    n = ma.n_modes
+    rows = np.asarray(y, float).reshape(-1, y.shape[-1])
+    nu = rows[:, np.r_[4:7, 7 + n : 7 + 2 * n]]
+    out = np.array([mass_matrix(ma, r[7 : 7 + n]) @ v for r, v in zip(rows, nu, strict=True)])
+    return out.reshape(*y.shape[:-1], 3 + n)
+
+
+def state_dissipation(ma: ManifoldArrays, y: np.ndarray) -> np.ndarray:
+    """ṡᵀC(s)ṡ (...) W of states ``y`` (..., 7+2N)."""
+    n = ma.n_modes
+    rows = np.asarray(y, float).reshape(-1, y.shape[-1])
+    out = np.array([r[7 + n :] @ damping_matrix(ma, r[7 : 7 + n]) @ r[7 + n :] for r in rows])
+    return out.reshape(y.shape[:-1])

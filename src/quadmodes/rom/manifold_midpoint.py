@@ -28,17 +28,19 @@ from quadmodes.rotations import rotate
 
 
 class ManifoldMidpointStep(MidpointStep):
-    """The midpoint step of "QM" (module docstring) for ``sys`` (the model's Q4
+    """The midpoint step of "QM" (module docstring) for ``sys`` (the model's Q4 or QM
     :class:`ReducedSystem`: potential, Newton weights, the Newton matrix's Q kinetics) and
-    ``arrays`` (:class:`~quadmodes.rom.manifold_kinetics.ManifoldArrays`), step ``dt`` (s)."""
+    ``arrays`` (:class:`~quadmodes.rom.manifold_kinetics.ManifoldArrays`; default the QM
+    system's ``manifold``), step ``dt`` (s). Made by
+    :func:`quadmodes.rom.integrators.integrate` for a QM system and method "midpoint"."""
 
     name = "midpoint-QM"
 
-    def __init__(self, sys: ReducedSystem, dt: float, arrays: mk.ManifoldArrays):
+    def __init__(self, sys: ReducedSystem, dt: float, arrays: mk.ManifoldArrays | None = None):
         if not sys.quartic:
             raise ValueError("formulation QM needs the Q4 system of the model (its V3, V4)")
         super().__init__(sys, dt)
-        self.arrays = arrays
+        self.arrays = sys.manifold if arrays is None else arrays
 
     def momenta(self, x, s):
         """𝕄(s) ν (3+N,): (h, p) at ν = x."""
