@@ -24,7 +24,8 @@ the full order's series), each from the same state:
 * ``exact``: the consistent fourth-order Lagrangian (``quadmodes.experimental.manifold_lagrangian``)
   from the same states (≈ 30 s a window);
 * ``midpoint``: the same Lagrangian as formulation QM (``quadmodes.rom.manifold_midpoint``) by the
-  numpy implicit midpoint at ``--dt``, beside Q4 and Q by the same numpy midpoint (cost per step).
+  numpy implicit midpoint at ``--dt`` (``--damping independent|retained``: the damping modes on
+  the manifold velocity), beside Q4 and Q by the same numpy midpoint (cost per step).
 
 ``DIR``: the folder ``bench_path_family`` ran in. One JSON line a row.
 """
@@ -261,11 +262,13 @@ def _series(name, model, t, states, e_d, wall) -> cmp.Series:
                       E=np.zeros_like(t), E_d=e_d, wall_s=wall)  # fmt: skip
 
 
-def midpoint(run, folder: Path, points, dt: float) -> None:
+def midpoint(run, folder: Path, points, dt: float, damping: str = "independent") -> None:
     """Formulation QM (:mod:`quadmodes.rom.manifold_midpoint`, the full order's damping on the
     manifold velocity) by the numpy implicit midpoint at a fixed ``dt`` from each saved state,
     scored as the candidates are; beside it Q4 and Q by the same numpy midpoint and ``dt`` (the
-    cost per step side by side, same process); |H| and E + E_d of QM from its own arrays."""
+    cost per step side by side, same process); |H| and E + E_d of QM from its own arrays.
+    ``damping``: the full order's damping modes on the manifold velocity ("independent", the
+    saved series' basis) or the member's own ("retained": the model's Φ and C)."""
     import time
 
     from quadmodes.rom import manifold_kinetics as mk
@@ -279,14 +282,15 @@ def midpoint(run, folder: Path, points, dt: float) -> None:
         run_w, setup = member_window(run, member)
         model, n = setup.model, run_w.reduced.modes
         y0 = np.asarray(member["y0"], float)
-        arrays = mk.manifold_arrays(model, setup.structure.mass_scalar, setup.damping)
+        modes = setup.damping if damping == "independent" else mk.retained_damping(model)
+        arrays = mk.manifold_arrays(model, setup.structure.mass_scalar, modes)
         sys4 = rsys.reduced_system(model, "Q4")
         start = time.perf_counter()
         t, ys, ed = mm.run_manifold(sys4, arrays, y0, dt, steps, save_every=every)
         wall = time.perf_counter() - start
         h = np.array([np.linalg.norm(mm.angular_momentum(arrays, y)) for y in ys])
         e = np.array([mm.energy(sys4, arrays, y) for y in ys]) + ed
-        print(json.dumps({"point_deg": deg, "candidate": "QM midpoint", "dt": dt, "modes": n,
+        print(json.dumps({"point_deg": deg, "candidate": f"QM midpoint, {damping} C(s)", "dt": dt, "modes": n,
                           "wall_s": wall, "ms_per_step": 1e3 * wall / steps,
                           "H_drift": float(np.max(np.abs(h - h[0])) / h[0]),
                           "energy_balance": float(np.max(np.abs(e - e[0])) / abs(e[0])),
@@ -312,6 +316,7 @@ def main() -> None:
     ap.add_argument("--candidates", default="Q,Qfine,B,Bc,Q4,Q4c")
     ap.add_argument("--retained", action="store_true")
     ap.add_argument("--dt", type=float, default=0.125e-3)
+    ap.add_argument("--damping", choices=("independent", "retained"), default="independent")
     args = ap.parse_args()
     run, _ = resolve_modes(load_run_case(args.case))
     points = [float(v) for v in args.points.split(",")]
@@ -322,7 +327,7 @@ def main() -> None:
     elif args.what == "exact":
         exact(run, args.folder, points)
     elif args.what == "midpoint":
-        midpoint(run, args.folder, points, args.dt)
+        midpoint(run, args.folder, points, args.dt, args.damping)
     else:
         modes(run, args.folder, points, args.retained)
 
