@@ -145,3 +145,9 @@ def test_integrate_and_diagnostics_take_a_qm_system(capsule):
         dyn.generalised_system(sys_qm, y0[7:12], y0[4:7], y0[12:])
     with pytest.raises(ValueError, match="QM"):
         integrate(sys_qm, y0, (0.0, WINDOW), dt=5e-5, backend="numba")
+
+
+def test_reduced_system_refuses_qm_with_a_pointer(capsule):
+    model = capsule[0]
+    with pytest.raises(ValueError, match="manifold_system"):
+        rsys.reduced_system(model, "QM")

@@ -258,6 +258,12 @@ def _mass_tensor(sys: ReducedSystem, j2_rot, d_rot, d_mod) -> np.ndarray:
 
 
 def _check_formulation(model: ReducedModel, formulation: str) -> None:
+    if formulation == "QM":
+        raise ValueError(
+            'formulation "QM" needs the structure\'s mass matrix: it is built by '
+            "quadmodes.runs.manifold_system.run_system (a run) or "
+            "quadmodes.rom.manifold_kinetics.manifold_system; this use does not support it yet"
+        )
     if formulation not in FORMULATIONS:
         raise ValueError(f"unknown formulation {formulation!r}; choose one of {FORMULATIONS}")
     if formulation == "Q4" and not getattr(model, "manifold_potential", False):
