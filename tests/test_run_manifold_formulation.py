@@ -5,6 +5,7 @@ energy balance are QM's (conserved to round-off and to the midpoint's energy err
 import tomllib
 
 import numpy as np
+from test_run import run_toml, workdir  # noqa: F401  (fixture)
 
 from quadmodes.case import load_run_case, run_case_from_dict
 from quadmodes.rom import manifold_kinetics as mk
@@ -40,3 +41,23 @@ def test_qm_run_conserves_h_and_energy():
     assert np.max(np.abs(e - e[0])) <= 1e-8 * abs(e[0])
     q = simulate.execute(simulate.prepare(short_run("Q")))  # the same case by Q differs more
     assert np.max(np.abs(q.solution.y[-1] - direct.y[-1]) / scale) > 1e-6
+
+
+def test_qm_family_conserves_h_and_energy_through_switches(workdir):  # noqa: F811
+    """The spin family of test_spin_family with formulation QM (a switch at every chunk): the
+    members' QM systems from the one structure, the switches' map with QM's momenta: |H| and
+    E + E_d as constant as Q's family keeps them."""
+    text = run_toml(spin='"300 rad/s"', cone='"10 deg"', amplitude='"0 in"', duration='"0.04 s"',
+                    dt='"0.2 ms"', save_every="50")  # fmt: skip
+    text = text.replace('formulation = "Q"', 'formulation = "QM"\nreference = "spinning"\n'
+                        'path_model = "spin-family"\npath_switch = 1e-6')  # fmt: skip
+    (workdir / "fam.toml").write_text(text, encoding="utf-8")
+    result = simulate.simulate(load_run_case(workdir / "fam.toml"))
+    assert result.complete and len(result.family) >= 1
+    assert result.system.formulation == "QM"
+    d = result.diagnostics
+    assert np.max(np.abs(d.H_norm - d.H_norm[0])) <= 1e-10 * d.H_norm[0]
+    eb = d.E + d.E_d
+    assert np.max(np.abs(eb - eb[0])) <= 1e-6 * abs(eb[0])
+    for sw in result.family:
+        assert sw.h_change <= 1e-12

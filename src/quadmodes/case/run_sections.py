@@ -131,10 +131,10 @@ class RunReduced(Section):
     @model_validator(mode="after")
     def check_path_model(self) -> Self:
         if self.path_model == "spin-family" and (self.reference != "spinning"
-                                                 or self.formulation not in ("Q", "P", "L")):  # fmt: skip
+                                                 or self.formulation not in ("Q", "P", "L", "QM")):  # fmt: skip
             raise field_error(
                 "case_rule",
-                'needs reference = "spinning" and formulation Q, P or L (the members are '
+                'needs reference = "spinning" and formulation Q, P, L or QM (the members are '
                 'expanded about spinning states); set them, or path_model = "fixed"',
                 "path_model",
             )

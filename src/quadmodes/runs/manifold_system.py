@@ -25,14 +25,11 @@ def qm_system(model, model_case) -> rsys.ReducedSystem:
     """Formulation "QM" of ``model``; a :class:`CaseError` (field ``reduced.formulation``) for a
     model without the manifold potential or whose modes are not mass-normalised by the case's
     structure (a model of another mesh)."""
-    from quadmodes.structure import pipeline
-
     if not getattr(model, "manifold_potential", False):
         raise CaseError('formulation "QM" needs the manifold potential (V3, V4) of the reduced '
                         "model, which this model does not have (a gas-law pressure, or an old "
                         "model file); use Q", field="reduced.formulation")  # fmt: skip
-    structure = pipeline.structure_for_case(model_case)
-    arrays = mk.manifold_arrays(model, structure.mass_scalar, mk.retained_damping(model))
+    arrays = mk.manifold_arrays(model, _mass(model_case), mk.retained_damping(model))
     n = model.n_modes
     gram = arrays.tr[1 : 1 + n, 1 : 1 + n]  # ΦᵀMΦ: the identity for the model's own mesh
     if np.max(np.abs(gram - np.eye(n))) > 1e-6:
@@ -40,3 +37,18 @@ def qm_system(model, model_case) -> rsys.ReducedSystem:
                         "case's structure (another mesh?); rebuild the model",
                         field="reduced.formulation")  # fmt: skip
     return mk.manifold_system(model, arrays)
+
+
+_MASS: dict[str, object] = {}  # the last model case's scalar mass matrix (a family's members share it)
+
+
+def _mass(model_case):
+    """The scalar mass matrix (n, n) kg of ``model_case``'s structure, assembled once per case
+    (the members of a spin family are models of one structure: the same mass)."""
+    from quadmodes.structure import pipeline
+
+    key = model_case.to_toml()
+    if key not in _MASS:
+        _MASS.clear()
+        _MASS[key] = pipeline.structure_for_case(model_case).mass_scalar
+    return _MASS[key]
