@@ -61,3 +61,18 @@ def test_qm_family_conserves_h_and_energy_through_switches(workdir):  # noqa: F8
     assert np.max(np.abs(eb - eb[0])) <= 1e-6 * abs(eb[0])
     for sw in result.family:
         assert sw.h_change <= 1e-12
+
+
+def test_linearised_analyses_use_q4_and_hub_runs_refuse_qm():
+    """QM's kinetic energy to second order is Q's and its potential Q4's: the spin check's
+    linearised analyses use Q4; a spin-up (a beam on a hub) refuses QM with one line."""
+    import pytest
+
+    from quadmodes.case import CaseError
+    from quadmodes.runs.manifold_system import linear_formulation
+
+    assert linear_formulation("QM") == "Q4" and linear_formulation("Q") == "Q"
+    data = tomllib.loads(load_run_case("kane-spinup").to_toml())
+    data["reduced"]["formulation"] = "QM"
+    with pytest.raises(CaseError, match="QM"):
+        simulate.simulate_spinup(run_case_from_dict(data, source="test"))

@@ -21,6 +21,13 @@ def run_system(run, model, model_case) -> rsys.ReducedSystem:
     return qm_system(model, model_case)
 
 
+def linear_formulation(formulation: str) -> str:
+    """The formulation whose arrays an analysis of the linearised motion about a spin uses
+    (rotating-frame frequencies, the energy-sink rate): "Q4" for "QM" (its kinetic energy to
+    second order is Q's, its potential Q4's), else ``formulation``."""
+    return "Q4" if formulation == "QM" else formulation
+
+
 def qm_system(model, model_case) -> rsys.ReducedSystem:
     """Formulation "QM" of ``model``; a :class:`CaseError` (field ``reduced.formulation``) for a
     model without the manifold potential or whose modes are not mass-normalised by the case's

@@ -426,9 +426,9 @@ def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedMod
             '(kind = "beam", support = "clamped"), e.g. "kane-beam"',
             field="model",
         )
-    if run.reduced.formulation == "rigid":
+    if run.reduced.formulation in ("rigid", "QM"):
         raise CaseError(
-            'reduced.formulation = "rigid": a spin-up needs the elastic modes (Q, P or L)',
+            f'reduced.formulation = "{run.reduced.formulation}": a spin-up takes Q, P, L or Q4',
             field="reduced.formulation",
         )
     structure = pipeline.structure_for_case(case)
