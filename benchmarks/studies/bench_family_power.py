@@ -22,7 +22,10 @@ the full order's series), each from the same state:
     OPENBLAS_NUM_THREADS=1 python -m benchmarks.studies.bench_family_power modes DIR --points 10,60 --retained
 
 * ``exact``: the consistent fourth-order Lagrangian (``quadmodes.experimental.manifold_lagrangian``)
-  from the same states (≈ 30 s a window).
+  from the same states (≈ 30 s a window);
+* ``midpoint``: the same Lagrangian as formulation QM (``quadmodes.rom.manifold_midpoint``) by the
+  numpy implicit midpoint at ``--dt`` (``--damping independent|retained``: the damping modes on
+  the manifold velocity), beside Q4 and Q by the same numpy midpoint (cost per step).
 
 ``DIR``: the folder ``bench_path_family`` ran in. One JSON line a row.
 """
@@ -245,14 +248,75 @@ def exact(run, folder: Path, points) -> None:
                           **scored(red, full, model, run_w.reduced.modes)}), flush=True)  # fmt: skip
 
 
+def _series(name, model, t, states, e_d, wall) -> cmp.Series:
+    """A scored :class:`~quadmodes.analysis.compare.Series` of reduced states [q, ω, s, ṡ]: cone
+    angle and spin from Q's diagnostics, |H| from Q's momenta (diagnostic only)."""
+    from quadmodes.rom import diagnostics as rdiag
+    from quadmodes.rom.solution import Solution
+
+    d = rdiag.diagnostics(rsys.reduced_system(model, "Q"),
+                          Solution(t=t, y=states, method="midpoint", stats={}, status=0,
+                                   message="", dissipated=e_d))  # fmt: skip
+    return cmp.Series(name=name, t=t, amplitude=np.linalg.norm(states[:, 7 : 7 + model.n_modes], axis=1),
+                      cone_angle=d.cone_angle, spin_rate=d.spin_rate, H_norm=np.ones_like(t),
+                      E=np.zeros_like(t), E_d=e_d, wall_s=wall)  # fmt: skip
+
+
+def midpoint(run, folder: Path, points, dt: float, damping: str = "independent") -> None:
+    """Formulation QM (:mod:`quadmodes.rom.manifold_midpoint`, the full order's damping on the
+    manifold velocity) by the numpy implicit midpoint at a fixed ``dt`` from each saved state,
+    scored as the candidates are; beside it Q4 and Q by the same numpy midpoint and ``dt`` (the
+    cost per step side by side, same process); |H| and E + E_d of QM from its own arrays.
+    ``damping``: the full order's damping modes on the manifold velocity ("independent", the
+    saved series' basis) or the member's own ("retained": the model's Φ and C)."""
+    import time
+
+    from quadmodes.rom import manifold_kinetics as mk
+    from quadmodes.rom import manifold_midpoint as mm
+    from quadmodes.rom.fixed_step import run_fixed
+    from quadmodes.rom.midpoint import MidpointStep
+
+    steps, every = int(round(WINDOW / dt)), max(1, int(round(0.25e-3 / dt)))
+    for deg in points:
+        member, full = saved(folder, deg, "member"), series("full", saved(folder, deg, "full"))
+        run_w, setup = member_window(run, member)
+        model, n = setup.model, run_w.reduced.modes
+        y0 = np.asarray(member["y0"], float)
+        modes = setup.damping if damping == "independent" else mk.retained_damping(model)
+        arrays = mk.manifold_arrays(model, setup.structure.mass_scalar, modes)
+        sys4 = rsys.reduced_system(model, "Q4")
+        start = time.perf_counter()
+        t, ys, ed = mm.run_manifold(sys4, arrays, y0, dt, steps, save_every=every)
+        wall = time.perf_counter() - start
+        h = np.array([np.linalg.norm(mm.angular_momentum(arrays, y)) for y in ys])
+        e = np.array([mm.energy(sys4, arrays, y) for y in ys]) + ed
+        print(json.dumps({"point_deg": deg, "candidate": f"QM midpoint, {damping} C(s)", "dt": dt, "modes": n,
+                          "wall_s": wall, "ms_per_step": 1e3 * wall / steps,
+                          "H_drift": float(np.max(np.abs(h - h[0])) / h[0]),
+                          "energy_balance": float(np.max(np.abs(e - e[0])) / abs(e[0])),
+                          **scored(_series("QM", model, t, ys, ed, wall), full, model, n)}), flush=True)  # fmt: skip
+        for name in ("Q4", "Q"):
+            sys_f = rsys.reduced_system(model, name)
+            start = time.perf_counter()
+            out = run_fixed(MidpointStep(sys_f, dt), sys_f, y0, steps, dt, np.arange(0, steps + 1, every),
+                            1e-12, 20, 0.0, name)  # fmt: skip
+            wall = time.perf_counter() - start
+            row = scored(_series(name, model, np.arange(len(out[0])) * every * dt, out[0], out[1], wall),
+                         full, model, n)  # fmt: skip
+            print(json.dumps({"point_deg": deg, "candidate": f"{name} numpy midpoint (C0)", "dt": dt,
+                              "wall_s": wall, "ms_per_step": 1e3 * wall / steps, **row}), flush=True)  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("candidates", "damping", "modes", "exact"))
+    ap.add_argument("what", choices=("candidates", "damping", "modes", "exact", "midpoint"))
     ap.add_argument("folder", type=Path)
     ap.add_argument("--case", default=CASE)
     ap.add_argument("--points", default="10,45,60")
     ap.add_argument("--candidates", default="Q,Qfine,B,Bc,Q4,Q4c")
     ap.add_argument("--retained", action="store_true")
+    ap.add_argument("--dt", type=float, default=0.125e-3)
+    ap.add_argument("--damping", choices=("independent", "retained"), default="independent")
     args = ap.parse_args()
     run, _ = resolve_modes(load_run_case(args.case))
     points = [float(v) for v in args.points.split(",")]
@@ -262,6 +326,8 @@ def main() -> None:
         damping(run, args.folder, points)
     elif args.what == "exact":
         exact(run, args.folder, points)
+    elif args.what == "midpoint":
+        midpoint(run, args.folder, points, args.dt, args.damping)
     else:
         modes(run, args.folder, points, args.retained)
 

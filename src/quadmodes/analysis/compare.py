@@ -56,8 +56,9 @@ from quadmodes.signals import peak_envelope
 
 #: Formulations compared by default, in table order.
 FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")
-#: Formulations that may be requested (Q4: Q with the quartic manifold potential).
-AVAILABLE = FORMULATIONS
+#: Formulations that may be requested (Q4: Q with the quartic manifold potential; QM: the
+#: manifold's exact kinetic energy, numpy only, so not run by default).
+AVAILABLE = (*FORMULATIONS, "QM")
 
 Progress = Callable[[str, float], None]
 

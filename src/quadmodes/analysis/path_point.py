@@ -254,7 +254,7 @@ def path_point(run: RunCase, at: str, *, model=None, results: Path | None = None
     :class:`~quadmodes.case.CaseError` (field ``--at``) for an event the path does not reach.
     A spin-family run's samples are in several members' charts: its point is
     :func:`quadmodes.analysis.family_point.family_path_point`'s (refused here)."""
-    from quadmodes.rom import system as rsys
+    from quadmodes.runs.manifold_system import run_system
 
     if run.reduced.path_model == "spin-family":
         raise CaseError('--at: a reduced.path_model = "spin-family" path is read by '
@@ -267,7 +267,7 @@ def path_point(run: RunCase, at: str, *, model=None, results: Path | None = None
             from quadmodes.runs import simulate
 
             model = simulate.prepare(run).model
-        system = rsys.reduced_system(model, run.reduced.formulation)
+        system = run_system(run, model, run.model_case())
         return results_point(results, run, system, model, at)
     except ValueError as exc:
         text = str(exc)

@@ -195,7 +195,8 @@ FIELD_DOCS: dict[str, dict[str, str]] = {
         "modes": "number N of elastic modes u^m kept (the lowest), or \"auto\": every mode up "
         "to mode_margin × the spin frequency, pairs whole, at least the first bending pair",
         "formulation": "Q: quadratic modes (the seed's method); P: the seed's printed equations; "
-        "L: linear modes; rigid: no elastic modes; Q4: Q with the quartic manifold potential",
+        "L: linear modes; rigid: no elastic modes; Q4: Q with the quartic manifold potential; "
+        "QM: the quadratic manifold's exact kinetic energy with Q4's potential",
         "mode_margin": "with modes = \"auto\": keep modes up to this multiple of the spin "
         "frequency (default 2.5 about rest, 3.2 about the spinning state)",
         "reference": "the state the reduced model is expanded about: rest (the inflated state, "

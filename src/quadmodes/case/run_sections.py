@@ -81,7 +81,8 @@ class RunReduced(Section):
     """Reduced model of a run: the lowest ``modes`` elastic modes of the model and the
     formulation of the equations ("Q" quadratic modes, "P" the seed's printed equations, "L"
     linear modes, "rigid" no elastic modes, "Q4" quadratic modes with the quartic manifold
-    potential).
+    potential, "QM" the exact kinetic energy of the quadratic manifold with Q4's potential and
+    the damping on the manifold velocity: docs/manifold-formulation.md; numpy midpoint only).
 
     ``modes = "auto"`` keeps every elastic mode whose (non-spinning) frequency is at most
     ``mode_margin`` × the initial spin frequency (default :data:`DEFAULT_MODE_MARGIN` = 2.5; about
@@ -109,7 +110,7 @@ class RunReduced(Section):
 
     modes: Annotated[int | Literal["auto"], BeforeValidator(_modes),
                      FieldMeta("5", allowed='whole number ≥ 1, or "auto"')] = 5  # fmt: skip
-    formulation: choice("Q", "P", "L", "rigid", "Q4") = "Q"
+    formulation: choice("Q", "P", "L", "rigid", "Q4", "QM") = "Q"
     mode_margin: quantity("dimensionless", "2.5", _margin, optional=True) = None
     reference: choice("rest", "spinning") = "rest"
     path_model: choice("fixed", "spin-family") = "fixed"
@@ -130,10 +131,10 @@ class RunReduced(Section):
     @model_validator(mode="after")
     def check_path_model(self) -> Self:
         if self.path_model == "spin-family" and (self.reference != "spinning"
-                                                 or self.formulation not in ("Q", "P", "L")):  # fmt: skip
+                                                 or self.formulation not in ("Q", "P", "L", "QM")):  # fmt: skip
             raise field_error(
                 "case_rule",
-                'needs reference = "spinning" and formulation Q, P or L (the members are '
+                'needs reference = "spinning" and formulation Q, P, L or QM (the members are '
                 'expanded about spinning states); set them, or path_model = "fixed"',
                 "path_model",
             )

@@ -424,4 +424,4 @@ RunAxis = axis_option("body-frame spin axis (sets initial.spin_axis): x, y, z, m
 RunMethod = Annotated[str | None, typer.Option(
     help="midpoint | backward-euler | adaptive", autocompletion=completion.choices(*completion.METHODS))]
 RunFormulation = Annotated[str | None, typer.Option(
-    help="Q | P | L | rigid | Q4", autocompletion=completion.choices(*completion.RUN_FORMULATIONS))]
+    help="Q | P | L | rigid | Q4 | QM", autocompletion=completion.choices(*completion.RUN_FORMULATIONS))]

@@ -90,7 +90,7 @@ def _plan(
     if not 0 < dt_full < t_window:
         raise UserError("--full-dt: must be positive and shorter than the window")
     names = parse_formulations(
-        formulations, cmp.AVAILABLE, use="rigid, L, P, Q, Q4", none="(none given)"
+        formulations, cmp.AVAILABLE, use="rigid, L, P, Q, Q4, QM", none="(none given)"
     )
     cutoff = None
     if damping_cutoff is not None:
@@ -268,8 +268,8 @@ def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None
 
 
 CompareCase = case_argument("run case (built-in name or TOML file)", "run")
-CompareFormulations = formulation_option("comma-separated, from rigid, L, P, Q, Q4",
-                                         ("rigid", "L", "P", "Q", "Q4"), listed=True)  # fmt: skip
+CompareFormulations = formulation_option("comma-separated, from rigid, L, P, Q, Q4, QM",
+                                         ("rigid", "L", "P", "Q", "Q4", "QM"), listed=True)  # fmt: skip
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
 RestartFlag = flag("--restart", "discard the checkpoint of an interrupted full-order run")

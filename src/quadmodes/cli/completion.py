@@ -13,7 +13,7 @@ from pathlib import Path
 
 #: The formulations of a linearisation (campbell, rotating) and of a time run.
 LINEAR_FORMULATIONS = ("Q", "P", "L", "Q4")
-RUN_FORMULATIONS = ("Q", "P", "L", "rigid", "Q4")
+RUN_FORMULATIONS = ("Q", "P", "L", "rigid", "Q4", "QM")
 #: Named spin axes (three numbers such as 0,0,1 are also accepted).
 AXES = ("x", "y", "z", "minor", "intermediate", "major")
 #: Units of frequencies and spin rates shown in tables and figures.

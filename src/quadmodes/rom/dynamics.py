@@ -63,8 +63,11 @@ def coupling_rows(sys: ReducedSystem, s: np.ndarray, row: str = "energy") -> np.
 
 
 def kinetic_energy(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
-    """Kinetic energy T = ½ ωᵀJ̃ω + ω·(Aᵀṡ) + ½ ṡᵀμṡ (…) J (energy/modal-row arrays)."""
+    """Kinetic energy T = ½ ωᵀJ̃ω + ω·(Aᵀṡ) + ½ ṡᵀμṡ (…) J (energy/modal-row arrays; "QM":
+    ½ νᵀ𝕄(s)ν of the manifold)."""
     _, w, s, sd = split_state(sys, y)
+    if sys.manifold is not None:
+        return 0.5 * np.einsum("...i,...i->...", np.concatenate([w, sd], -1), _qm_momenta(sys, y))
     jt = inertia_tensor(sys, s)
     a = coupling_rows(sys, s)
     return (
@@ -239,6 +242,8 @@ def lagrangian(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
 def body_momentum(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
     """Body-frame angular momentum h = J̃ω + Aᵀṡ (..., 3) kg m²/s of the rotational row
     (h_P for "P", the quantity that formulation conserves as R h)."""
+    if sys.manifold is not None:
+        return _qm_momenta(sys, y)[..., :3]
     _, w, s, sd = split_state(sys, y)
     jt = inertia_tensor(sys, s, "rot")
     a = coupling_rows(sys, s, "rot")
@@ -253,15 +258,28 @@ def momentum_inertial(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
 
 def modal_momentum(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
     """Modal momentum p_s = Aω + μṡ (..., N) √kg·m/s (energy/modal-row arrays)."""
+    if sys.manifold is not None:
+        return _qm_momenta(sys, y)[..., 3:]
     _, w, s, sd = split_state(sys, y)
     a = coupling_rows(sys, s)
     return np.einsum("...na,...a->...n", a, w) + np.einsum("mn,...n->...m", sys.mu, sd)
 
 
 def dissipation_rate(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
-    """Power dissipated by modal damping P_d = ṡᵀCṡ (…) W."""
+    """Power dissipated by modal damping P_d = ṡᵀCṡ (…) W ("QM": ṡᵀC(s)ṡ)."""
+    if sys.manifold is not None:
+        from quadmodes.rom.manifold_kinetics import state_dissipation
+
+        return state_dissipation(sys.manifold, y)
     sd = split_state(sys, y)[3]
     return np.einsum("...m,mn,...n->...", sd, sys.C, sd)
+
+
+def _qm_momenta(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
+    """(h, p) (..., 3+N) of formulation "QM" (the manifold's 𝕄(s)ν)."""
+    from quadmodes.rom.manifold_kinetics import state_momenta
+
+    return state_momenta(sys.manifold, np.asarray(y, float))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -272,7 +290,12 @@ def dissipation_rate(sys: ReducedSystem, y: np.ndarray) -> np.ndarray:
 def mass_matrix(sys: ReducedSystem, s: np.ndarray) -> np.ndarray:
     """Generalised mass matrix 𝕄(s) (3+N, 3+N) = [[J̃, Aᵀ], [A, μ]] at s (N,).
 
-    For "P" the rotational rows use the P arrays and the modal rows the Q arrays (unsymmetric)."""
+    For "P" the rotational rows use the P arrays and the modal rows the Q arrays (unsymmetric);
+    "QM": the manifold's."""
+    if sys.manifold is not None:
+        from quadmodes.rom.manifold_kinetics import mass_matrix as qm_mass
+
+        return qm_mass(sys.manifold, np.asarray(s, float))
     return sm.mass_matrix(sys.mass_blocks, np.asarray(s, float))
 
 
@@ -282,6 +305,9 @@ def generalised_system(sys: ReducedSystem, s, w, sd, torque=None, force=None):
     With T = ½ νᵀ𝕄(s)ν (Q) the Euler–Poincaré equations read
     ``𝕄ν̇ = [−ω × h, ∂T/∂s − Λs − Cṡ] − 𝕄̇ν``, h = (𝕄ν)[:3], 𝕄̇ = Σ_k ṡ_k ∂𝕄/∂s_k.
     Optional external body-frame torque τ (3,) N m and modal force Q (N,) √kg·m/s²."""
+    if sys.manifold is not None:
+        raise ValueError('formulation "QM" has no explicit equations of motion here; integrate '
+                         'it with method "midpoint"')  # fmt: skip
     mb = sys.mass_blocks
     nu = np.concatenate([w, sd])
     m = sm.mass_matrix(mb, s)

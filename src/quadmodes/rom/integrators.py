@@ -124,6 +124,10 @@ def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None,
     general = sys is not None and sys.nonlinear_potential is not None
     if backend == "numba" and general:
         raise ValueError('backend "numba" cannot evaluate a nonlinear potential; use "numpy"')
+    if sys is not None and sys.manifold is not None:  # formulation "QM": numpy step only (yet)
+        if backend == "numba":
+            raise ValueError('backend "numba" cannot integrate formulation "QM" yet; use "numpy"')
+        return None
     if backend == "numpy" or general:
         return None
     if backend == "numba" and not compiled:
@@ -177,6 +181,18 @@ def _resolve_method(method, solver: str):
     return method, factory, solver, factory is MidpointStep
 
 
+def _manifold_factory(method: str, factory):
+    """The step of formulation "QM" for ``method``: its own midpoint
+    (:class:`~quadmodes.rom.manifold_midpoint.ManifoldMidpointStep`), or a user's stepper."""
+    from quadmodes.rom.manifold_midpoint import ManifoldMidpointStep
+
+    if factory is MidpointStep:
+        return ManifoldMidpointStep
+    if method in STEPPERS or method == "adaptive":
+        raise ValueError(f'formulation "QM" is integrated by method "midpoint" only, not {method!r}')
+    return factory
+
+
 def integrate(
     system,
     y0,
@@ -203,6 +219,8 @@ def integrate(
         raise ValueError(f"y0 must have shape ({sys.n_state},), got {y0.shape}")
     y0[0:4] /= np.linalg.norm(y0[0:4])
     method, factory, solver, compiled = _resolve_method(method, solver)
+    if sys.manifold is not None:
+        factory = _manifold_factory(method, factory)
     kernel = _select_backend(backend, method, sys, compiled)
     start = time.perf_counter()
     if method == "adaptive":

@@ -20,6 +20,10 @@ Formulations (``reduced_system(model, formulation)``):
 * ``"Q4"``: Q kinetics with the manifold potential truncated at fourth order,
   ``V(s) = ½ sᵀΛs + V3_mnp s_m s_n s_p + V4_mnpq s_m s_n s_p s_q`` (tensors of
   :func:`quadmodes.rom.reduced.manifold_potential_tensors`).
+* ``"QM"`` (not in ``FORMULATIONS``: it needs the structure's mass matrix, made by
+  :func:`quadmodes.rom.manifold_kinetics.manifold_system`): the exact kinetic energy of the
+  quadratic manifold, Q4's potential, the damping on the manifold velocity; Q4's arrays kept
+  (the Newton matrix, weights and diagnostics that need a quadratic 𝕄 use them).
 
 The mass matrix: T = ½ νᵀ𝕄(s)ν with ν = (ω, ṡ), 𝕄(s) = [[J̃, Aᵀ], [A, μ]], evaluated by blocks
 (:mod:`quadmodes.rom.structured_mass`, ``ReducedSystem.mass_blocks``: O(N²) per evaluation) for
@@ -142,6 +146,10 @@ class ReducedSystem:
     ``nonlinear_force(s)`` = ∂N/∂s (N,) and ``nonlinear_hessian(s)`` = ∂²N/∂s² (N,N), N = O(|s|³)
     (e.g. :class:`quadmodes.experimental.condensed_potential.CondensedPotential`, the condensed
     energy of a wrinkling membrane); integrated by the numpy steppers only.
+    manifold: None, or the :class:`~quadmodes.rom.manifold_kinetics.ManifoldArrays` of
+    formulation "QM" (the exact manifold kinetic energy and C(s); Q4's potential; made by
+    :func:`~quadmodes.rom.manifold_kinetics.manifold_system`): the kinetic quantities of
+    :mod:`quadmodes.rom.dynamics` and the midpoint step use them in place of J̃, A, μ, C.
     ``flat``: the :class:`FlatTensors` for fast matrix products; ``mass_blocks``: the
     :class:`~quadmodes.rom.structured_mass.MassBlocks` of 𝕄(s).
     """
@@ -164,6 +172,7 @@ class ReducedSystem:
     F1: np.ndarray | None = None
     reference_omega: np.ndarray | None = None
     nonlinear_potential: object | None = None
+    manifold: object | None = None
     n_modes: int = field(init=False)
     quartic: bool = field(init=False)
     nonlinear: bool = field(init=False)
@@ -175,7 +184,7 @@ class ReducedSystem:
         n = self.J1.shape[0]
         put = object.__setattr__
         put(self, "n_modes", n)
-        put(self, "quartic", self.formulation == "Q4")
+        put(self, "quartic", self.formulation in ("Q4", "QM"))
         #: the potential has terms beyond ½ sᵀΛs (Q4's tensors or a nonlinear potential)
         put(self, "nonlinear", self.quartic or self.nonlinear_potential is not None)
         # absent (Q, P, L): read-only zeros of no memory, never multiplied (N⁴ numbers at N = 31)
@@ -249,6 +258,12 @@ def _mass_tensor(sys: ReducedSystem, j2_rot, d_rot, d_mod) -> np.ndarray:
 
 
 def _check_formulation(model: ReducedModel, formulation: str) -> None:
+    if formulation == "QM":
+        raise ValueError(
+            'formulation "QM" needs the structure\'s mass matrix: it is built by '
+            "quadmodes.runs.manifold_system.run_system (a run) or "
+            "quadmodes.rom.manifold_kinetics.manifold_system; this use does not support it yet"
+        )
     if formulation not in FORMULATIONS:
         raise ValueError(f"unknown formulation {formulation!r}; choose one of {FORMULATIONS}")
     if formulation == "Q4" and not getattr(model, "manifold_potential", False):
@@ -310,7 +325,7 @@ def with_damping(sys: ReducedSystem, C: np.ndarray) -> ReducedSystem:
     return ReducedSystem(
         sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam,
         np.asarray(C, float), sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4, sys.F1,
-        sys.reference_omega, sys.nonlinear_potential,
+        sys.reference_omega, sys.nonlinear_potential, sys.manifold,
     )  # fmt: skip
 
 
@@ -319,7 +334,7 @@ def with_nonlinear_potential(sys: ReducedSystem, potential) -> ReducedSystem:
     return ReducedSystem(
         sys.formulation, sys.free, sys.J0, sys.J1, sys.J2, sys.D, sys.c, sys.mu, sys.Lam, sys.C,
         sys.J2_rot, sys.D_rot, sys.quat_gain, sys.V3, sys.V4, sys.F1, sys.reference_omega,
-        potential,
+        potential, sys.manifold,
     )  # fmt: skip
 
 

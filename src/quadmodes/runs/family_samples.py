@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadmodes.rom import system as rsys
+from quadmodes.runs.manifold_system import run_system
 
 #: results.nc variable: the spin (rad/s) of the member that integrated each sample.
 MEMBER_SPIN_VARIABLE = "model_reference_spin"
@@ -81,5 +82,5 @@ class Members:
     def system(self, spin: float) -> rsys.ReducedSystem:
         spin = float(spin)
         if spin not in self._systems:
-            self._systems[spin] = rsys.reduced_system(self.model(spin), self.run.reduced.formulation)
+            self._systems[spin] = run_system(self.run, self.model(spin), self.model_case)
         return self._systems[spin]

@@ -42,6 +42,7 @@ from quadmodes.runs.chunked import (
 from quadmodes.runs.deformation_check import with_deformation_check
 from quadmodes.runs.events import EventHit, run_event
 from quadmodes.runs.initial import InitialState, initial_state
+from quadmodes.runs.manifold_system import run_system
 from quadmodes.runs.mode_choice import ModeChoice, resolve_modes
 from quadmodes.runs.path_validity import PathValidity, run_path_validity
 from quadmodes.runs.resources import check_output_size
@@ -166,7 +167,7 @@ def prepare(
     model = _model_for_run(run, model)
     freqs = () if run.reduced.formulation == "rigid" else model.frequencies_hz
     coarse = check_run_step(run, freqs, allow_coarse=allow_coarse_step)
-    system = rsys.reduced_system(model, run.reduced.formulation)
+    system = run_system(run, model, model_case)  # "QM" from the case's structure
     init = initial_state(system, model, run)
     if coarse:
         init = dataclasses.replace(init, notes=(*init.notes, coarse))
@@ -425,9 +426,9 @@ def spinup_model(run: RunCase, model_case: Case | None = None) -> red.ReducedMod
             '(kind = "beam", support = "clamped"), e.g. "kane-beam"',
             field="model",
         )
-    if run.reduced.formulation == "rigid":
+    if run.reduced.formulation in ("rigid", "QM"):
         raise CaseError(
-            'reduced.formulation = "rigid": a spin-up needs the elastic modes (Q, P or L)',
+            f'reduced.formulation = "{run.reduced.formulation}": a spin-up takes Q, P, L or Q4',
             field="reduced.formulation",
         )
     structure = pipeline.structure_for_case(case)

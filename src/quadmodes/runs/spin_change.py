@@ -367,9 +367,9 @@ def simulate_spin_change(run, model_case, model: ReducedModel | None, run_type):
     from quadmodes.runs.validity import Validity
 
     sp, formulation = run.spinup, run.reduced.formulation
-    if formulation == "rigid":
-        raise CaseError('reduced.formulation = "rigid": a spin change needs the elastic modes '
-                        "(Q, P or L)", field="reduced.formulation")  # fmt: skip
+    if formulation in ("rigid", "QM"):
+        raise CaseError(f'reduced.formulation = "{formulation}": a spin change takes Q, P, L '
+                        "or Q4", field="reduced.formulation")  # fmt: skip
     try:
         if model is None:
             model = spin_change_model(model_case, int(run.reduced.modes), float(sp.omega_0))

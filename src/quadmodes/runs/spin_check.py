@@ -38,6 +38,7 @@ from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 from quadmodes.rom.energy_sink import energy_sink
 from quadmodes.rom.steady_spin import relative_equilibrium
+from quadmodes.runs.manifold_system import linear_formulation
 
 #: The models' frequency tolerance (:data:`quadmodes.runs.path_validity.FREQUENCY_TOLERANCE`,
 #: which is this one).
@@ -79,7 +80,7 @@ def measured_error(setup, omega: np.ndarray) -> tuple[float, float]:
     spin = abs(float(np.asarray(omega, float) @ e))
     rebuilt = reduced_model_for(setup.model_case, setup.model.n_modes, spin=spin,
                                 axis=setup.run.reference_axis)  # the run's own axis
-    other = rsys.reduced_system(rebuilt, setup.run.reduced.formulation)
+    other = rsys.reduced_system(rebuilt, linear_formulation(setup.run.reduced.formulation))
     fa = rotating_frequencies(setup.system, omega)
     fb = rotating_frequencies(other, omega)
     return spin, frequency_difference(fa, fb)
@@ -98,7 +99,7 @@ def _rebuilt(setup, spin: float):
 
     model = reduced_model_for(setup.model_case, setup.model.n_modes, spin=spin,
                               axis=setup.run.reference_axis)  # fmt: skip
-    return model, rsys.reduced_system(model, setup.run.reduced.formulation)
+    return model, rsys.reduced_system(model, linear_formulation(setup.run.reduced.formulation))
 
 
 def coning_rate(sys: rsys.ReducedSystem, spin: float, axis: np.ndarray, cone: float) -> float:

@@ -45,7 +45,6 @@ import numpy as np
 
 from quadmodes.case import CaseError
 from quadmodes.rom import dynamics as dyn
-from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import Diagnostics, diagnostics
 from quadmodes.rom.solution import Solution
 from quadmodes.runs import chunked
@@ -63,6 +62,7 @@ from quadmodes.runs.family_spacing import (  # noqa: F401  (the family's switchi
     spacing_from,
 )
 from quadmodes.runs.family_validity import family_path_validity, measured_limit  # noqa: F401
+from quadmodes.runs.manifold_system import run_system
 from quadmodes.runs.step_chunks import integrate_run
 from quadmodes.runs.step_chunks import start as controlled_start
 
@@ -137,9 +137,8 @@ def mapped_state(sys0, model0, sys1, model1, y: np.ndarray) -> np.ndarray:
     s1 = chart_fit(model1, x)
     sd1 = _normal(_tangent(model1, s1), np.asarray(model1.weights, float), v)
     h = dyn.body_momentum(sys0, y)
-    jt = dyn.inertia_tensor(sys1, s1, "rot")
-    rows = dyn.coupling_rows(sys1, s1, "rot")
-    w1 = np.linalg.solve(jt, h - sd1 @ rows)
+    m1 = dyn.mass_matrix(sys1, s1)  # its rotational rows: h = J̃ω + Aᵀṡ (the manifold's for QM)
+    w1 = np.linalg.solve(m1[:3, :3], h - m1[:3, 3:] @ sd1)
     return np.concatenate([y[:4], w1, s1, sd1])
 
 
@@ -164,7 +163,7 @@ def _member(setup, spin: float, progress=None):
     run = setup.run
     model = reduced_model_for(setup.model_case, run.reduced.modes, progress, spin=spin,
                               axis=run.reference_axis)  # fmt: skip
-    system = rsys.reduced_system(model, run.reduced.formulation)
+    system = run_system(run, model, setup.model_case)  # "QM": from the case's structure
     return dataclasses.replace(setup, model=model, system=system, validity=None)
 
 
@@ -377,8 +376,8 @@ def check_family_run(run) -> None:
     if run.reduced.reference != "spinning":
         raise CaseError('reduced.path_model = "spin-family" needs reduced.reference = "spinning"; '
                         "set it, or drop path_model", field="reduced.path_model")  # fmt: skip
-    if run.reduced.formulation not in ("Q", "P", "L"):
-        raise CaseError(f'reduced.path_model = "spin-family" takes formulation Q, P or L, not '
+    if run.reduced.formulation not in ("Q", "P", "L", "QM"):
+        raise CaseError(f'reduced.path_model = "spin-family" takes formulation Q, P, L or QM, not '
                         f'{run.reduced.formulation}', field="reduced.formulation")  # fmt: skip
 
 
