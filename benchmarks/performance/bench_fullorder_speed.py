@@ -29,11 +29,12 @@ the default ``"adaptive"`` (issue 27 item 4; docs/performance.md)::
         --window 0.05 --repeat 2
 
 ``--old one-thread`` runs this tree twice: the old side with ``QUADMODES_THREADS=1`` (the
-preconditioner renewed on the stepping thread), the new side with the default (renewed on a
-second thread when the process may use two cores; issue 27 item 4, docs/performance.md)::
+preconditioner renewed on the stepping thread), the new side with the environment's
+``QUADMODES_THREADS`` (set it to 2 for the renewal on a second thread; the default is one
+thread since session 14; issue 27 item 4, docs/performance.md)::
 
-    python -m benchmarks.performance.bench_fullorder_speed --old one-thread --cases paper-41hz \
-        --window 0.05 --repeat 2
+    QUADMODES_THREADS=2 python -m benchmarks.performance.bench_fullorder_speed --old one-thread \
+        --cases paper-41hz --window 0.05 --repeat 2
 
 ``--offline`` times the offline build instead (mesh + structure, inflation, 10 modes of
 ``paper-membrane`` at the given mesh edges), old and new, with the differences of the inflated
