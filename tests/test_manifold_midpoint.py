@@ -20,7 +20,7 @@ WINDOW = 0.01  # s: about 1.5 periods of the slowest mode (122 Hz)
 @pytest.fixture(scope="module")
 def capsule(small_modal_model, small_reduced_model):
     model = small_reduced_model
-    arrays = mk.manifold_arrays(model, small_modal_model.structure.mass_scalar)
+    arrays = mk.manifold_arrays(model, small_modal_model.structure.mass_scalar, tol=0.0)
     return model, arrays, rsys.reduced_system(model, "Q4")
 
 
@@ -46,6 +46,28 @@ def test_arrays_are_the_prototypes(capsule, small_modal_model):
     g = lag.kinetic_gradient(s, nu[:3], nu[3:])
     assert np.max(np.abs(mk.kinetic_gradient(arrays, s, nu) - g)) <= 1e-9 * np.max(np.abs(g))
     assert np.array_equal(mk.damping_matrix(arrays, s), model.C)
+
+
+def test_truncated_particles_keep_the_quadratic_modes_contribution(capsule, small_modal_model):
+    """The default pseudo-particles (the g node functions outside span(X, Φ) truncated at
+    COMPLEMENT_TOL) move 𝕄(s) and ∂T/∂s by a small fraction of what the quadratic modes
+    contribute at all (the exact manifold against the same model with g = 0), keep X and Φ
+    exactly (the Q kinetics: 𝕄(0) to round-off) and use fewer particles than the exact set."""
+    import dataclasses
+
+    model, exact, _ = capsule
+    mass = small_modal_model.structure.mass_scalar
+    trunc = mk.manifold_arrays(model, mass)
+    flat = mk.manifold_arrays(dataclasses.replace(model, G=np.zeros_like(model.G)), mass, tol=0.0)
+    assert trunc.rank < exact.rank and trunc.n_linear == exact.n_linear
+    s = _state(model, 3e-3)[7 : 7 + model.n_modes]
+    nu = np.concatenate([[3.0, -2.0, 300.0], 5e4 * s])
+    zero = np.zeros_like(s)
+    m0 = mk.mass_matrix(exact, zero)
+    assert np.max(np.abs(mk.mass_matrix(trunc, zero) - m0)) <= 1e-12 * np.max(np.abs(m0))
+    for f in (lambda a: mk.mass_matrix(a, s), lambda a: mk.kinetic_gradient(a, s, nu)):
+        err, effect = np.max(np.abs(f(trunc) - f(exact))), np.max(np.abs(f(exact) - f(flat)))
+        assert effect > 0 and err <= 1e-2 * effect
 
 
 def test_retained_damping_is_c_at_rest_and_dissipative(capsule, small_modal_model):

@@ -3,24 +3,32 @@ formulation "QM" (issue 29; the research prototype is
 :mod:`quadmodes.experimental.manifold_lagrangian`, the derivation docs/path-validity.md
 "A consistent fourth-order Lagrangian", the product's state docs/manifold-formulation.md).
 
-The body-frame field of the manifold r(s) = X + Φs + Σ s_m s_n g^{mn} is written
-r = Σ_α z_α(s) Y_α with the fields Y = (X, Φ_k, g^{mn} (m ≤ n, doubled off the diagonal)) and the
-monomials z = (1, s_k, s_m s_n), K = 1 + N + N(N+1)/2 of them. With ν = (ω, ṡ) the kinetic
-energy T = ½ Σ M |ω × r + ṙ|² = ½ νᵀ𝕄(s)ν has
+The body-frame field of the manifold is r(s) = X + Φs + Σ_mn s_m s_n g^{mn} (n nodes, scalar
+mass matrix M, the same for the three components). Its kinetic energy
+T = ½ Σ M |ω × r + ṙ|² only needs the M-inner products of the node functions (one scalar field per
+node for each component of X, Φ_k and g^{mn}). Written in an M-orthonormal basis Q (n, R) of
+those node functions, each field becomes R coefficients and the body becomes **R unit-mass
+pseudo-particles** at w_ρ(s) = X̃_ρ + Φ̃_ρ s + Σ s_m s_n g̃_ρ^{mn} ∈ R³ (ρ = 1..R)::
 
-    J(s) = tr(P) I − P,   P = Σ z_α z_β O_αβ              (quartic in s)
-    A_k(s) = Σ M r × T_k = Σ z_α (∂z_β/∂s_k) ×O_αβ        (cubic)
-    μ_kl(s) = Σ M T_k·T_l = Σ ∂_k z_α ∂_l z_β tr O_αβ     (quadratic)
+    T = ½ Σ_ρ |ω × w_ρ + E_ρ ṡ|²,   E_ρ(s) = ∂w_ρ/∂s = Φ̃_ρ + 2 Σ_n s_n g̃_ρ^{·n}   (3, N)
 
-with the constant mass-weighted outer products O_αβ = Σ_nodes M Y_α Y_βᵀ (K, K, 3, 3) and
-T_k = ∂r/∂s_k. Damping: the Rayleigh function ½ u̇ᵀ (M Φ_d C_d Φ_dᵀ M) u̇ of the full order's
-modal damping (modes Φ_d, matrix C_d) on the manifold velocity u̇ = Σ ṡ_k T_k(s) gives
-C(s) = B(s)ᵀ C_d B(s), B(s) = Φ_dᵀM(Φ + 2 Σ_n s_n g^{·n}) = B0 + Σ_n s_n B1_n (affine in s);
-without damping modes C(s) is the model's constant C.
+so J(s) = Σ_ρ (|w_ρ|² I − w_ρ w_ρᵀ), A_k(s) = Σ_ρ w_ρ × E_ρk, μ(s) = Σ_ρ E_ρᵀE_ρ, and every
+evaluation costs one contraction E(s) of 3RN² products (the product form O_αβ of the prototype
+costs 9K², K = 1 + N + N(N+1)/2). The basis: the node functions of X and Φ exactly (their
+M-Gram's range, R₁ ≤ 3(N+1): Q's kinetics and everything linear in s are kept to round-off),
+then the part of the g node functions M-orthogonal to them, truncated where the eigenvalues of
+its Gram fall below ``tol`` times the largest (``tol = 0``: all of it, the exact manifold).
+Truncating keeps an exact Lagrangian (the kinetic energy of the projected manifold), so the step
+still conserves R h to round-off and is energy-bounded; the truncation's size is measured in
+docs/manifold-formulation.md ("Pseudo-particles").
 
-The arrays are computed from the model's fields (X, Φ, G) and the structure's scalar mass
-matrix (which the model file does not hold): O(K² n) work once per model, O(K²) numbers
-(N = 10: K = 66, 39 204 numbers).
+Damping: the Rayleigh function ½ u̇ᵀ (M Φ_d C_d Φ_dᵀ M) u̇ of modal damping (modes Φ_d, matrix
+C_d) on the manifold velocity u̇ = Σ ṡ_k ∂r/∂s_k gives C(s) = B(s)ᵀ C_d B(s),
+B(s) = Φ_dᵀM(Φ + 2 Σ_n s_n g^{·n}) = B0 + Σ_n s_n B1_n (affine in s); without damping modes
+C(s) is the model's constant C.
+
+The arrays are computed from the model's fields (X, Φ, G) and the structure's scalar mass matrix
+(which the model file does not hold), once per model.
 """
 
 from __future__ import annotations
@@ -29,36 +37,41 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def cross_part(o: np.ndarray) -> np.ndarray:
-    """``Σ M u × v`` (..., 3) from ``o = Σ M u vᵀ`` (..., 3, 3)."""
-    return np.stack([o[..., 1, 2] - o[..., 2, 1], o[..., 2, 0] - o[..., 0, 2],
-                     o[..., 0, 1] - o[..., 1, 0]], -1)  # fmt: skip
+#: Default truncation of the quadratic modes' node functions outside the span of X and Φ
+#: (eigenvalues of their M-Gram below this fraction of the largest are dropped). On the coarse
+#: 45° member (N = 16) 1e-2 keeps R = 51 + 30 particles and moves the kinetic terms by ≤ 4e-6
+#: of the quadratic modes' own contribution at 3 × the path's amplitude (docs).
+COMPLEMENT_TOL = 1e-2
 
 
 @dataclass(frozen=True, eq=False)
 class ManifoldArrays:
     """The constant arrays of the manifold kinetic energy and damping (module docstring).
 
-    O (K, K*9): O_αβ flattened per row α; tr (K, K): tr O_αβ; cr (K, K*3): Σ M Y_α × Y_β;
-    pair_a, pair_b (N(N+1)/2,) int: the modes of the quadratic monomials z_{1+N+i} = s_a s_b;
-    C0 (N, N) 1/s: the constant damping without damping modes; B0 (D, N), B1 (N, D, N) and
-    Cd (D, D) 1/s: the damping on the manifold velocity (D damping modes; None without)."""
+    X (R, 3) √kg·m, Phi (R, 3, N) 1, G (R, 3, N, N) 1/(√kg·m) (symmetric in the last two): the
+    pseudo-particles; n_linear: R₁, how many of them span X and Φ exactly; C0 (N, N) 1/s: the
+    constant damping without damping modes; B0 (D, N), B1 (N, D, N) and Cd (D, D) 1/s: the
+    damping on the manifold velocity (D damping modes; None without)."""
 
     n_modes: int
-    O: np.ndarray
-    tr: np.ndarray
-    cr: np.ndarray
-    pair_a: np.ndarray
-    pair_b: np.ndarray
+    X: np.ndarray
+    Phi: np.ndarray
+    G: np.ndarray
+    n_linear: int
     C0: np.ndarray
     B0: np.ndarray | None = None
     B1: np.ndarray | None = None
     Cd: np.ndarray | None = None
 
     @property
-    def size(self) -> int:
-        return self.tr.shape[0]
+    def rank(self) -> int:
+        """R, the number of pseudo-particles."""
+        return self.X.shape[0]
+
+    @property
+    def gram(self) -> np.ndarray:
+        """ΦᵀMΦ (N, N), exact (Φ lies in the kept span)."""
+        return np.einsum("rck,rcl->kl", self.Phi, self.Phi)
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,20 +89,49 @@ def retained_damping(model) -> ModalDamping:
     return ModalDamping(np.asarray(model.Phi, float), np.asarray(model.C, float))
 
 
-def manifold_arrays(model, mass_scalar, damping_modes=None) -> ManifoldArrays:
+def _orthonormal(f: np.ndarray, mf: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(Q (n, r), MQ)``: an M-orthonormal basis of the node functions ``f`` (n, c) (``mf`` =
+    M f) from the eigenvectors of their Gram above ``tol`` times the largest eigenvalue."""
+    lam, u = np.linalg.eigh(f.T @ mf)
+    keep = lam > max(tol, 1e-13) * lam[-1]
+    scale = u[:, keep] / np.sqrt(lam[keep])
+    return f @ scale, mf @ scale
+
+
+def _node_functions(x, phi, g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(linear (n, 3(N+1)), quadratic (n, 3P), pairs (P, 2))``: the node functions of X and
+    Φ_k, and of g^{mn} (m ≤ n, P = N(N+1)/2), one column per field and component."""
+    n_modes = phi.shape[0]
+    pairs = [(a, b) for a in range(n_modes) for b in range(a, n_modes)]
+    pairs = np.array(pairs, int).reshape(-1, 2)
+    linear = np.concatenate([x, *phi], axis=1)
+    quadratic = np.concatenate([g[a, b] for a, b in pairs], axis=1) if len(pairs) else x[:, :0]
+    return linear, quadratic, pairs
+
+
+def manifold_arrays(model, mass_scalar, damping_modes=None,
+                    tol: float = COMPLEMENT_TOL) -> ManifoldArrays:  # fmt: skip
     """The :class:`ManifoldArrays` of a reduced ``model`` (fields X (n,3), Phi (N,n,3), G
     (N,N,n,3)) with the structure's scalar mass matrix ``mass_scalar`` (n, n) kg (sparse or
-    dense) and, optionally, the full order's ``damping_modes``
-    (:class:`~quadmodes.fullorder.damping.DampingModes`)."""
+    dense), the truncation ``tol`` of the quadratic modes' complement (module docstring; 0: exact)
+    and, optionally, ``damping_modes`` (:class:`ModalDamping` or the full order's
+    :class:`~quadmodes.fullorder.damping.DampingModes`)."""
     n = int(model.n_modes)
     x, phi, g = (np.asarray(a, float) for a in (model.X, model.Phi, model.G))
-    pairs = np.array([(a, b) for a in range(n) for b in range(a, n)], int).reshape(-1, 2)
-    quad = [g[a, b] if a == b else 2.0 * g[a, b] for a, b in pairs]
-    fields = np.concatenate([x[None], phi, np.array(quad).reshape(-1, *x.shape)])
-    weighted = np.stack([mass_scalar @ f for f in fields])
-    o = np.einsum("aib,gic->agbc", fields, weighted, optimize=True)
-    o = 0.5 * (o + o.transpose(1, 0, 3, 2))  # symmetric to round-off: O_αβ = O_βαᵀ
-    k = o.shape[0]
+    linear, quadratic, pairs = _node_functions(x, phi, g)
+    q1, mq1 = _orthonormal(linear, np.asarray(mass_scalar @ linear), 0.0)
+    rest = quadratic - q1 @ (mq1.T @ quadratic)
+    rest -= q1 @ (mq1.T @ rest)  # twice is enough (Kahan): the complement to round-off
+    basis = [mq1]
+    if tol < 1.0 and rest.shape[1]:
+        mrest = np.asarray(mass_scalar @ rest)
+        basis.append(_orthonormal(rest, mrest, tol)[1])
+    mq = np.concatenate(basis, axis=1)  # M Q (n, R)
+    c_lin = (mq.T @ linear).reshape(-1, n + 1, 3)  # (R, 1+N, 3)
+    c_quad = (mq.T @ quadratic).reshape(mq.shape[1], -1, 3)
+    gp = np.zeros((mq.shape[1], 3, n, n))
+    gp[:, :, pairs[:, 0], pairs[:, 1]] = c_quad.transpose(0, 2, 1)
+    gp[:, :, pairs[:, 1], pairs[:, 0]] = c_quad.transpose(0, 2, 1)
     b0 = b1 = cd = None
     if damping_modes is not None:
         md = np.stack([mass_scalar @ p for p in damping_modes.shapes])
@@ -97,51 +139,39 @@ def manifold_arrays(model, mass_scalar, damping_modes=None) -> ManifoldArrays:
         b1 = 2.0 * np.einsum("dia,mnia->ndm", md, g)  # B(s) = B0 + Σ_n s_n B1[n]
         cd = np.asarray(damping_modes.C, float)
     return ManifoldArrays(
-        n_modes=n, O=np.ascontiguousarray(o.reshape(k, k * 9)),
-        tr=np.ascontiguousarray(np.einsum("agbb->ag", o)),
-        cr=np.ascontiguousarray(cross_part(o).reshape(k, k * 3)),
-        pair_a=pairs[:, 0].copy(), pair_b=pairs[:, 1].copy(),
-        C0=np.asarray(model.C, float), B0=b0, B1=b1, Cd=cd)  # fmt: skip
+        n_modes=n, X=np.ascontiguousarray(c_lin[:, 0]),
+        Phi=np.ascontiguousarray(c_lin[:, 1:].transpose(0, 2, 1)), G=np.ascontiguousarray(gp),
+        n_linear=q1.shape[1], C0=np.asarray(model.C, float), B0=b0, B1=b1, Cd=cd)  # fmt: skip
 
 
-def monomials(ma: ManifoldArrays, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(z (K,), ∂z/∂s (N, K))`` at s (N,)."""
-    n, a, b = ma.n_modes, ma.pair_a, ma.pair_b
-    z = np.concatenate([[1.0], s, s[a] * s[b]])
-    d = np.zeros((n, ma.size))
-    d[np.arange(n), 1 + np.arange(n)] = 1.0
-    cols = 1 + n + np.arange(len(a))
-    np.add.at(d, (a, cols), s[b])
-    np.add.at(d, (b, cols), s[a])
-    return z, d
+def tangents(ma: ManifoldArrays, s: np.ndarray) -> np.ndarray:
+    """E(s) = ∂w/∂s (R, 3, N) of the pseudo-particles at s (N,)."""
+    return ma.Phi + 2.0 * (ma.G @ s)
+
+
+def positions(ma: ManifoldArrays, s: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """w(s) (R, 3) from E = :func:`tangents` (ma, s): w = X̃ + ½(Φ̃ + E) s (exact: w is quadratic)."""
+    return ma.X + 0.5 * ((ma.Phi + e) @ s)
 
 
 def mass_matrix(ma: ManifoldArrays, s: np.ndarray) -> np.ndarray:
     """𝕄(s) (3+N, 3+N): T = ½ νᵀ𝕄ν, ν = (ω, ṡ) (kg m², √kg·m, 1 blocks)."""
-    k = ma.size
-    z, d = monomials(ma, s)
-    p = (z @ (z @ ma.O).reshape(k, 9)).reshape(3, 3)
-    a = d @ (z @ ma.cr).reshape(k, 3)  # Σ M r × T_k (N, 3)
-    j = np.trace(p) * np.eye(3) - p
-    return np.block([[j, a.T], [a, d @ ma.tr @ d.T]])
+    e = tangents(ma, s)
+    w = positions(ma, s, e)
+    j = np.sum(w * w) * np.eye(3) - w.T @ w
+    a = np.cross(w[:, :, None], e, axis=1).sum(0).T  # Σ w × E_k (N, 3)
+    mu = np.einsum("rck,rcl->kl", e, e)
+    return np.block([[j, a.T], [a, mu]])
 
 
 def kinetic_gradient(ma: ManifoldArrays, s: np.ndarray, nu: np.ndarray) -> np.ndarray:
-    """∂T/∂s (N,) at fixed ν = (ω, ṡ): ⟨v, ∂v/∂s_j⟩ with v = ω × r + u̇ and
-    ∂v/∂s_j = ω × T_j + 2 Σ_n ṡ_n g^{jn}; through z, ⟨v, ω × Y_β⟩ = (A z + B ż)_β and
-    ⟨v, Y_β⟩ = (Bᵀz + tr O ż)_β with A = |ω|² tr O − ωᵀOω, B = ω·(Σ M Y_α × Y_β)."""
-    k, n = ma.size, ma.n_modes
-    w, sd = nu[:3], nu[3:]
-    z, d = monomials(ma, s)
-    zd = d.T @ sd
-    az = (w @ w) * (ma.tr @ z) - (ma.O.reshape(k * k, 9) @ np.outer(w, w).ravel()).reshape(k, k) @ z
-    b = (ma.cr.reshape(k * k, 3) @ w).reshape(k, k)
-    a_idx, b_idx = ma.pair_a, ma.pair_b
-    cols = 1 + n + np.arange(len(a_idx))
-    dzd = np.zeros((n, k))  # ∂ż/∂s_j
-    np.add.at(dzd, (b_idx, cols), sd[a_idx])
-    np.add.at(dzd, (a_idx, cols), sd[b_idx])
-    return d @ (az + b @ zd) + dzd @ (b.T @ z + ma.tr @ zd)
+    """∂T/∂s (N,) at fixed ν = (ω, ṡ): Σ_ρ v_ρ · ∂v_ρ/∂s_j with v = ω × w + E ṡ and
+    ∂v/∂s_j = ω × E_j + 2 Σ_n g̃^{jn} ṡ_n."""
+    w_rate, sd = nu[:3], nu[3:]
+    e = tangents(ma, s)
+    v = np.cross(w_rate, positions(ma, s, e)) + e @ sd
+    dv = np.cross(w_rate[None, :, None], e, axis=1) + 2.0 * (ma.G @ sd)
+    return np.einsum("rc,rcj->j", v, dv)
 
 
 def damping_matrix(ma: ManifoldArrays, s: np.ndarray) -> np.ndarray:

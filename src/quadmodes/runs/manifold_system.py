@@ -38,7 +38,7 @@ def qm_system(model, model_case) -> rsys.ReducedSystem:
                         "model file); use Q", field="reduced.formulation")  # fmt: skip
     arrays = mk.manifold_arrays(model, _mass(model_case), mk.retained_damping(model))
     n = model.n_modes
-    gram = arrays.tr[1 : 1 + n, 1 : 1 + n]  # ΦᵀMΦ: the identity for the model's own mesh
+    gram = arrays.gram  # ΦᵀMΦ: the identity for the model's own mesh
     if np.max(np.abs(gram - np.eye(n))) > 1e-6:
         raise CaseError('formulation "QM": the model\'s modes are not mass-normalised by the '
                         "case's structure (another mesh?); rebuild the model",
