@@ -13,6 +13,7 @@ report fractions above 0 before the end, counted toward the event, and 1 at the 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -23,9 +24,10 @@ from test_run_events import W0, Keep, cone_exact, integ, omega1_exact, rigid_sys
 from test_step_control import spinner  # noqa: F401  (fixture)
 
 from quadmodes.case import RunIntegration, load_run_case
+from quadmodes.rom import integrators as it
 from quadmodes.rom import system as rsys
 from quadmodes.runs import simulate as sim
-from quadmodes.runs.chunked import integrate_in_chunks
+from quadmodes.runs.chunked import ChunkProgress, integrate_in_chunks
 from quadmodes.runs.events import FRACTION_CEILING, event_monitor, progress_fraction
 from quadmodes.runs.step_chunks import integrate_run
 
@@ -71,6 +73,23 @@ def test_monotone_while_the_value_oscillates():
     assert np.all(np.diff(got) >= 0.0)
     ends = np.minimum(np.arange(0, len(t), 7) + 6, len(t) - 1)
     np.testing.assert_allclose(got, exact[ends], rtol=0, atol=1e-12)
+
+
+def test_flat_spin_counts_the_cone_angle_toward_90_deg_less_its_angle():
+    """"flat spin 5 deg" from near the minor axis e1 of the rigid triaxial body: the fraction of
+    a chunk of its exact path is the largest (θ − θ₀)/(85° − θ₀) of the cone angle about e1
+    (the angle to the major axis itself is ill-defined while two moments are near equal)."""
+    sys = rigid_system()
+    y0 = rsys.pack_state(sys, omega=W0)
+    mon = event_monitor(sys, y0, "flat spin 5 deg", AXIS)
+    theta0 = float(cone_exact(0.0))
+    assert mon.start == pytest.approx(theta0, abs=1e-12)
+    assert mon.target == pytest.approx(math.radians(85.0), abs=1e-12)
+    sol = it.integrate(sys, y0, (0.0, 0.5), "midpoint", dt=1e-4, save_every=50)
+    state = dataclasses.replace(ChunkProgress.start(y0, 1), t=(sol.t,), y=(sol.y,))
+    want = np.max((cone_exact(sol.t) - theta0) / (math.radians(85.0) - theta0))
+    assert want > 0.02  # the chunk has moved toward the level
+    assert mon.fraction(state, 0.5, 1e6) == pytest.approx(want, abs=1e-6)
 
 
 def _recorder():
