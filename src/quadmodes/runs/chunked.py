@@ -140,6 +140,8 @@ class ChunkProgress:
     grid: tuple = ()
     # a spin-family run (quadmodes.runs.family_checkpoint): the family so far, for its checkpoint
     family: dict | None = None
+    # the completed fraction last reported (progress only: not in a checkpoint; see _report)
+    shown: float = 0.0
 
     def local_step(self, t: float, h: float) -> tuple[float, int]:
         """(the step (s) of the chunk holding the interval that ends at t, the index of the
@@ -220,6 +222,37 @@ class Interrupted(KeyboardInterrupt):
         self.partial, self.saved, self.reason = partial, saved, reason
 
 
+def time_fraction(t: float, duration: float) -> float:
+    """t/duration in [0, 1] (1 from duration·(1 − 1e-12) on: k·(T/n) need not round to T): the
+    completed fraction of a run without an ``until`` event."""
+    if not duration > 0:
+        return 0.0
+    return 1.0 if t >= duration * (1.0 - 1e-12) else max(0.0, t / duration)
+
+
+def _report(progress, name: str, state: ChunkProgress, event, t: float,
+            duration: float) -> ChunkProgress:  # fmt: skip
+    """``progress(name, fraction)`` of a run at time t (s) of ``duration`` (s), and ``state``
+    with that fraction as ``shown``: 1 where its ``until`` event ended it, else
+    ``event.fraction`` (t/duration or the distance to the event, whichever is larger:
+    :func:`quadmodes.runs.events.progress_fraction`), t/duration without an event."""
+    if not progress:
+        return state
+    if state.event is not None:
+        frac = 1.0
+    elif event is not None:
+        frac = event.fraction(state, t, duration)
+    else:
+        frac = time_fraction(t, duration)
+    progress(name, frac)
+    return dataclasses.replace(state, shown=frac)
+
+
+def stage(name: str, event, duration: float) -> str:
+    """The progress stage of run ``name``: with an ``until`` event, what it counts toward."""
+    return name if event is None else event.stage(name, duration)
+
+
 def _loop(system, integ, progress, name, state: ChunkProgress, h, adaptive, checkpoint, wall,
           event=None):  # fmt: skip
     """Integrate chunk after chunk from ``state`` to ``integ.n_steps``, saving a checkpoint
@@ -242,8 +275,8 @@ def _loop(system, integ, progress, name, state: ChunkProgress, h, adaptive, chec
             if checkpoint is not None and state.stop is None:
                 if state.steps == n_total or checkpoint.due():
                     checkpoint.save(state, wall())
-            if progress and state.stop is None:
-                progress(name, k1 / n_total)
+            if state.stop is None or state.event is not None:
+                state = _report(progress, name, state, event, state.steps * h, integ.duration)
     except KeyboardInterrupt:
         return state, True
     return state, False
@@ -264,8 +297,8 @@ def integrate_in_chunks(
     """Integrate ``system`` from ``y0`` (7+2N,) over ``integ.duration`` (s) with the settings of
     ``integ`` (the run case's ``[integration]``: method, dt, rtol, save_every) in at most
     ``max_chunks`` chunks (None: at most :data:`MAX_CHUNKS` of at least
-    :data:`MIN_CHUNK_STEPS` steps); ``progress(name, fraction)`` is called before and between
-    chunks.
+    :data:`MIN_CHUNK_STEPS` steps); ``progress(stage, fraction)`` is called before and between
+    chunks (stage: ``name``, with an ``until`` event what it counts toward, :func:`stage`).
     An integrator failure or a non-finite state ends the run early (not raised).
 
     ``checkpoint``: saves the progress when due, at the end and on Ctrl-C; ``resume``:
@@ -293,8 +326,8 @@ def integrate_in_chunks(
     def wall() -> float:
         return wall_before + time.perf_counter() - start
 
-    if progress:
-        progress(name, state.steps / n_total)
+    name = stage(name, event, integ.duration)
+    state = _report(progress, name, state, event, state.steps * h, integ.duration)
     state, interrupted = _loop(system, integ, progress, name, state, h, adaptive, checkpoint, wall,
                                event)  # fmt: skip
     if interrupted:

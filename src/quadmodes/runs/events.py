@@ -18,6 +18,14 @@ uninterrupted one.
 The spin axis of the event is memoryless: at every state the eigenvector of the deformed inertia
 J̃(s) nearest the nominal spin axis (sign along it), the axis the diagnostics track by continuity
 (:mod:`quadmodes.rom.diagnostics`; the same unless two principal moments cross).
+
+Progress (:func:`progress_fraction`): a run that ends on an event reports the larger of t/T (T
+its duration, the longest it may go) and its distance to the event, (v − v₀)/(v_event − v₀) of
+the event's value v (v₀ at t = 0): the cone angle, the spin, the time, or for "flat spin" the
+cone angle toward 90° − the flat-spin angle (the angle to the major axis itself is ill-defined
+while two principal moments are near equal, as for an axisymmetric body); the largest over each
+chunk's samples and over the run so far (a cone angle oscillates with the nutation), below 1
+until the event is reached.
 """
 
 from __future__ import annotations
@@ -34,7 +42,10 @@ from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import integrators
 from quadmodes.rom import system as rsys
 from quadmodes.rom.diagnostics import cone_angle
-from quadmodes.runs.chunked import _Stop
+from quadmodes.runs.chunked import _Stop, time_fraction
+
+#: The distance to an event is shown below this until the event is reached.
+FRACTION_CEILING = 0.999
 
 #: Cone angles (deg) whose first times the run reports (those above the initial cone angle).
 CONE_MARKS_DEG = (10.0, 20.0, 30.0, 45.0, 60.0, 75.0)
@@ -78,6 +89,22 @@ def spin_axes(system: rsys.ReducedSystem, s: np.ndarray, axis0: np.ndarray):
     return va, vec[:, :, 2]
 
 
+def progress_fraction(t: float, duration: float, values=(), start: float = math.nan,
+                      target: float = math.nan, shown: float = 0.0) -> float:
+    """The completed fraction of a run at time t (s) of its ``duration`` T (s) on its way to an
+    event whose value goes from ``start`` (at t = 0) to ``target``: max(``shown`` (the fraction
+    shown so far), t/T, the largest (v − start)/(target − start) over ``values`` (the latest
+    samples' values v)), the event's part clamped to [0, :data:`FRACTION_CEILING`]; no event
+    (no values, or start = target): max(shown, t/T). Units: any, the same for all three."""
+    frac = time_fraction(t, duration)
+    v = np.asarray(values, float).ravel()
+    span = target - start
+    if len(v) and math.isfinite(span) and span != 0.0:
+        toward = float(np.max((v - start) / span))
+        frac = max(frac, min(max(toward, 0.0), FRACTION_CEILING))
+    return max(float(shown), frac)
+
+
 def state_measures(system: rsys.ReducedSystem, y: np.ndarray, axis0: np.ndarray) -> dict:
     """For states y (k, 7+2N): cone angle (rad), spin rate ω·v_a (rad/s) and the angle between
     H and the major principal axis (rad, folded to [0, π/2]), each (k,)."""
@@ -99,6 +126,36 @@ class EventMonitor:
     level: float
     axis0: np.ndarray
     side0: float
+    start: float = math.nan  # the progress measure at the run's start (rad, rad/s or s)
+
+    def measure(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The value whose distance to :attr:`target` is the run's progress (k,): the time (s),
+        the spin (rad/s) or the cone angle (rad; also for "flat spin") at t (k,), y (k, 7+2N)."""
+        if self.kind == "time":
+            return np.asarray(t, float)
+        kind = "spin" if self.kind == "spin" else "cone"
+        return state_measures(self.system, np.atleast_2d(y), self.axis0)[kind]
+
+    @property
+    def target(self) -> float:
+        """The value of :meth:`measure` at the event: the level, or for "flat spin" the cone
+        angle 90° − the flat-spin angle (rad)."""
+        return 0.5 * math.pi - self.level if self.kind == "flat spin" else self.level
+
+    def fraction(self, state, t: float, duration: float) -> float:
+        """:func:`progress_fraction` of a run at time t (s) of ``duration`` (s) whose ``state``
+        (a :class:`~quadmodes.runs.chunked.ChunkProgress`) holds the latest chunk's samples
+        (none: its last state) and the fraction shown so far."""
+        if state.t and len(state.t[-1]):
+            ts, ys = state.t[-1], state.y[-1]
+        else:
+            ts, ys = np.array([t]), state.y_last[None, :]
+        return progress_fraction(t, duration, self.measure(ts, ys), self.start, self.target,
+                                 state.shown)  # fmt: skip
+
+    def stage(self, name: str, duration: float) -> str:
+        """The progress stage of run ``name``: what its fraction counts toward."""
+        return f"{name} (to {self.text} or {duration:g} s)"
 
     def g(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         """g = value − level (k,) at times t (k,) s and states y (k, 7+2N)."""
@@ -206,7 +263,8 @@ def event_monitor(system: rsys.ReducedSystem, y0: np.ndarray, until: str | None,
     g0 = float(mon.g(np.zeros(1), y0[None, :])[0])
     if abs(g0) <= 1e-9 * max(1.0, abs(level)):  # on the level to round-off: ill-posed
         raise ValueError(f"integration.until = {until!r}: the run starts on that level")
-    return dataclasses.replace(mon, side0=float(np.sign(g0)))
+    start = float(mon.measure(np.zeros(1), y0[None, :])[0])
+    return dataclasses.replace(mon, side0=float(np.sign(g0)), start=start)
 
 
 def run_event(system: rsys.ReducedSystem, init, run) -> EventMonitor | None:

@@ -196,6 +196,17 @@ class SwitchMonitor:
         self.spin: float | None = None
         self.final = None
 
+    def fraction(self, state, t: float, duration: float) -> float:
+        """The run's completed fraction at time t (s): its event's
+        (:meth:`quadmodes.runs.events.EventMonitor.fraction`), else t/``duration``."""
+        if self.event is not None:
+            return self.event.fraction(state, t, duration)
+        return max(state.shown, chunked.time_fraction(t, duration))
+
+    def stage(self, name: str, duration: float) -> str:
+        """The run's progress stage (its event's, :func:`quadmodes.runs.chunked.stage`)."""
+        return chunked.stage(name, self.event, duration)
+
     def after_resume(self, state, integ, h: float):
         """The event and the switch on every sample of a resumed ``state`` (a Ctrl-C may have
         come between a chunk and its check)."""

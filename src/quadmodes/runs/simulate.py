@@ -246,7 +246,9 @@ def execute(
 ):
     """Integrate a prepared run in chunks; returns a :class:`RunResult`.
 
-    ``progress(stage, fraction)`` is called with stage = the run name between chunks. An
+    ``progress(stage, fraction)`` is called with stage = the run name between chunks (with an
+    ``until`` event: "NAME (to EVENT or T s)", the fraction the larger of t/T and the distance
+    to the event, :func:`quadmodes.runs.events.progress_fraction`). An
     integrator failure or a non-finite state ends the run early with ``complete`` False and a
     one-line ``reason``; it is not raised (see
     :func:`quadmodes.runs.chunked.integrate_in_chunks`, also for ``checkpoint`` and

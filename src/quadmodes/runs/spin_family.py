@@ -199,11 +199,12 @@ def _segment_progress(integ, final, y: np.ndarray, t: float, steps: int, chunk: 
     """A chunk progress that starts a new member at time t (s), step ``steps``, from state y:
     the fixed step's chunk of ``chunk`` steps, or (a controlled step) the step the last segment
     proposed, its last chunk kept in the grid (the next step's energy-balance bound)."""
+    shown = final.shown if final is not None else 0.0  # the progress shown goes on from there
     if getattr(integ, "step_tolerance", None) is None:
         start = chunked.ChunkProgress.start(y, chunk)
-        return dataclasses.replace(start, steps=steps, e_d_offset=e_d)
+        return dataclasses.replace(start, steps=steps, e_d_offset=e_d, shown=shown)
     start = controlled_start(y, final.h_next if final is not None else integ.dt)
-    return dataclasses.replace(start, steps=steps, e_d_offset=e_d, t_done=t,
+    return dataclasses.replace(start, steps=steps, e_d_offset=e_d, t_done=t, shown=shown,
                                grid=final.grid[-1:] if final is not None else ())  # fmt: skip
 
 
@@ -309,12 +310,16 @@ def _segments(fam: _Family, resume, ckpt, prefetch: Prefetcher, progress):
     from quadmodes.runs.events import run_event
 
     run = fam.setup.run
+    # the run's progress counts from the path's start, not the segment's (events.EventMonitor.start)
+    first = run_event(fam.setup.system, fam.setup.initial, run)
     while True:
         member = fam.member
         if fam.switches:
             sign = 1.0 if fam.switches[-1].spin_to > fam.switches[-1].spin_from else -1.0
             prefetch.ahead(fam.spacing.predicted(float(np.linalg.norm(member.system.reference_omega)), sign))
         event = run_event(member.system, dataclasses.replace(member.initial, y0=fam.y0), run)
+        if event is not None:
+            event = dataclasses.replace(event, start=first.start)
         t0 = float(fam.switches[-1].time) if fam.switches else 0.0
         monitor = SwitchMonitor(member.system, fam.spacing, event, t0)
         start = time.perf_counter()

@@ -37,8 +37,10 @@ from quadmodes.runs.chunked import (
     _finish,
     _integrate_chunk,
     _interrupted,
+    _report,
     _Stop,
     integrate_in_chunks,
+    stage,
 )
 
 #: Times a failing chunk is integrated again at half its step before the run stops.
@@ -144,8 +146,8 @@ def _loop(system, integ, progress, name, state, checkpoint, wall, event, chunk_t
             if checkpoint is not None and state.stop is None:
                 if state.t_done >= end or checkpoint.due():
                     checkpoint.save(state, wall())
-            if progress and state.stop is None:
-                progress(name, min(1.0, state.t_done / integ.duration))
+            if state.stop is None or state.event is not None:
+                state = _report(progress, name, state, event, state.t_done, integ.duration)
     except KeyboardInterrupt:
         return state, True
     return state, False
@@ -173,8 +175,8 @@ def integrate_controlled(system, y0, integ, progress=None, name="", max_chunks=N
     def wall() -> float:
         return wall_before + time.perf_counter() - begin
 
-    if progress:
-        progress(name, state.t_done / integ.duration)
+    name = stage(name, event, integ.duration)
+    state = _report(progress, name, state, event, state.t_done, integ.duration)
     e0 = float(dyn.energy(system, np.asarray(y0, float)[None, :])[0])  # the balance's scale
     state, interrupted = _loop(system, integ, progress, name, state, checkpoint, wall, event,
                                chunk_time, e0)  # fmt: skip
