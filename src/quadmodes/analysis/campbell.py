@@ -28,6 +28,7 @@ from quadmodes.analysis.reduced_linearisation import linearise
 from quadmodes.rom import system as rsys
 from quadmodes.rom.reduced import ReducedModel
 from quadmodes.rom.spin_axis import resolve_axis
+from quadmodes.runs.manifold_system import linear_formulation
 
 #: Two roots closer than this (relative to their magnitude) are degenerate.
 DEGENERATE_RTOL = 1e-7
@@ -38,7 +39,7 @@ class CampbellResult:
     """Frequencies of the reduced model linearised about steady spin, per tracked branch (SI).
 
     spin (ns,) rad/s: spin rates Ω. axis (3,): unit spin axis in the body frame (requested).
-    formulation: "Q", "P", "L". free: free body (True) or clamped to a hub (False).
+    formulation: "Q", "P", "L", "Q4" or "QM" (as asked; "QM" linearised as "Q4"). free: free body (True) or clamped to a hub (False).
     labels (nb,): branch names (model mode label dominant where the branch starts, or
     "nutation"). A branch whose match to the next spin rate is refused ends there and the root
     that would have continued it starts a new branch, so nb may exceed the roots per spin rate;
@@ -190,7 +191,9 @@ class _Sweep:
 def _sweep_setup(
     model: ReducedModel, spin: np.ndarray, axis: np.ndarray, formulation: str, damped: bool
 ) -> _Sweep:
-    sys = rsys.reduced_system(model, formulation)
+    # QM's kinetic energy to second order about s = 0 is Q's and its potential is Q4's: its
+    # linearisation about a steady spin is Q4's (runs.manifold_system.linear_formulation)
+    sys = rsys.reduced_system(model, linear_formulation(formulation))
     count = sys.n_modes + (1 if sys.free else 0)
     if count == 0:
         raise ValueError("campbell: the clamped model has no modes")
@@ -406,7 +409,8 @@ def campbell(
     :mod:`quadmodes.rom.spin_axis` (``axis_option`` names it in errors); default
     :func:`~quadmodes.rom.spin_axis.default_axis`.
     ``formulation``: "Q" (quadratic modes, spin stiffening), "P" or "L" (linear modes, no
-    stiffening). ``damped``: include the modal damping C in the roots (growth then holds −ζω).
+    stiffening), "Q4" (Q with the quartic manifold potential) or "QM" (linearised as Q4: the
+    same roots; ``result.formulation`` keeps "QM"). ``damped``: include the modal damping C in the roots (growth then holds −ζω).
     Modes are tracked by MAC (:mod:`quadmodes.analysis.campbell_tracking`); where the match
     between two spin rates is ambiguous the interval is halved, at most ``max_bisections`` times
     (and at most ``max_refinements`` extra points per interval), and the branches are followed

@@ -60,6 +60,14 @@ FORMULATIONS = ("rigid", "L", "P", "Q", "Q4")
 #: manifold's exact kinetic energy, numpy only, so not run by default).
 AVAILABLE = (*FORMULATIONS, "QM")
 
+
+def default_formulations(run) -> tuple[str, ...]:
+    """The formulations compared when none are asked for: :data:`FORMULATIONS` and the run
+    case's own ``reduced.formulation`` if it is not among them (QM: a QM run is compared as
+    itself, beside the others)."""
+    own = run.reduced.formulation
+    return FORMULATIONS if own in FORMULATIONS else (*FORMULATIONS, own)
+
 Progress = Callable[[str, float], None]
 
 

@@ -37,6 +37,11 @@ from quadmodes.runs.events import event_monitor
 PATH_SAMPLE_S = 0.05
 #: The longest reduced path a point is looked for on (s): 3 h, the issue's horizon.
 PATH_LIMIT_S = 3 * 3600.0
+#: Steps per chunk of a path integrated by the numpy step of formulation "QM" (2–4 ms a step at
+#: N = 16: 4–8 s a chunk). The event is checked after every chunk, and the run's own chunks are
+#: 1/200 of the path (108,000 steps of 0.5 ms for PATH_LIMIT_S): "cone 6.001 deg", reached at
+#: step 19, cost 331 s of QM steps past it (the compiled Q steps the same chunk in about 1 s).
+NUMPY_PATH_CHUNK = 2000
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,7 +176,10 @@ def integrated_point(run: RunCase, at: str, model=None, progress=None) -> PathPo
     (:func:`path_run`; ``model``: the run's reduced model, else from the cache)."""
     from quadmodes.runs import simulate
 
-    result = simulate.simulate(path_run(run, at), model=model, progress=progress)
+    path_case = path_run(run, at)
+    chunks = (None if run.reduced.formulation != "QM"
+              else max(1, math.ceil(path_case.integration.n_steps / NUMPY_PATH_CHUNK)))  # fmt: skip
+    result = simulate.simulate(path_case, model=model, progress=progress, max_chunks=chunks)
     if result.event is None:
         raise ValueError(f"--at: the reduced path does not reach {at!r} within "
                          f"{result.solution.t[-1]:.6g} s ({result.reason or 'not reached'})")  # fmt: skip
@@ -216,6 +224,11 @@ def read_path_results(results: Path, run: RunCase, model, family: bool = False) 
             raise CaseError(f"--results: {results} does not say which member integrated each "
                             f"sample (no {MEMBER_SPIN_VARIABLE}: a one-model path, or a family "
                             "path written before it was stored); run it again or drop --results",
+                            field="--results")  # fmt: skip
+        written = str(ds.attrs.get("formulation", run.reduced.formulation))
+        if written != run.reduced.formulation:  # its samples are another formulation's path
+            raise CaseError(f"--results: {results} is a path of formulation {written}, this run "
+                            f"case's is {run.reduced.formulation}; drop --results",
                             field="--results")  # fmt: skip
         if float(ds.attrs.get("dt", math.nan)) != float(run.integration.dt):
             raise CaseError(f"--results: {results} was run at another time step; drop --results",

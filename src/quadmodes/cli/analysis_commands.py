@@ -162,8 +162,10 @@ def _full_order_summary(markers) -> list[dict]:
 
 
 #: ``--formulation`` of the linearisations: one name (campbell) or a list (rotating).
-FormulationOne = formulation_option("Q, P, L or Q4", LINEAR_FORMULATIONS)
-FormulationList = formulation_option("comma-separated, from Q, P, L, Q4", LINEAR_FORMULATIONS,
+FormulationOne = formulation_option("Q, P, L, Q4 or QM (QM: linearised as Q4, the same numbers)",
+                                   LINEAR_FORMULATIONS)  # fmt: skip
+FormulationList = formulation_option("comma-separated, from Q, P, L, Q4, QM (QM: linearised as "
+                                     "Q4, the same numbers)", LINEAR_FORMULATIONS,
                                      listed=True)  # fmt: skip
 AxisOption = axis_option(AXIS_HELP)
 CampbellUnits = units_option("the table and campbell.png (campbell.nc/.csv stay SI)")
@@ -208,7 +210,7 @@ def campbell(
         if hi < lo:
             raise UserError(f"--spin-max: {spin_max} is below --spin-min {spin_min}; swap them")
         if formulation not in LINEAR_FORMULATIONS:
-            raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4")
+            raise UserError(f"--formulation: {formulation!r} is not one of Q, P, L, Q4, QM")
         request = _axis_request(axis)
         full_spins = parse_full_order(full_order)
         check_output_folder(output_dir)
@@ -332,7 +334,7 @@ def rotating_command(
         output = output_file_in(output, "rotating.md")
         unit = parse_units(units)
         spin_list = _parse_spins_hz(spin_rate)
-        names = parse_formulations(formulation, LINEAR_FORMULATIONS, use="Q, P, L, Q4")
+        names = parse_formulations(formulation, LINEAR_FORMULATIONS, use="Q, P, L, Q4, QM")
         request = _axis_request(axis)
         if modes < 1:
             raise UserError("--modes: must be at least 1")

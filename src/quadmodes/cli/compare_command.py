@@ -64,7 +64,7 @@ def _plan(
     full_dt: str | None,
     modes: str | None,
     spin_rate: str | None,
-    formulations: str,
+    formulations: str | None,
     damping_cutoff: str | None = None,
     at: str | None = None,
     results: Path | None = None,
@@ -89,9 +89,8 @@ def _plan(
         raise UserError('--window: must be positive, e.g. "1 s"')
     if not 0 < dt_full < t_window:
         raise UserError("--full-dt: must be positive and shorter than the window")
-    names = parse_formulations(
-        formulations, cmp.AVAILABLE, use="rigid, L, P, Q, Q4, QM", none="(none given)"
-    )
+    names = (cmp.default_formulations(run) if formulations is None else parse_formulations(
+        formulations, cmp.AVAILABLE, use="rigid, L, P, Q, Q4, QM", none="(none given)"))  # fmt: skip
     cutoff = None
     if damping_cutoff is not None:
         cutoff = parse_quantity(damping_cutoff, "frequency", "--damping-cutoff", "150 Hz")
@@ -268,8 +267,9 @@ def _print_comparison(payload: dict, plan: ComparisonPlan, target: Path) -> None
 
 
 CompareCase = case_argument("run case (built-in name or TOML file)", "run")
-CompareFormulations = formulation_option("comma-separated, from rigid, L, P, Q, Q4, QM",
-                                         ("rigid", "L", "P", "Q", "Q4", "QM"), listed=True)  # fmt: skip
+CompareFormulations = formulation_option(
+    "comma-separated, from rigid, L, P, Q, Q4, QM (default: rigid,L,P,Q,Q4 and the run case's own "
+    "formulation, e.g. QM)", ("rigid", "L", "P", "Q", "Q4", "QM"), listed=True)
 CompareOutput = output_path("folder (default: out/compare-<case>)")
 ResumeFlag = flag("--resume", "continue the full-order run from its checkpoint")
 RestartFlag = flag("--restart", "discard the checkpoint of an interrupted full-order run")
@@ -292,7 +292,7 @@ def compare_command(
     spin_rate: Annotated[
         str | None, typer.Option("--spin-rate", help='initial spin rate, e.g. "20 Hz"')
     ] = None,
-    formulations: CompareFormulations = "rigid,L,P,Q,Q4",
+    formulations: CompareFormulations = None,
     damping_cutoff: Annotated[
         str | None,
         typer.Option("--damping-cutoff", help='full-order damping: every FE mode below this, '
@@ -317,8 +317,8 @@ def compare_command(
     no_cache: NoCacheFlag = False,
     animate: extras.AnimateFlag = False, animate_frame: extras.AnimateFrame = "inertial", animate_frames: extras.AnimateFrames = 100,  # fmt: skip
 ) -> None:
-    """Reduced formulations (rigid, L, P, Q, Q4) against the full-order finite-element transient on
-    one window: errors of the modal-amplitude envelope, cone angle and spin rate; the secular
+    """Reduced formulations (rigid, L, P, Q, Q4, and the run case's own, e.g. QM) against the
+    full-order finite-element transient on one window: errors of the modal-amplitude envelope, cone angle and spin rate; the secular
     cone-growth rate, mean dissipated power and spin-rate change fitted over the quasi-steady part
     of the window, as reduced / full; wall times and speed-ups. Writes comparison.nc/.json/.csv,
     overlay plots and report.html (with --animate also the full order's motion.xdmf). The full order's damping is modal damping (the case's ζ) on every FE mode

@@ -11,8 +11,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-#: The formulations of a linearisation (campbell, rotating) and of a time run.
-LINEAR_FORMULATIONS = ("Q", "P", "L", "Q4")
+#: The formulations of a linearisation (campbell, rotating) and of a time run. A linearisation
+#: of "QM" about a steady spin is Q4's (the same numbers: runs.manifold_system.linear_formulation),
+#: offered so that a QM run's formulation is accepted as it is.
+LINEAR_FORMULATIONS = ("Q", "P", "L", "Q4", "QM")
 RUN_FORMULATIONS = ("Q", "P", "L", "rigid", "Q4", "QM")
 #: Named spin axes (three numbers such as 0,0,1 are also accepted).
 AXES = ("x", "y", "z", "minor", "intermediate", "major")

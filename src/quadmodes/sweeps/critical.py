@@ -32,6 +32,7 @@ from quadmodes.rom import reduced as red
 from quadmodes.rom import rotating_frame as rf
 from quadmodes.rom import system as rsys
 from quadmodes.rom.spin_axis import resolve_axis
+from quadmodes.runs.manifold_system import linear_formulation
 
 #: Bisection steps of :func:`refine`: the bracket shrinks by 2^-STEPS.
 STEPS = 24
@@ -108,7 +109,7 @@ def refine(
     """Bisect ``bracket`` on ``model`` (the reduced model of its lower point) to the spin where
     the indicator of :func:`brackets` changes (plain linearisations, no tracking); classify and
     name the branches there. ``axis``: the run's ``initial.spin_axis`` (None: the default)."""
-    sys = rsys.reduced_system(model, formulation)
+    sys = rsys.reduced_system(model, linear_formulation(formulation))  # QM: Q4's linearisation
     request, axis = axis, resolve_axis(model, axis, "initial.spin_axis")
     lo, hi = bracket.spin_lo, bracket.spin_hi
     start = _state(_linearisation(model, sys, lo, axis), bracket.reason)
@@ -127,7 +128,7 @@ def extend(model: red.ReducedModel, bracket: Bracket, formulation: str = "Q", ax
     """For a bracket of reason "extend": the model of the good (lower) point linearised at the
     failed point's spin; the refined :class:`CriticalSpeed` if the rotating stiffness or the
     number of unstable roots changes there, else None."""
-    sys = rsys.reduced_system(model, formulation)
+    sys = rsys.reduced_system(model, linear_formulation(formulation))  # QM: Q4's linearisation
     request, axis = axis, resolve_axis(model, axis, "initial.spin_axis")
     below = _linearisation(model, sys, bracket.spin_lo, axis)
     above = _linearisation(model, sys, bracket.spin_hi, axis)
