@@ -46,7 +46,7 @@ def test_qm_run_conserves_h_and_energy():
 def test_qm_family_conserves_h_and_energy_through_switches(workdir):  # noqa: F811
     """The spin family of test_spin_family with formulation QM (a switch at every chunk): the
     members' QM systems from the one structure, the switches' map with QM's momenta: |H| and
-    E + E_d as constant as Q's family keeps them."""
+    E + E_d as constant as Q's family keeps them; the neighbours' errors measured at each switch."""
     text = run_toml(spin='"300 rad/s"', cone='"10 deg"', amplitude='"0 in"', duration='"0.04 s"',
                     dt='"0.2 ms"', save_every="50")  # fmt: skip
     text = text.replace('formulation = "Q"', 'formulation = "QM"\nreference = "spinning"\n'
@@ -61,6 +61,9 @@ def test_qm_family_conserves_h_and_energy_through_switches(workdir):  # noqa: F8
     assert np.max(np.abs(eb - eb[0])) <= 1e-6 * abs(eb[0])
     for sw in result.family:
         assert sw.h_change <= 1e-12
+        # the members' coning-rate error is measured (by their quadratic view): a QM family's
+        # adaptive spacing follows it as Q's does (before: NaN, the first departure for good)
+        assert np.isfinite(sw.sink_error) and np.isfinite(sw.frequency_error)
 
 
 def test_linearised_analyses_use_q4_and_hub_runs_refuse_qm():

@@ -153,13 +153,27 @@ def spacing_from(run, spin0: float, state: np.ndarray | None = None):
     return AdaptiveSpacing(*(float(v) for v in state))
 
 
+def quadratic_view(system):
+    """Formulation Q of the same member: ``system`` without its cubic and quartic potential
+    and without the manifold kinetics (a Q4 or QM member; others as they are). The energy-sink
+    law is taken for a quadratic potential only (:func:`quadmodes.runs.spin_check.coning_rate`
+    is NaN otherwise), and what the spacing measures, how the coning rate changes from one
+    member's expansion spin to the next, is carried by the arrays Q shares with Q4 and QM (Λ,
+    J, the coupling about the member's spinning state)."""
+    if not system.quartic:
+        return system
+    return dataclasses.replace(system, formulation="Q", V3=None, V4=None, manifold=None)
+
+
 def neighbour_errors(sys_old, sys_new, cone: float) -> tuple[float, float]:
     """(ε_c, ε_f) of the old member at the new member's spin (about its axis), against the new
     member there: the relative difference of the energy-sink coning rates θ̇/θ
     (:func:`quadmodes.runs.spin_check.coning_rate`, at the cone angle ``cone`` rad) and the
-    largest relative difference of the rotating-frame frequencies; NaN where not measurable."""
+    largest relative difference of the rotating-frame frequencies; NaN where not measurable.
+    Members of formulation Q4 or QM are measured by their :func:`quadratic_view`."""
     from quadmodes.runs.spin_check import coning_rate, frequency_difference, rotating_frequencies
 
+    sys_old, sys_new = quadratic_view(sys_old), quadratic_view(sys_new)
     w_new = np.asarray(sys_new.reference_omega, float)
     spin = float(np.linalg.norm(w_new))
     try:
