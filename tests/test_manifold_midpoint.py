@@ -1,7 +1,7 @@
 """Formulation "QM" (rom.manifold_kinetics, rom.manifold_midpoint) on the small capsule, N = 5:
 its arrays reproduce the research prototype's mass matrix and ∂T/∂s; the midpoint step agrees
 with the prototype integrated by DOP853 at rtol 1e-12 to second order in Δt; it conserves |H| to
-round-off and E + E_d to its O(Δt²) energy error; and at small amplitude it is formulation Q4
+round-off and E + E_d to the Newton tolerance (an exact discrete energy balance); and at small amplitude it is formulation Q4
 (Q's kinetics) to the order Q keeps."""
 
 import numpy as np
@@ -73,7 +73,7 @@ def test_truncated_particles_keep_the_quadratic_modes_contribution(capsule, smal
 def test_retained_damping_is_c_at_rest_and_dissipative(capsule, small_modal_model):
     """With the model's own modes as damping modes, C(0) is the model's C (ΦᵀMΦ = I) and C(s)
     is symmetric positive semi-definite; the step's dissipated energy closes E + E_d as with the
-    constant C (to its O(Δt²) energy error, small against E_d)."""
+    constant C (exactly: to the Newton tolerance)."""
     model, _, sys4 = capsule
     mass = small_modal_model.structure.mass_scalar
     arrays = mk.manifold_arrays(model, mass, mk.retained_damping(model))
@@ -85,7 +85,7 @@ def test_retained_damping_is_c_at_rest_and_dissipative(capsule, small_modal_mode
     assert np.max(np.abs(cs - c0)) > 1e-3 * np.max(np.abs(c0))  # it does depend on s
     _, y, ed = mm.run_manifold(sys4, arrays, y0, 5e-5, 200)
     e = np.array([mm.energy(sys4, arrays, row) for row in y]) + ed
-    assert ed[-1] > 0 and np.max(np.abs(e - e[0])) < 1e-2 * ed[-1]
+    assert ed[-1] > 0 and np.max(np.abs(e - e[0])) < 1e-9 * ed[-1]
 
 
 def test_midpoint_agrees_with_the_prototype_to_second_order(capsule, small_modal_model):
@@ -107,19 +107,18 @@ def test_midpoint_agrees_with_the_prototype_to_second_order(capsule, small_modal
 
 
 def test_h_conserved_and_energy_balance(capsule):
-    """|R h| to round-off; E + E_d constant to the midpoint's O(Δt²) energy error (÷4 when Δt
-    halves), small against the energy dissipated."""
+    """|R h| to round-off; E + E_d constant to the Newton tolerance at every Δt (the kinetic
+    force is a discrete gradient: the step's energy balance is exact), where without the
+    correction it moves at O(Δt²); the correction does not change the order (see the order test)."""
     model, arrays, sys4 = capsule
     y0 = _state(model, 2e-3)
-    balance = []
-    for dt in (1e-4, 5e-5):
+    for dt in (2e-4, 1e-4):
         _, y, ed = mm.run_manifold(sys4, arrays, y0, dt, int(round(WINDOW / dt)))
         h = np.array([mm.angular_momentum(arrays, row) for row in y])
         assert np.max(np.abs(h - h[0])) <= 1e-13 * np.linalg.norm(h[0])
         e = np.array([mm.energy(sys4, arrays, row) for row in y]) + ed
-        balance.append(np.max(np.abs(e - e[0])))
-        assert ed[-1] > 0 and balance[-1] < 1e-2 * ed[-1]
-    assert 3.5 < balance[0] / balance[1] < 4.5, balance
+        assert ed[-1] > 1e-4 * abs(e[0])  # a balance with something in it
+        assert np.max(np.abs(e - e[0])) <= 1e-11 * abs(e[0])
 
 
 def test_small_amplitude_is_q4(capsule):
@@ -145,7 +144,7 @@ def test_small_amplitude_is_q4(capsule):
 def test_integrate_and_diagnostics_take_a_qm_system(capsule):
     """``integrate`` of a QM system (``manifold_system``) runs the QM step (the same samples as
     ``run_manifold``); the diagnostics' |H| and energy are QM's (|H| to round-off, E + E_d to
-    the O(Δt²) energy error); the explicit equations and the compiled backend are refused."""
+    the Newton tolerance); the explicit equations and the compiled backend are refused."""
     from quadmodes.rom import dynamics as dyn
     from quadmodes.rom.diagnostics import diagnostics
     from quadmodes.rom.integrators import integrate
@@ -161,7 +160,7 @@ def test_integrate_and_diagnostics_take_a_qm_system(capsule):
     h = np.linalg.norm(dyn.momentum_inertial(sys_qm, sol.y), axis=1)
     assert np.max(np.abs(h - h[0])) <= 1e-13 * h[0]
     e = dyn.energy(sys_qm, sol.y) + sol.dissipated
-    assert np.max(np.abs(e - e[0])) < 1e-2 * sol.dissipated[-1]
+    assert np.max(np.abs(e - e[0])) < 1e-9 * sol.dissipated[-1]
     assert np.all(np.isfinite(d.cone_angle))
     with pytest.raises(ValueError, match="QM"):
         dyn.generalised_system(sys_qm, y0[7:12], y0[4:7], y0[12:])

@@ -174,6 +174,24 @@ def kinetic_gradient(ma: ManifoldArrays, s: np.ndarray, nu: np.ndarray) -> np.nd
     return np.einsum("rc,rcj->j", v, dv)
 
 
+def kinetic_difference(ma: ManifoldArrays, sm: np.ndarray, ds: np.ndarray, nu0: np.ndarray,
+                       nu1: np.ndarray) -> float:  # fmt: skip
+    """ν₀ᵀ(𝕄(s₁) − 𝕄(s₀))ν₁ (J) with s₀,₁ = sm ∓ ds/2, without cancellation: through the
+    particles' differences, exact because w is quadratic and E linear in s:
+    Δw = E(sm) Δs, ΔE = 2 g̃ Δs, w̄ = w(sm) + ¼ Δsᵀg̃Δs, Ē = E(sm), and for v(ν) = ω × w + E ṡ
+    the product rule v₁(ν₀)·v₁(ν₁) − v₀(ν₀)·v₀(ν₁) = Δv(ν₀)·v̄(ν₁) + v̄(ν₀)·Δv(ν₁)."""
+    e = tangents(ma, sm)
+    de = 2.0 * (ma.G @ ds)
+    dw = e @ ds
+    w_bar = positions(ma, sm, e) + 0.125 * (de @ ds)
+
+    def parts(nu):
+        return (np.cross(nu[:3], dw) + de @ nu[3:], np.cross(nu[:3], w_bar) + e @ nu[3:])
+
+    (d0, b0), (d1, b1) = parts(nu0), parts(nu1)
+    return float(np.sum(d0 * b1) + np.sum(b0 * d1))
+
+
 def damping_matrix(ma: ManifoldArrays, s: np.ndarray) -> np.ndarray:
     """C(s) (N, N) 1/s: Bᵀ C_d B on the manifold velocity, or the constant C0."""
     if ma.B0 is None:

@@ -8,8 +8,14 @@ damping C(s) on the manifold velocity. The step equations are those of
 
 with (h, p) = 𝕄(s)ν, 𝕄 quartic in s (J), cubic (coupling) and quadratic (μ), and F̄_V Q4's
 Simpson average of ∂V/∂s (an exact discrete gradient). As for Q: ω₁ is projected after
-convergence so that R h is conserved to round-off; the energy error is that of the kinetic
-terms, O(Δt²) and bounded.
+convergence so that R h is conserved to round-off. ∂T/∂s at the midpoint carries a Gonzalez
+correction along Δs = s₁ − s₀ that makes it a discrete gradient of the kinetic energy in the
+sense the energy balance needs: with (h₁ − h₀)·ω½ = 0 (a rotation about ω½) and
+(p₁ − p₀)·ṡ½ = F·Δs/Δt, the identity ½(m₁·ν₁ − m₀·ν₀) = (m₁ − m₀)·ν½ − ½(m₁·ν₀ − m₀·ν₁)
+(m = 𝕄ν, 𝕄 symmetric) gives E₁ + E_d,₁ = E₀ + E_d,₀ exactly when the kinetic force Ḡ satisfies
+Ḡ·Δs = ½ν₀ᵀ(𝕄(s₁) − 𝕄(s₀))ν₁, and F̄_V is an exact discrete gradient of V. So E + E_d is
+conserved to the Newton tolerance (the symmetric midpoint without it: O(Δt²), bounded; this
+bound set the controlled step of a long QM path, docs/manifold-formulation.md).
 
 Newton matrix: formulation Q's analytic Jacobian (the parent class's, whose mass evaluation is
 Q4's = Q's kinetics) with its 𝕄_Q(s₁) replaced by the manifold 𝕄(s₁); the neglected part is
@@ -61,6 +67,21 @@ class ManifoldMidpointStep(MidpointStep):
         c = mk.damping_matrix(ma, sm)
         return x1, s1, phi, self.dt * float(sdm @ c @ sdm)
 
+    def _kinetic_discrete_gradient(self, x, sm, numid):
+        """∂T/∂s(s½, ν½) (N,) corrected along Δs = s₁ − s₀ (Gonzalez) so that
+        Ḡ·Δs = ½ ν₀ᵀ(𝕄(s₁) − 𝕄(s₀))ν₁ = ½(ν₀·𝕄(s₁)ν₁ − 𝕄(s₀)ν₀·ν₁), which makes the step's
+        energy balance exact (module docstring), at ``x`` = ν₁; the difference of 𝕄 by
+        :func:`~quadmodes.rom.manifold_kinetics.kinetic_difference` (no cancellation: the
+        correction keeps a round-off error of order ε|v|² as Δs → 0). It is O(Δt²) for any Δs
+        (the defect is linear in Δs) and symmetric in the step's two ends."""
+        g = mk.kinetic_gradient(self.arrays, sm, numid)
+        ds = self.hdt * (self.x0[3:] + x[3:])  # s₁ − s₀ = Δt ṡ½
+        dd = float(ds @ ds)
+        if dd <= 1e-300:
+            return g
+        kinetic = 0.5 * mk.kinetic_difference(self.arrays, sm, ds, self.x0, x)
+        return g + ((kinetic - float(g @ ds)) / dd) * ds
+
     def residual(self, x, jac=False):
         """Residual (3+N,) of the step equations and, if ``jac``, the chord Newton matrix."""
         ma, dt = self.arrays, self.dt
@@ -73,7 +94,7 @@ class ManifoldMidpointStep(MidpointStep):
         nl = potential_nonlinear_force
         fv = self.F1 + self.Lam @ sm + (self.n0 + 4.0 * nl(self.sys, sm) + nl(self.sys, s1)) / 6.0
         c = mk.damping_matrix(ma, sm)
-        f = mk.kinetic_gradient(ma, sm, numid) - fv - c @ numid[3:]
+        f = self._kinetic_discrete_gradient(x, sm, numid) - fv - c @ numid[3:]
         r[3:] -= self.p0 + dt * f
         if not jac:
             return r
