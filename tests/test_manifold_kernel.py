@@ -11,7 +11,7 @@ from quadmodes.rom import dynamics as dyn
 from quadmodes.rom import manifold_kernel as mkk
 from quadmodes.rom import manifold_kinetics as mk
 from quadmodes.rom import manifold_midpoint as mm
-from quadmodes.rom.fixed_step import run_fixed
+from quadmodes.rom.fixed_step import newton_weights, run_fixed
 from quadmodes.rom.integrators import integrate
 
 DT, STEPS = 5e-5, 300
@@ -40,9 +40,15 @@ def _numpy(sys_qm, y0, steps=STEPS, max_newton=25):
     return run_fixed(step, sys_qm, y0, steps, DT, idx, 1e-13, max_newton, 0.0, step.name)
 
 
-def _kernel(sys_qm, y0, steps=STEPS, max_newton=25, refresh=1):
+def _kernel(sys_qm, y0, steps=STEPS, max_newton=25, refresh=1, order=1):
     return mkk.fixed_run(sys_qm, y0, steps, DT, np.arange(steps + 1), 1e-13, max_newton, 0.0,
-                         refresh=refresh)  # fmt: skip
+                         refresh=refresh, order=order)  # fmt: skip
+
+
+def _weighted(sys_qm, y):
+    """The states' velocities in the Newton test's energy weights (√J)."""
+    n = sys_qm.n_modes
+    return y[:, np.r_[4:7, 7 + n : 7 + 2 * n]] * newton_weights(sys_qm)
 
 
 def test_helpers_digest_matches():
@@ -67,8 +73,8 @@ def test_packed_potential_is_the_flat_one(qm):
 
 
 def test_kernel_is_the_numpy_step(qm):
-    """Same samples and E_d as the numpy step to round-off amplified over 300 steps, the same
-    Newton work (one matrix a step, the same iterations); |R h| constant to round-off."""
+    """With the numpy step's predictor and one Newton matrix a step: the same samples and E_d
+    to round-off amplified over 300 steps, the same Newton work; |R h| constant to round-off."""
     sys_qm, y0 = qm
     yn, edn, done_n, stn, status_n, _ = _numpy(sys_qm, y0)
     yk, edk, done_k, stk, status_k, msg = _kernel(sys_qm, y0)
@@ -81,15 +87,22 @@ def test_kernel_is_the_numpy_step(qm):
     assert np.max(np.abs(h - h[0])) <= 1e-13 * np.linalg.norm(h[0])
 
 
-def test_kept_newton_matrix_converges_to_the_same_steps(qm):
-    """With the Newton matrix kept across steps (refreshed when the chord slows or fails) the
-    steps converge to the same tolerance: the same trajectory to round-off amplified, fewer
-    matrices."""
+@pytest.mark.parametrize("refresh", [1, 10])
+def test_default_predictor_and_kept_matrix_converge_to_the_same_steps(qm, refresh):
+    """The cubic predictor (default) and a Newton matrix kept across steps (refreshed when the
+    chord slows or fails) converge each step to the same tolerance (1e-13 of the energy scale):
+    the numpy trajectory to that tolerance amplified (the velocities in the Newton test's
+    weights), E_d to 1e-9, fewer chord iterations; |R h| still to round-off."""
     sys_qm, y0 = qm
-    yn = _numpy(sys_qm, y0)[0]
-    yk, _, _, stk, status, _ = _kernel(sys_qm, y0, refresh=10)
-    assert status == 0 and stk["n_jac"] < STEPS
-    assert np.max(np.abs(yk - yn) / np.max(np.abs(yn), axis=0)) < 1e-9
+    yn, edn, _, stn, _, _ = _numpy(sys_qm, y0)
+    yk, edk, _, stk, status, _ = _kernel(sys_qm, y0, refresh=refresh, order=mkk.PREDICTOR)
+    assert status == 0 and stk["n_newton"] < stn["n_newton"]
+    assert refresh == 1 or stk["n_jac"] < STEPS
+    wn, wk = _weighted(sys_qm, yn), _weighted(sys_qm, yk)
+    assert np.max(np.abs(wk - wn)) < 1e-10 * np.max(np.abs(wn))
+    assert abs(edk[-1] - edn[-1]) <= 1e-9 * edn[-1]  # measured 1.2e-10
+    h = np.array([mm.angular_momentum(sys_qm.manifold, y) for y in yk])
+    assert np.max(np.abs(h - h[0])) <= 1e-13 * np.linalg.norm(h[0])
 
 
 def test_failures_are_reported_as_numpy_does(qm):
@@ -109,7 +122,8 @@ def test_failures_are_reported_as_numpy_does(qm):
 
 def test_integrate_runs_the_kernel_for_qm(qm):
     """``integrate`` of a QM system: "auto" and "numba" run the compiled loop (backend "numba",
-    the numpy samples to round-off), "numpy" the numpy step; a user's stepper is numpy only."""
+    the numpy samples to the Newton tolerance), "numpy" the numpy step; a user's stepper is
+    numpy only."""
     sys_qm, y0 = qm
     span = (0.0, 100 * DT)
     kw = {"dt": DT, "save_every": 10, "newton_tol": 1e-13}
@@ -118,6 +132,7 @@ def test_integrate_runs_the_kernel_for_qm(qm):
     for backend in ("auto", "numba"):
         sol = integrate(sys_qm, y0, span, backend=backend, **kw)
         assert sol.stats["backend"] == "numba" and sol.method == "midpoint-QM"
-        assert np.max(np.abs(sol.y - ref.y) / np.max(np.abs(ref.y), axis=0)) < 1e-10
+        wn, wk = _weighted(sys_qm, ref.y), _weighted(sys_qm, sol.y)
+        assert np.max(np.abs(wk - wn)) < 1e-10 * np.max(np.abs(wn))
     with pytest.raises(ValueError, match="midpoint"):
         integrate(sys_qm, y0, span, method=mm.ManifoldMidpointStep, backend="numba", **kw)

@@ -62,17 +62,21 @@ _jit_inline = nb.njit(cache=True, nogil=True, fastmath=_FLAGS, inline="always")
 NAME = "midpoint-QM"
 #: Default number of steps a Newton matrix is kept (docs/manifold-formulation.md: measured).
 REFRESH = 1
+#: Default order of the predictor of ν₁ (polynomial extrapolation of the last values; 1 is
+#: the numpy step's 2ν₀ − ν₋₁). Measured on the coarse 45° member (docs): 3 leaves ~1e-8 of
+#: the state for the chord iteration instead of ~3e-5, two iterations a step instead of three.
+PREDICTOR = 3
 #: A step needing more chord iterations than this refreshes the Newton matrix for the next.
 REFRESH_ITS = 3
 
 #: The compiled helpers of midpoint_kernel that this loop calls (module docstring, caching).
-HELPERS = (qk._rotate, qk._quat_step, qk._lu_factor, qk._lu_solve, qk._residual, qk._jacobian,
-           qk._nl_hessian, qk._work_arrays, qk._state_scale, qk._weighted_max, qk._store,
-           qk._begin, qk._mass, qk._products, qk._second, qk._block_mass_matrix,
-           qk._block_products, qk._block_second, qk._mass_matrix, qk._y_times,
-           qk._second_derivative, qk._nl_force)  # fmt: skip
+HELPERS = (qk._rotate, qk._left_jacobian, qk._quat_step, qk._lu_factor, qk._lu_solve,
+           qk._residual, qk._jacobian, qk._mass, qk._mass_matrix, qk._block_mass_matrix,
+           qk._products, qk._y_times, qk._block_products, qk._second, qk._second_derivative,
+           qk._block_second, qk._nl_force, qk._nl_hessian, qk._work_arrays, qk._state_scale,
+           qk._weighted_max, qk._store)  # fmt: skip
 #: :func:`helpers_digest` of the helpers this file was last checked against.
-HELPERS_DIGEST = "7507d22b071400d1"
+HELPERS_DIGEST = "ecd835d5054d8f0e"
 
 
 def helpers_digest() -> str:
@@ -88,19 +92,33 @@ def helpers_digest() -> str:
 
 @_jit
 def _tangents(phi, g, s, e):
-    """``e = E(s) = Φ̃ + 2 G̃ s`` (R, 3, N): the one 3RN² contraction. G̃ is symmetric in its last
-    two indices, so the inner loop runs along a contiguous row (an axpy, vectorised)."""
-    rr, n = phi.shape[0], s.shape[0]
-    for r in range(rr):
-        for c in range(3):
-            er, pr = e[r, c], phi[r, c]
-            for j in range(n):
-                er[j] = pr[j]
-            for m in range(n):
-                sm2 = 2.0 * s[m]
-                gr = g[r, c, m]
-                for j in range(n):
-                    er[j] += sm2 * gr[j]
+    """``e = E(s) = Φ̃ + 2 G̃ s`` (R, 3, N): the one 3RN² contraction, a sweep over G̃ (its cost
+    is reading G̃: 3RN² numbers from the cache)."""
+    n = s.shape[0]
+    g1, e1, p1 = g.reshape(-1), e.reshape(-1), phi.reshape(-1)
+    for i in range(e1.shape[0]):
+        acc = 0.0
+        base = i * n
+        for m in range(n):
+            acc += g1[base + m] * s[m]
+        e1[i] = p1[i] + 2.0 * acc
+
+
+@_jit
+def _tangents2(phi, g, sa, sb, ea, eb):
+    """``ea = E(sa)``, ``eb = E(sb)`` in one sweep over G̃ (:func:`_tangents` twice for the
+    cost of one: the end of a step and the next step's predictor)."""
+    n = sa.shape[0]
+    g1, a1, b1, p1 = g.reshape(-1), ea.reshape(-1), eb.reshape(-1), phi.reshape(-1)
+    for i in range(a1.shape[0]):
+        acc_a = acc_b = 0.0
+        base = i * n
+        for m in range(n):
+            gm = g1[base + m]
+            acc_a += gm * sa[m]
+            acc_b += gm * sb[m]
+        a1[i] = p1[i] + 2.0 * acc_a
+        b1[i] = p1[i] + 2.0 * acc_b
 
 
 @_jit
@@ -133,9 +151,11 @@ def _momenta(xp, phi, e, s, x, out):
 @_jit
 def _mass_matrix(xp, phi, e, s, out):
     """``out = 𝕄(s)`` (3+N, 3+N) of the particles: J = Σ(|w|²I − wwᵀ), the coupling Σ w × E_k,
-    μ = Σ EᵀE (symmetric: the upper triangle, then mirrored); e = E(s)."""
+    μ = Σ EᵀE (one matrix product); e = E(s)."""
     n = s.shape[0]
     out[:, :] = 0.0
+    e2 = e.reshape(-1, n)
+    mu = np.dot(e2.T, e2)
     w = np.empty(3)
     for r in range(xp.shape[0]):
         for c in range(3):
@@ -149,20 +169,15 @@ def _mass_matrix(xp, phi, e, s, out):
             for b in range(3):
                 out[a, b] -= w[a] * w[b]
         for k in range(n):
-            e0, e1, e2 = e[r, 0, k], e[r, 1, k], e[r, 2, k]
-            out[0, 3 + k] += w[1] * e2 - w[2] * e1
-            out[1, 3 + k] += w[2] * e0 - w[0] * e2
+            e0, e1, e2k = e[r, 0, k], e[r, 1, k], e[r, 2, k]
+            out[0, 3 + k] += w[1] * e2k - w[2] * e1
+            out[1, 3 + k] += w[2] * e0 - w[0] * e2k
             out[2, 3 + k] += w[0] * e1 - w[1] * e0
-            for c in range(3):
-                eck = e[r, c, k]
-                row = e[r, c]
-                for j in range(k, n):
-                    out[3 + k, 3 + j] += eck * row[j]
     for k in range(n):
         for a in range(3):
             out[3 + k, a] = out[a, 3 + k]
-        for j in range(k):
-            out[3 + k, 3 + j] = out[3 + j, 3 + k]
+        for j in range(n):
+            out[3 + k, 3 + j] = mu[k, j]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -186,6 +201,23 @@ def _nl_force(vp, pidx, tidx, s, mono, out):
         for a in range(mono.shape[0]):
             acc += row[a] * mono[a]
         out[k] = acc
+
+
+@_jit
+def _nl_hessian(wh, pidx, s, z, out):
+    """``out = 6V3·s + 12V4·ss`` (N, N), the Hessian of the cubic and quartic potential, on its
+    distinct entries k ≤ m (it is symmetric): ``wh`` (P2, N + P2) of :func:`packed_hessian`
+    times z = (s, the distinct s_q s_p) (z (N + P2,) work array)."""
+    n = s.shape[0]
+    for q in range(n):
+        z[q] = s[q]
+    for a in range(pidx.shape[0]):
+        z[n + a] = s[pidx[a, 0]] * s[pidx[a, 1]]
+    hs = np.dot(wh, z)
+    for a in range(pidx.shape[0]):
+        k, m = pidx[a, 0], pidx[a, 1]
+        out[k, m] = hs[a]
+        out[m, k] = hs[a]
 
 
 @_jit
@@ -279,13 +311,14 @@ def _kinetic(xp, phi, e0, e1, s1, sm, x, numid, dt, r, f):
 
 
 @_jit_inline
-def _residual(x, qm, dt, consts, wk, r):
+def _residual(x, qm, dt, consts, wk, r, have_e1=False):
     """Residual r (3+N,) of the step equations at ν₁ = x; False if the iterate is non-finite.
     Mirrors :meth:`quadmodes.rom.manifold_midpoint.ManifoldMidpointStep.residual`.
 
     ``qm`` of :func:`_arrays`; ``consts`` = (ν₀, h₀, p₀ − Δt F1, sb1, sbm, n0 = the nonlinear
     force at s₀, E(s₀)) of :func:`_begin`; ``wk`` of :func:`_work_arrays`: on return it holds
-    s₁, s½, E(s₁) (and the rest of the intermediates)."""
+    s₁, s½, E(s₁) (and the rest of the intermediates). ``have_e1``: wk[2] already holds E(s₁)
+    of this x (the predictor's, from the previous step's sweep)."""
     xp, phi, g, lam, vp, pidx, tidx, b0, b1, cd, c0, _ = qm
     x0, h0, p0, sb1, sbm, n0, e0 = consts
     s1, sm, e1, numid, theta, rh0, mono, nm, n1, f, cs, bm, bd = wk
@@ -298,7 +331,8 @@ def _residual(x, qm, dt, consts, wk, r):
     for k in range(n):
         s1[k] = sb1[k] + hdt * x[3 + k]
         sm[k] = sbm[k] + 0.25 * dt * x[3 + k]
-    _tangents(phi, g, s1, e1)
+    if not have_e1:
+        _tangents(phi, g, s1, e1)
     _kinetic(xp, phi, e0, e1, s1, sm, x, numid, dt, r, f)
     for a in range(3):  # rotational rows: 𝕄(s₁)ν₁ − exp(−Δt ω̂½) h₀
         theta[a] = -dt * numid[a]
@@ -353,13 +387,15 @@ def _newton_matrix(xg, qm, qarr, quart, dt, consts, wk, wkq, rq, mm, jm, piv):
     Jacobian (Q's kinetics, constant C: :func:`quadmodes.rom.midpoint_kernel._jacobian`, its
     quartic Hessians added here) with 𝕄_Q(s₁) replaced by the manifold 𝕄(s₁). ``wk`` must
     hold :func:`_residual`'s s₁ and E(s₁) at xg; qarr Q's arrays (no quartic part), quart
-    (3V3 (N, N²), 4V4 (N, N³)); wkq, rq, mm work arrays. False if the matrix is singular."""
+    the potential's Hessian (:func:`packed_hessian`); wkq, rq, mm work arrays. False if the
+    matrix is singular."""
     x0, h0, p0, sb1, sbm, n0, _ = consts
     qk._residual(xg, qarr, dt, (x0, h0, p0, sb1, sbm, n0), wkq, rq)  # Q's intermediates
     qk._jacobian(xg, qarr, dt, wkq, jm)
     z1, zm, mq, hm, h1 = wkq[0], wkq[1], wkq[2], wkq[13], wkq[14]
-    qk._nl_hessian(quart[0], quart[1], zm, hm)
-    qk._nl_hessian(quart[0], quart[1], z1, h1)
+    zh = np.empty(quart.shape[1])
+    _nl_hessian(quart, qm[5], zm[1:], zh, hm)
+    _nl_hessian(quart, qm[5], z1[1:], zh, h1)
     _mass_matrix(qm[0], qm[1], wk[2], wk[0], mm)
     n, dt2 = hm.shape[0], dt * dt
     for a in range(n + 3):
@@ -403,17 +439,20 @@ def _chord(xg, qm, dt, consts, wk, r, jm, piv, dx, wt, scale, newton_tol, max_ne
 
 
 @_jit
-def _advance(qm, dt, x0, x1, consts, s1, phi, wk, lu3, piv3):
-    """Finish a converged step in place: s₁, E(s₁) into consts[6] (the next step's E(s₀)), the
-    rotation vector φ = Δt ω½ (3,), and ω₁ projected (one 3×3 solve with J(s₁)) onto
-    h(s₁, ν₁) = exp(−φ̂) h₀ so that R h is conserved to round-off. Returns ΔE_d = Δt ṡ½ᵀC(s½)ṡ½ (J)."""
+def _advance(qm, dt, x0, x1, consts, s1, phi, wk, lu3, piv3, sd_next):
+    """Finish a converged step in place: s₁; E(s₁) into consts[6] (the next step's E(s₀)) and,
+    in the same sweep, E at the next step's predicted s₁ (from its predicted ṡ, ``sd_next``)
+    into wk[2]; the rotation vector φ = Δt ω½ (3,); ω₁ projected (one 3×3 solve with J(s₁))
+    onto h(s₁, ν₁) = exp(−φ̂) h₀ so that R h is conserved to round-off. Returns
+    ΔE_d = Δt ṡ½ᵀC(s½)ṡ½ (J)."""
     xp, ph, g, b0, b1, cd, c0 = qm[0], qm[1], qm[2], qm[7], qm[8], qm[9], qm[10]
     h0, sb1, sbm, e1 = consts[1], consts[3], consts[4], consts[6]
     sm, cs, bm, bd = wk[1], wk[10], wk[11], wk[12]
     n, hdt = s1.shape[0], 0.5 * dt
     for k in range(n):
         s1[k] = sb1[k] + hdt * x1[3 + k]
-    _tangents(ph, g, s1, e1)
+        sm[k] = (s1[k] + hdt * x1[3 + k]) + hdt * sd_next[k]  # as _residual forms it
+    _tangents2(ph, g, s1, sm, e1, wk[2])
     tgt, w = np.zeros(3), np.empty(3)
     lu3[:, :] = 0.0
     for p in range(xp.shape[0]):
@@ -453,19 +492,39 @@ def _advance(qm, dt, x0, x1, consts, s1, phi, wk, lu3, piv3):
     return dt * ded
 
 
+@_jit
+def _predict(hist, nh, order, out):
+    """The predictor ``out`` (3+N,) of ν₁: polynomial extrapolation of the last ``nh`` values
+    ν₀, ν₋₁, … (rows of ``hist``), of degree min(order, nh − 1) (1: 2ν₀ − ν₋₁, the numpy step's;
+    3: 4ν₀ − 6ν₋₁ + 4ν₋₂ − ν₋₃)."""
+    k = min(order, nh - 1)
+    for a in range(out.shape[0]):
+        if k == 0:
+            out[a] = hist[0, a]
+        elif k == 1:
+            out[a] = 2.0 * hist[0, a] - hist[1, a]
+        elif k == 2:
+            out[a] = 3.0 * (hist[0, a] - hist[1, a]) + hist[2, a]
+        else:
+            out[a] = 4.0 * (hist[0, a] + hist[2, a]) - 6.0 * hist[1, a] - hist[3, a]
+
+
 @_jit_inline
-def _solve(x, x_prev, s, qm, qarr, quart, wt, dt, consts, wk, wkq, bufs, tol, max_newton, fresh):
-    """ν₁ of one step into ``bufs[0]`` from the predictor 2ν₀ − ν₋₁ by chord iterations: with
+def _solve(x, pred, have_e1, s, qm, qarr, quart, wt, dt, consts, wk, wkq, bufs, tol, max_newton,
+           fresh):  # fmt: skip
+    """ν₁ of one step into ``bufs[0]`` from the predictor ``pred`` by chord iterations: with
     the kept Newton matrix (bufs[4], bufs[5]), or, if ``fresh`` or that failed, a new one at
-    the predictor (the step redone). Returns (code, chord iterations, last update, matrices)."""
+    the predictor (the step redone). ``have_e1``: wk[2] holds E at the predictor's s₁. Returns
+    (code, chord iterations, last update, matrices made)."""
     xg, r, dx, rq, jm, piv, mm = bufs
     its_all, n_jac = 0, 0
     code, err = qk.OK, 0.0
     for _ in range(2):
         for a in range(x.shape[0]):
-            xg[a] = 2.0 * x[a] - x_prev[a]
-        if not _residual(xg, qm, dt, consts, wk, r):
+            xg[a] = pred[a]
+        if not _residual(xg, qm, dt, consts, wk, r, have_e1):
             return qk.SINGULAR, its_all, err, n_jac
+        have_e1 = False
         if fresh:
             n_jac += 1
             if not _newton_matrix(xg, qm, qarr, quart, dt, consts, wk, wkq, rq, mm, jm, piv):
@@ -481,24 +540,35 @@ def _solve(x, x_prev, s, qm, qarr, quart, wt, dt, consts, wk, wkq, bufs, tol, ma
 
 
 @_jit
+def _start(qm, dt, x, s, hist, pred, consts, wk):
+    """Before the first step: the history (ν₀ only), its predictor (ν₀) and, in one sweep, E(s₀)
+    into consts[6] and E at the predictor's s₁ into wk[2]."""
+    hist[0, :] = x
+    _predict(hist, 1, 1, pred)
+    s1 = wk[0]
+    for k in range(s.shape[0]):
+        s1[k] = (s[k] + 0.5 * dt * x[3 + k]) + 0.5 * dt * pred[3 + k]
+    _tangents2(qm[1], qm[2], s, s1, consts[6], wk[2])
+
+
+@_jit
 def run_manifold_midpoint(qm, qarr, quart, wt, y0, n_steps, dt, save_idx, newton_tol,
-                          max_newton, refresh, out, ed_out, last, info, finfo):  # fmt: skip
+                          max_newton, refresh, order, out, ed_out, last, info, finfo):  # fmt: skip
     """Run ``n_steps`` QM midpoint steps of ``dt`` (s) from ``y0`` (7+2N,) = [q, ω, s, ṡ].
 
     qm, qarr, quart of :func:`_arrays`; wt (3+N,) the convergence weights; save_idx (K,) int64
     increasing step indices to sample (save_idx[0] = 0); newton_tol relative; max_newton;
-    refresh: the steps a Newton matrix is kept (module docstring). Outputs as
-    :func:`quadmodes.rom.midpoint_kernel.run_midpoint`: out (K, 7+2N), ed_out (K,), last
-    (7+2N,), info (int64, 7) = [status, failing step, its iterations, n_newton, n_jac, n_res,
-    steps done], finfo (2,) = [relative update at failure, E_d of the last state]. Returns the
-    number of samples written."""
+    refresh: the steps a Newton matrix is kept; order: the predictor's (module docstring).
+    Outputs as :func:`quadmodes.rom.midpoint_kernel.run_midpoint`: out (K, 7+2N), ed_out (K,),
+    last (7+2N,), info (int64, 7) = [status, failing step, its iterations, n_newton, n_jac,
+    n_res, steps done], finfo (2,) = [relative update at failure, E_d of the last state].
+    Returns the number of samples written."""
     n, rr = qm[3].shape[0], qm[0].shape[0]
     m3 = n + 3
     q, s = y0[0:4].copy(), y0[7 : 7 + n].copy()
-    x = np.empty(m3)
+    x, hist, pred = np.empty(m3), np.empty((4, m3)), np.empty(m3)
     x[:3] = y0[4:7]
     x[3:] = y0[7 + n : 7 + 2 * n]
-    x_prev = x.copy()
     consts = (x, np.empty(3), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
               np.empty((rr, 3, n)))  # fmt: skip
     wk = _work_arrays(n, rr, qm[7].shape[0], qm[4].shape[1])
@@ -506,20 +576,18 @@ def run_manifold_midpoint(qm, qarr, quart, wt, y0, n_steps, dt, save_idx, newton
     bufs = (np.empty(m3), np.empty(m3), np.empty(m3), np.empty(m3), np.empty((m3, m3)),
             np.empty(m3, np.int64), np.empty((m3, m3)))  # fmt: skip
     phi, lu3, piv3 = np.empty(3), np.empty((3, 3)), np.empty(3, np.int64)
-    _tangents(qm[1], qm[2], s, consts[6])
+    _start(qm, dt, x, s, hist, pred, consts, wk)
     qk._store(out, ed_out, 0, q, x, s, 0.0)
-    k_save = 1
+    k_save, nh = 1, 1
     next_save = save_idx[1] if save_idx.shape[0] > 1 else -1
-    e_d = 0.0
-    n_newton = n_jac = 0
-    status = fail_step = fail_its = done = 0
-    fail_err = 0.0
+    e_d, fail_err = 0.0, 0.0
+    n_newton = n_jac = status = fail_step = fail_its = done = 0
     age, slow = refresh, False
     for i in range(1, n_steps + 1):
         _begin(qm, dt, x, s, consts, wk[6])
-        fresh = slow or age >= refresh
-        code, its, err, jacs = _solve(x, x_prev, s, qm, qarr, quart, wt, dt, consts, wk, wkq,
-                                      bufs, newton_tol, max_newton, fresh)  # fmt: skip
+        _predict(hist, nh, order, pred)
+        code, its, err, jacs = _solve(x, pred, True, s, qm, qarr, quart, wt, dt, consts, wk, wkq,
+                                      bufs, newton_tol, max_newton, slow or age >= refresh)  # fmt: skip
         n_newton += its
         n_jac += jacs
         if code != qk.OK:
@@ -527,14 +595,16 @@ def run_manifold_midpoint(qm, qarr, quart, wt, y0, n_steps, dt, save_idx, newton
             if code == qk.NOT_CONVERGED:
                 fail_its, fail_err = its, err
             break
-        age = 1 if jacs else age + 1
-        slow = its > REFRESH_ITS
+        age, slow = (1 if jacs else age + 1), its > REFRESH_ITS
         xg = bufs[0]
-        e_d += _advance(qm, dt, x, xg, consts, s, phi, wk, lu3, piv3)
+        nh = min(nh + 1, 4)
+        hist[1:, :] = hist[:3, :].copy()
+        hist[0, :] = xg
+        _predict(hist, nh, order, pred)  # its ṡ part: where the next step's s₁ will be
+        e_d += _advance(qm, dt, x, xg, consts, s, phi, wk, lu3, piv3, pred[3:])
         qk._quat_step(q, phi)
-        for a in range(m3):
-            x_prev[a] = x[a]
-            x[a] = xg[a]
+        hist[0, :3] = xg[:3]  # ω₁ projected
+        x[:] = xg
         done = i
         if i == next_save:
             qk._store(out, ed_out, k_save, q, x, s, e_d)
@@ -568,6 +638,20 @@ def packed_potential(v3g: np.ndarray, v4g: np.ndarray):
     return np.ascontiguousarray(np.concatenate([c3, c4]).T), pairs, trips
 
 
+def packed_hessian(v3g: np.ndarray, v4g: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """``wh`` (P2, N + P2): row (k, m) (k ≤ m, ``pairs``) of the Hessian 6V3·s + 12V4·ss as
+    coefficients of (s_q; s_q s_p, q ≤ p) (flat tensors v3g = 3V3 (N, N²), v4g = 4V4 (N, N³),
+    symmetric)."""
+    n = v3g.shape[0]
+    v3, v4 = v3g.reshape(n, n, n), v4g.reshape(n, n, n, n)
+    q, p = pairs[:, 0], pairs[:, 1]
+    rows = []
+    for k, m in pairs:
+        a4 = 3.0 * v4[k, m]
+        rows.append(np.concatenate([2.0 * v3[k, m], a4[q, p] + np.where(q != p, a4[p, q], 0.0)]))
+    return np.ascontiguousarray(np.array(rows).reshape(len(pairs), n + len(pairs)))
+
+
 def _orders(t):
     a, b, c = (int(v) for v in t)
     return ((a, b, c), (a, c, b), (b, a, c), (b, c, a), (c, a, b), (c, b, a))
@@ -578,7 +662,8 @@ def _arrays(sys):
     (X̃ (R, 3), Φ̃ (R, 3, N), G̃ (R, 3, N, N), Λ (N, N), vp, pidx, tidx (:func:`packed_potential`),
     B0 (D, N), B1 (N, D, N), C_d (D, D) (D = 0 without damping modes), C0 (N, N), F1 (N,));
     qarr: Q's arrays of :func:`quadmodes.rom.midpoint_kernel._arrays` without the quartic part
-    (the Newton matrix); quart = (3V3 (N, N²), 4V4 (N, N³)); wt the convergence weights."""
+    (the Newton matrix); quart the potential's Hessian (:func:`packed_hessian`); wt the
+    convergence weights."""
     ma, n = sys.manifold, sys.n_modes
     f = np.ascontiguousarray
     mass, lam, cmat, wt, v3g, v4g, f1 = qk._arrays(sys)
@@ -590,11 +675,11 @@ def _arrays(sys):
     qm = (f(ma.X, dtype=np.float64), f(ma.Phi, dtype=np.float64), f(ma.G, dtype=np.float64),
           lam, vp, pidx, tidx, b0, b1, cd, f(ma.C0, dtype=np.float64), f1)  # fmt: skip
     empty = np.zeros((n, 0))
-    return qm, (mass, lam, cmat, empty, empty, f1), (v3g, v4g), wt
+    return qm, (mass, lam, cmat, empty, empty, f1), packed_hessian(v3g, v4g, pidx), wt
 
 
 def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name=NAME,
-              refresh=REFRESH):  # fmt: skip
+              refresh=REFRESH, order=PREDICTOR):  # fmt: skip
     """Compiled equivalent of ``fixed_step.run_fixed(ManifoldMidpointStep(sys, dt), ...)``
     (``refresh = 1``: the same Newton iteration; more: the Newton matrix kept that many steps).
 
@@ -608,8 +693,8 @@ def fixed_run(sys, y0, n_steps, dt, save_idx, newton_tol, max_newton, t0, name=N
     out, ed_out, last = np.empty((len(idx), len(y0))), np.empty(len(idx)), np.empty(len(y0))
     info, finfo = np.zeros(7, np.int64), np.zeros(2)
     k_save = run_manifold_midpoint(qm, qarr, quart, wt, y0, int(n_steps), float(dt), idx,
-                                   float(newton_tol), int(max_newton), int(refresh), out, ed_out,
-                                   last, info, finfo)  # fmt: skip
+                                   float(newton_tol), int(max_newton), int(refresh), int(order),
+                                   out, ed_out, last, info, finfo)  # fmt: skip
     status, step, its, n_newton, n_jac, n_res, done = (int(v) for v in info)
     msg = "ok"
     out, ed_out = out[:k_save], ed_out[:k_save]
@@ -640,7 +725,7 @@ def warm_up() -> float:
     empty = np.zeros((n, 0))
     qarr = (mass, np.eye(n), np.eye(n), empty, empty, np.zeros(n))
     y0 = np.array([1.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3, 0.0, 0.0])
-    run_manifold_midpoint(qm, qarr, (np.zeros((n, 1)), np.zeros((n, 1))), np.ones(3 + n), y0, 2,
-                          1e-3, np.array([0, 2], np.int64), 1e-13, 25, 1, np.empty((2, 9)),
+    run_manifold_midpoint(qm, qarr, np.zeros((1, n + 1)), np.ones(3 + n), y0, 2,
+                          1e-3, np.array([0, 2], np.int64), 1e-13, 25, 1, 3, np.empty((2, 9)),
                           np.empty(2), np.empty(9), np.zeros(7, np.int64), np.zeros(2))  # fmt: skip
     return time.perf_counter() - start
