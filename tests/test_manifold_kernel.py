@@ -60,16 +60,24 @@ def test_helpers_digest_matches():
 
 
 def test_packed_potential_is_the_flat_one(qm):
-    """The force on the distinct monomials equals 3V3·ss + 4V4·sss of the flat tensors."""
+    """The force and the Hessian on the distinct monomials equal 3V3·ss + 4V4·sss and
+    H = 6V3·s + 12V4·ss of the flat tensors (V3, V4 symmetric; the Newton matrix's
+    2H(s½) + H(s₁) in one product)."""
     sys_qm, y0 = qm
     n = sys_qm.n_modes
     vp, pidx, tidx = mkk.packed_potential(sys_qm.flat.V3g, sys_qm.flat.V4g)
     assert vp.shape == (n, n * (n + 1) // 2 + n * (n + 1) * (n + 2) // 6)
-    out, mono = np.empty(n), np.empty(vp.shape[1])
-    for s in (y0[7 : 7 + n], np.random.default_rng(1).standard_normal(n) * 1e-2):
-        mkk._nl_force(vp, pidx, tidx, s, mono, out)
+    sv = np.stack([y0[7 : 7 + n], np.random.default_rng(1).standard_normal(n) * 1e-2])
+    out, mono = np.empty((2, n)), np.empty((2, vp.shape[1]))
+    mkk._nl_forces(np.ascontiguousarray(vp.T), pidx, tidx, sv, mono, out)
+    for s, o in zip(sv, out, strict=True):
         ref = dyn.potential_nonlinear_force(sys_qm, s)
-        assert np.max(np.abs(out - ref)) <= 1e-13 * np.max(np.abs(ref))
+        assert np.max(np.abs(o - ref)) <= 1e-13 * np.max(np.abs(ref))
+    h, wh = np.empty((n, n)), mkk.packed_hessian(sys_qm.flat.V3g, sys_qm.flat.V4g, pidx)
+    mkk._nl_hessian(wh, pidx, sv[0], sv[1], np.empty(wh.shape[1]), h)
+    ref = 2.0 * dyn.potential_hessian(sys_qm, sv[0]) + dyn.potential_hessian(sys_qm, sv[1])
+    ref -= 3.0 * sys_qm.Lam
+    assert np.max(np.abs(h - ref)) <= 1e-12 * np.max(np.abs(ref))
 
 
 def test_kernel_is_the_numpy_step(qm):
