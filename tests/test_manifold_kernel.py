@@ -97,7 +97,7 @@ def test_kernel_is_the_numpy_step(qm):
 
 @pytest.mark.parametrize("refresh", [1, 10])
 def test_default_predictor_and_kept_matrix_converge_to_the_same_steps(qm, refresh):
-    """The cubic predictor (default) and a Newton matrix kept across steps (refreshed when the
+    """The default predictor (order 4) and a Newton matrix kept across steps (refreshed when the
     chord slows or fails) converge each step to the same tolerance (1e-13 of the energy scale):
     the numpy trajectory to that tolerance amplified (the velocities in the Newton test's
     weights), E_d to 1e-9, fewer chord iterations; |R h| still to round-off."""

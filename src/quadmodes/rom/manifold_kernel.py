@@ -2,32 +2,48 @@
 :class:`~quadmodes.rom.manifold_midpoint.ManifoldMidpointStep` driven by
 :func:`~quadmodes.rom.fixed_step.run_fixed` (predictor, chord Newton, the ω projection, the
 dissipated energy, sampling, failure codes) in one compiled call, with the same step equations
-and the same convergence test, so the two backends agree to round-off amplified by the dynamics::
+and the same convergence test::
 
     h(s₁, ν₁) = exp(−Δt ω̂½) h₀,   p(s₁, ν₁) − p₀ = Δt [∂T/∂s(s½, ν½) − F̄_V − C(s½) ṡ½]
     s₁ − s₀ = Δt ṡ½,   q₁ = q₀ ⊗ exp(Δt ω½ / 2),   ΔE_d = Δt ṡ½ᵀ C(s½) ṡ½
+
+With ``order = 1`` (the numpy step's predictor 2ν₀ − ν₋₁) and ``refresh = 1`` it runs the numpy
+step's iterations and the two backends agree to round-off amplified by the dynamics; by default
+(``order = 4``) each step converges to the same Newton tolerance from a better predictor, in
+fewer iterations, and the backends agree to that tolerance amplified.
 
 The kinetic energy is that of the R pseudo-particles of :mod:`quadmodes.rom.manifold_kinetics`,
 w_ρ(s) = X̃_ρ + Φ̃_ρ s + Σ s_m s_n g̃_ρ^{mn}, T = ½ Σ_ρ |ω × w_ρ + E_ρ ṡ|², E(s) = Φ̃ + 2 G̃ s.
 What a step costs, and why (docs/manifold-formulation.md "Compiled step"):
 
-* **one 3RN² contraction a residual**, E(s₁). E is linear in s, so E(s½) = ½(E(s₀) + E(s₁))
-  with E(s₀) kept from the previous step; the step enforces s₁ − s₀ = Δt ṡ½, so the velocity
-  part of ∂v/∂s at the midpoint, 2 Σ_n g̃^{jn} ṡ½_n, is (E(s₁) − E(s₀))_j / Δt; the positions
-  are w = X̃ + ½(Φ̃ + E(s)) s (w is quadratic). Hence ∂T/∂s(s½, ν½)_j =
-  Σ_ρ E_ρj(s½)·(v½ × ω½) + (E(s₁) − E(s₀))_ρj·v½ / Δt with v½ = ω½ × w(s½) + E(s½) ṡ½, and
-  (h₁, p₁) = Σ_ρ (w × v, Eᵀv) at s₁. 𝕄(s) itself is formed only for the Newton matrix.
+* **one sweep over G̃ a residual**, E(s₁) (3RN² products; its cost is reading G̃ from the cache).
+  E is linear in s, so E(s½) = ½(E(s₀) + E(s₁)) with E(s₀) kept from the previous step; the step
+  enforces s₁ − s₀ = Δt ṡ½, so the velocity part of ∂v/∂s at the midpoint,
+  2 Σ_n g̃^{jn} ṡ½_n, is (E(s₁) − E(s₀))_j / Δt; the positions are w = X̃ + ½(Φ̃ + E(s)) s (w is
+  quadratic). Hence ∂T/∂s(s½, ν½)_j = Σ_ρ E_ρj(s½)·(v½ × ω½) + (E(s₁) − E(s₀))_ρj·v½ / Δt with
+  v½ = ω½ × w(s½) + E(s½) ṡ½, and (h₁, p₁) = Σ_ρ (w × v, Eᵀv) at s₁. 𝕄(s) itself is formed only
+  for the Newton matrix. The sweep at the end of a step also gives E at the next step's
+  predicted s₁ (two columns, one read of G̃), so the first residual of a step costs no sweep:
+  two sweeps a step when the chord converges in two iterations.
+* **the predictor** of ν₁: extrapolation of the last ν of degree ``order`` (default 4): the
+  chord iteration starts ~1e-9 of the state away instead of ~1e-4 (Δt = 0.25 ms) and converges
+  by the numpy step's test in two iterations (the least the test allows) instead of four.
 * **Q4's potential** ∂V/∂s − Λs − F1 = 3V3·ss + 4V4·sss on the distinct monomials
   (s_m s_q, m ≤ q; s_m s_q s_p, m ≤ q ≤ p; their coefficients summed over the permutations):
-  N(N(N+1)/2 + N(N+1)(N+2)/6) products instead of N³ + N⁴ (N = 16: 15 232 against 69 632).
+  N(N(N+1)/2 + N(N+1)(N+2)/6) products instead of N³ + N⁴ (N = 16: 15 232 against 69 632), at
+  several points in one product (s₀ and the predictor's s½, s₁ together).
 * **damping** C(s)ṡ = B(s)ᵀ C_d (B(s) ṡ), B = B0 + Σ s_n B1_n, without forming C(s) (2DN² + D²).
 * **the Newton matrix**: that of the numpy step (Q4's analytic Jacobian — the compiled Q
   pieces of :mod:`quadmodes.rom.midpoint_kernel` — with 𝕄_Q(s₁) replaced by the manifold
-  𝕄(s₁)), evaluated at a step's predictor and **kept across steps** (``refresh``): it is
-  recomputed every ``refresh`` steps, after a step that needed more than ``REFRESH_ITS`` chord
-  iterations, and, before any failure is reported, for a step whose chord iteration with an
-  old matrix did not converge (the step is then redone from its predictor). ``refresh = 1`` is
-  the numpy step's Newton iteration exactly (one matrix a step, at the predictor).
+  𝕄(s₁)), at each step's predictor (its chord rate, ~1e-4 – 1e-3, is what two iterations need;
+  the exact Jacobian would cost one more sweep a step, a matrix kept one step already loses a
+  factor 5 of rate: docs). ``refresh > 1`` keeps it across steps: recomputed every ``refresh``
+  steps, after a step that needed more than ``REFRESH_ITS`` chord iterations, and, before any
+  failure is reported, for a step whose chord iteration with an old matrix did not converge
+  (the step is then redone from its predictor).
+* **R h carried**: the next step's h₀ is this step's exp(−φ̂) h₀ (which the projected state
+  reproduces to round-off), not re-evaluated from the state, so |R h| does not drift by the
+  evaluations' round-off.
 
 Caching: every function is ``@njit(cache=True)`` and calls compiled helpers of
 :mod:`quadmodes.rom.midpoint_kernel` (rotations, LU, Q's residual and Jacobian), which numba
@@ -63,9 +79,10 @@ NAME = "midpoint-QM"
 #: Default number of steps a Newton matrix is kept (docs/manifold-formulation.md: measured).
 REFRESH = 1
 #: Default order of the predictor of ν₁ (polynomial extrapolation of the last values; 1 is
-#: the numpy step's 2ν₀ − ν₋₁). Measured on the coarse 45° member (docs): 3 leaves ~1e-8 of
-#: the state for the chord iteration instead of ~3e-5, two iterations a step instead of three.
-PREDICTOR = 3
+#: the numpy step's 2ν₀ − ν₋₁). Measured on the coarse 45° member at Δt = 0.25 ms (docs): the
+#: chord iteration starts ~1e-4 (order 1), 2.5e-7 (3) of the state away; chord iterations a
+#: step 3.95 / 2.07 / 2.007 for orders 1 / 3 / 4 (at 0.5 ms: 3.1 for 3, 2.2 for 4).
+PREDICTOR = 4
 #: A step needing more chord iterations than this refreshes the Newton matrix for the next.
 REFRESH_ITS = 3
 
@@ -508,8 +525,8 @@ def _advance(qm, dt, x0, x1, consts, s1, phi, wk, lu3, piv3, sd_next):
 @_jit
 def _predict(hist, nh, order, out):
     """The predictor ``out`` (3+N,) of ν₁: polynomial extrapolation of the last ``nh`` values
-    ν₀, ν₋₁, … (rows of ``hist``), of degree min(order, nh − 1) (1: 2ν₀ − ν₋₁, the numpy step's;
-    3: 4ν₀ − 6ν₋₁ + 4ν₋₂ − ν₋₃)."""
+    ν₀, ν₋₁, … (rows of ``hist``), of degree min(order, nh − 1) ≤ 4 (1: 2ν₀ − ν₋₁, the numpy
+    step's; 4: 5ν₀ − 10ν₋₁ + 10ν₋₂ − 5ν₋₃ + ν₋₄)."""
     k = min(order, nh - 1)
     for a in range(out.shape[0]):
         if k == 0:
@@ -518,8 +535,10 @@ def _predict(hist, nh, order, out):
             out[a] = 2.0 * hist[0, a] - hist[1, a]
         elif k == 2:
             out[a] = 3.0 * (hist[0, a] - hist[1, a]) + hist[2, a]
-        else:
+        elif k == 3:
             out[a] = 4.0 * (hist[0, a] + hist[2, a]) - 6.0 * hist[1, a] - hist[3, a]
+        else:
+            out[a] = 5.0 * (hist[0, a] - hist[3, a]) + 10.0 * (hist[2, a] - hist[1, a]) + hist[4, a]
 
 
 @_jit_inline
@@ -579,7 +598,7 @@ def run_manifold_midpoint(qm, qarr, quart, wt, y0, n_steps, dt, save_idx, newton
     n, rr = qm[3].shape[0], qm[0].shape[0]
     m3 = n + 3
     q, s = y0[0:4].copy(), y0[7 : 7 + n].copy()
-    x, hist, pred = np.empty(m3), np.empty((4, m3)), np.empty(m3)
+    x, hist, pred = np.empty(m3), np.empty((5, m3)), np.empty(m3)
     x[:3] = y0[4:7]
     x[3:] = y0[7 + n : 7 + 2 * n]
     consts = (x, np.empty(3), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
@@ -610,8 +629,8 @@ def run_manifold_midpoint(qm, qarr, quart, wt, y0, n_steps, dt, save_idx, newton
             break
         age, slow = (1 if jacs else age + 1), its > REFRESH_ITS
         xg = bufs[0]
-        nh = min(nh + 1, 4)
-        hist[1:, :] = hist[:3, :].copy()
+        nh = min(nh + 1, 5)
+        hist[1:, :] = hist[:4, :].copy()
         hist[0, :] = xg
         _predict(hist, nh, order, pred)  # its ṡ part: where the next step's s₁ will be
         e_d += _advance(qm, dt, x, xg, consts, s, phi, wk, lu3, piv3, pred[3:])
