@@ -103,13 +103,8 @@ def pieces(sys, y0, dt, reps=3000) -> dict:
         mkk._tangents2(qm[1], qm[2], s, s, e, e2)
         wk, wkq = mkk._work_arrays(n, rr, qm[7].shape[0], qm[4].shape[0]), qk._work_arrays(n)
         consts = (x.copy(), x[:3].copy(), s.copy(), s.copy(), s.copy(), s.copy(), e2)
-        r, rq, piv = np.empty(n + 3), np.empty(n + 3), np.empty(n + 3, np.int64)
-        mm_, jm, lu3, piv3 = (
-            np.empty((n + 3, n + 3)),
-            np.empty((n + 3, n + 3)),
-            np.empty((3, 3)),
-            np.empty(3, np.int64),
-        )
+        r, piv, jm = np.empty(n + 3), np.empty(n + 3, np.int64), np.empty((n + 3, n + 3))
+        lu3, piv3 = np.empty((3, 3)), np.empty(3, np.int64)
         mkk._residual(x, qm, dt, consts, wk, r, False)
         for _ in range(reps):
             if which == 0:
@@ -121,7 +116,7 @@ def pieces(sys, y0, dt, reps=3000) -> dict:
             elif which == 3:
                 mkk._residual(x, qm, dt, consts, wk, r, False)
             elif which == 4:
-                mkk._newton_matrix(x, qm, qarr, wh, dt, consts, wk, wkq, rq, mm_, jm, piv)
+                mkk._newton_matrix(x, qm, qarr, wh, dt, wk, wkq, jm, piv)
             elif which == 5:
                 mkk._begin(qm, dt, x, s, consts, wk, False, x)
             else:

@@ -88,12 +88,11 @@ REFRESH_ITS = 3
 
 #: The compiled helpers of midpoint_kernel that this loop calls (module docstring, caching).
 HELPERS = (qk._rotate, qk._left_jacobian, qk._quat_step, qk._lu_factor, qk._lu_solve,
-           qk._residual, qk._jacobian, qk._mass, qk._mass_matrix, qk._block_mass_matrix,
-           qk._products, qk._y_times, qk._block_products, qk._second, qk._second_derivative,
-           qk._block_second, qk._nl_force, qk._nl_hessian, qk._work_arrays, qk._state_scale,
-           qk._weighted_max, qk._store)  # fmt: skip
+           qk._jacobian, qk._products, qk._y_times, qk._block_products, qk._second,
+           qk._second_derivative, qk._block_second, qk._nl_hessian, qk._work_arrays,
+           qk._state_scale, qk._weighted_max, qk._store)  # fmt: skip
 #: :func:`helpers_digest` of the helpers this file was last checked against.
-HELPERS_DIGEST = "ecd835d5054d8f0e"
+HELPERS_DIGEST = "6ca6501d35d1a543"
 
 
 def helpers_digest() -> str:
@@ -412,23 +411,28 @@ def _begin(qm, dt, x0, s0, consts, wk, first, pred):
 
 
 @_jit
-def _newton_matrix(xg, qm, qarr, quart, dt, consts, wk, wkq, rq, mm, jm, piv):
+def _newton_matrix(xg, qm, qarr, quart, dt, wk, wkq, jm, piv):
     """The numpy step's Newton matrix at ν₁ = xg, LU-factored in (jm, piv): Q4's analytic
     Jacobian (Q's kinetics, constant C: :func:`quadmodes.rom.midpoint_kernel._jacobian`, its
     quartic Hessians added here) with 𝕄_Q(s₁) replaced by the manifold 𝕄(s₁). ``wk`` must
-    hold :func:`_residual`'s s₁ and E(s₁) at xg; qarr Q's arrays (no quartic part), quart
-    the potential's Hessian (:func:`packed_hessian`); wkq, rq, mm work arrays. False if the
-    matrix is singular."""
-    x0, h0, p0, sb1, sbm, n0, _ = consts
-    qk._residual(xg, qarr, dt, (x0, h0, p0, sb1, sbm, n0), wkq, rq)  # Q's intermediates
+    hold :func:`_residual`'s intermediates at xg (s₁, s½, E(s₁), ν½, θ, exp(θ̂)h₀); qarr Q's
+    arrays (no quartic part), quart the potential's Hessian (:func:`packed_hessian`); wkq the
+    work arrays of Q's Jacobian (:func:`quadmodes.rom.midpoint_kernel._work_arrays`), filled
+    here with what Q's residual would leave there, the manifold 𝕄(s₁) in the place of Q's.
+    False if the matrix is singular."""
+    z1, zm, m1, numid, theta, rh0, pm, y, hm = (wkq[0], wkq[1], wkq[2], wkq[3], wkq[4], wkq[5],
+                                                wkq[6], wkq[10], wkq[13])  # fmt: skip
+    z1[0] = zm[0] = 1.0
+    z1[1:] = wk[0]
+    zm[1:] = wk[1]
+    numid[:] = wk[3]
+    theta[:] = wk[4]
+    rh0[:] = wk[5]
+    qk._products(qarr[0], True, zm, numid, y, pm)  # P_E(z½, ν½) of Q's kinetics
+    _mass_matrix(qm[0], qm[1], wk[2], wk[0], m1)
     qk._jacobian(xg, qarr, dt, wkq, jm)
-    z1, zm, mq, hm = wkq[0], wkq[1], wkq[2], wkq[13]
     _nl_hessian(quart, qm[5], zm[1:], z1[1:], np.empty(quart.shape[1]), hm)  # 2H(s½) + H(s₁)
-    _mass_matrix(qm[0], qm[1], wk[2], wk[0], mm)
     n, dt2 = hm.shape[0], dt * dt
-    for a in range(n + 3):
-        for b in range(n + 3):
-            jm[a, b] += mm[a, b] - mq[a, b]
     for k in range(n):
         for j in range(n):
             jm[3 + k, 3 + j] += dt2 * hm[k, j] / 12.0  # Δt²(H(s½)/6 + H(s₁)/12)
@@ -548,7 +552,7 @@ def _solve(x, pred, have_e1, s, qm, qarr, quart, wt, dt, consts, wk, wkq, bufs, 
     the kept Newton matrix (bufs[4], bufs[5]), or, if ``fresh`` or that failed, a new one at
     the predictor (the step redone). ``have_e1``: wk[2] holds E at the predictor's s₁. Returns
     (code, chord iterations, last update, matrices made)."""
-    xg, r, dx, rq, jm, piv, mm = bufs
+    xg, r, dx, jm, piv = bufs
     its_all, n_jac = 0, 0
     code, err = qk.OK, 0.0
     for _ in range(2):
@@ -559,7 +563,7 @@ def _solve(x, pred, have_e1, s, qm, qarr, quart, wt, dt, consts, wk, wkq, bufs, 
         have_e1 = False
         if fresh:
             n_jac += 1
-            if not _newton_matrix(xg, qm, qarr, quart, dt, consts, wk, wkq, rq, mm, jm, piv):
+            if not _newton_matrix(xg, qm, qarr, quart, dt, wk, wkq, jm, piv):
                 return qk.SINGULAR, its_all, err, n_jac
         scale = qk._state_scale(x, xg, s, wt, qm[3])
         code, its, err = _chord(xg, qm, dt, consts, wk, r, jm, piv, dx, wt, scale, tol,
@@ -605,8 +609,7 @@ def run_manifold_midpoint(qm, qarr, quart, wt, y0, n_steps, dt, save_idx, newton
               np.empty((rr, 3, n)))  # fmt: skip
     wk = _work_arrays(n, rr, qm[7].shape[0], qm[4].shape[0])
     wkq = qk._work_arrays(n)
-    bufs = (np.empty(m3), np.empty(m3), np.empty(m3), np.empty(m3), np.empty((m3, m3)),
-            np.empty(m3, np.int64), np.empty((m3, m3)))  # fmt: skip
+    bufs = (np.empty(m3), np.empty(m3), np.empty(m3), np.empty((m3, m3)), np.empty(m3, np.int64))
     phi, lu3, piv3 = np.empty(3), np.empty((3, 3)), np.empty(3, np.int64)
     _start(qm, dt, x, s, hist, pred, consts, wk)
     qk._store(out, ed_out, 0, q, x, s, 0.0)
