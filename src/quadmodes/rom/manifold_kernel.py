@@ -485,16 +485,16 @@ def _advance(qm, dt, x0, x1, consts, s1, phi, wk, lu3, piv3, sd_next):
         s1[k] = sb1[k] + hdt * x1[3 + k]
         sm[k] = (s1[k] + hdt * x1[3 + k]) + hdt * sd_next[k]  # as _residual forms it
     _tangents2(ph, g, s1, sm, e1, wk[2])
-    tgt, w = np.zeros(3), np.empty(3)
+    tgt, w, d = np.zeros(3), np.empty(3), np.empty(3)
     lu3[:, :] = 0.0
     for p in range(xp.shape[0]):
-        d = np.zeros(3)
         for c in range(3):
-            a = 0.0
+            a = b = 0.0
             for j in range(n):
                 a += (ph[p, c, j] + e1[p, c, j]) * s1[j]
-                d[c] += e1[p, c, j] * x1[3 + j]
+                b += e1[p, c, j] * x1[3 + j]
             w[c] = xp[p, c] + 0.5 * a
+            d[c] = b
         ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
         for a in range(3):
             lu3[a, a] += ww
