@@ -122,8 +122,8 @@ def _tangents(phi, g, s, e):
 
 @_jit
 def _tangents2(phi, g, sa, sb, ea, eb):
-    """``ea = E(sa)``, ``eb = E(sb)`` in one sweep over G̃ (:func:`_tangents` twice for the
-    cost of one: the end of a step and the next step's predictor)."""
+    """``ea = E(sa)``, ``eb = E(sb)`` in one sweep over G̃ (:func:`_tangents` twice for ~1.4
+    times the cost of one, measured: the end of a step and the next step's predictor)."""
     n = sa.shape[0]
     g1, a1, b1, p1 = g.reshape(-1), ea.reshape(-1), eb.reshape(-1), phi.reshape(-1)
     for i in range(a1.shape[0]):
