@@ -44,6 +44,8 @@ LONG_MODULES: dict[str, str] = {
     "quadmodes.rom.midpoint_kernel": "numba checks only this file's time stamp before loading "
     "the cached compiled loop, so all the loop's compiled pieces (each function under 80 lines) "
     "stay in this one file to be recompiled whenever any of them changes",
+    "quadmodes.rom.manifold_kernel": "formulation QM's compiled loop, for the same reason as "
+    "midpoint_kernel (one file, recompiled whenever any of its pieces changes)",
 }
 
 # "module.function" -> why it may exceed MAX_FUNCTION_LINES

@@ -144,7 +144,8 @@ def test_small_amplitude_is_q4(capsule):
 def test_integrate_and_diagnostics_take_a_qm_system(capsule):
     """``integrate`` of a QM system (``manifold_system``) runs the QM step (the same samples as
     ``run_manifold``); the diagnostics' |H| and energy are QM's (|H| to round-off, E + E_d to
-    the Newton tolerance); the explicit equations and the compiled backend are refused."""
+    the Newton tolerance); the explicit equations are refused (the compiled backend:
+    tests/test_manifold_kernel.py)."""
     from quadmodes.rom import dynamics as dyn
     from quadmodes.rom.diagnostics import diagnostics
     from quadmodes.rom.integrators import integrate
@@ -164,8 +165,6 @@ def test_integrate_and_diagnostics_take_a_qm_system(capsule):
     assert np.all(np.isfinite(d.cone_angle))
     with pytest.raises(ValueError, match="QM"):
         dyn.generalised_system(sys_qm, y0[7:12], y0[4:7], y0[12:])
-    with pytest.raises(ValueError, match="QM"):
-        integrate(sys_qm, y0, (0.0, WINDOW), dt=5e-5, backend="numba")
 
 
 def test_reduced_system_refuses_qm_with_a_pointer(capsule):

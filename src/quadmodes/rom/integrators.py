@@ -44,8 +44,9 @@ backend="auto") -> Solution``
 * Backend (``backend=``): ``"numpy"`` runs the steppers below from Python; ``"numba"`` runs the
   whole midpoint loop in one compiled call (:mod:`quadmodes.rom.midpoint_kernel`, numba, a core
   dependency; 20–30× faster for N = 5; same equations and convergence test, results equal to
-  round-off); ``"auto"`` (default) uses numba for the midpoint (the built-in
-  :class:`~quadmodes.rom.midpoint.MidpointStep`) when numba is importable, numpy otherwise (backward Euler, the adaptive solvers and
+  round-off; formulation "QM" has its own loop, :mod:`quadmodes.rom.manifold_kernel`);
+  ``"auto"`` (default) uses numba for the midpoint (the built-in
+  :class:`~quadmodes.rom.midpoint.MidpointStep`, or QM's) when numba is importable, numpy otherwise (backward Euler, the adaptive solvers and
   other steppers are numpy only). ``"numba"`` without numba, or with another method, raises
   ``ValueError``.
 
@@ -124,10 +125,8 @@ def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None,
     general = sys is not None and sys.nonlinear_potential is not None
     if backend == "numba" and general:
         raise ValueError('backend "numba" cannot evaluate a nonlinear potential; use "numpy"')
-    if sys is not None and sys.manifold is not None:  # formulation "QM": numpy step only (yet)
-        if backend == "numba":
-            raise ValueError('backend "numba" cannot integrate formulation "QM" yet; use "numpy"')
-        return None
+    if sys is not None and sys.manifold is not None:  # formulation "QM": its own kernel
+        return _manifold_backend(backend, method, compiled)
     if backend == "numpy" or general:
         return None
     if backend == "numba" and not compiled:
@@ -141,6 +140,25 @@ def _select_backend(backend: str, method: str, sys: ReducedSystem | None = None,
     return kernel
 
 
+def _manifold_backend(backend: str, method: str, compiled: bool):
+    """The compiled loop of formulation "QM" (:mod:`quadmodes.rom.manifold_kernel`) for its
+    midpoint with backend "numba" or "auto" (numba importable), else None (numpy step)."""
+    if backend == "numpy":
+        return None
+    if not compiled:
+        if backend == "numba":
+            raise ValueError(f'backend "numba" supports method "midpoint" only, not {method!r}')
+        return None
+    if numba_kernel() is None:
+        if backend == "numba":
+            raise ValueError('backend "numba" needs numba, which cannot be imported here; '
+                             'use backend "numpy"')  # fmt: skip
+        return None
+    from quadmodes.rom import manifold_kernel
+
+    return manifold_kernel
+
+
 def _integrate_fixed(sys, y0, t_span, factory, dt, save_every, t_eval, newton, kernel):
     """(t, ys, dissipated, stats, status, message, step, name) of a fixed-step method made by
     ``factory(sys, h)``; ``newton`` = (newton_tol, max_newton); ``kernel`` the compiled module
@@ -148,7 +166,7 @@ def _integrate_fixed(sys, y0, t_span, factory, dt, save_every, t_eval, newton, k
     n_steps, h, idx = fixed_grid(t_span, dt, save_every, t_eval)
     t0 = float(t_span[0])
     if kernel is not None:  # whole loop compiled (midpoint only)
-        name = "midpoint"
+        name = getattr(kernel, "NAME", "midpoint")
         y, ed, done, stats, status, msg = kernel.fixed_run(
             sys, y0, n_steps, h, idx, *newton, t0, name
         )

@@ -229,6 +229,10 @@ def warm_up_kernel(run: RunCase, progress: Progress | None = None) -> float | No
     if progress:
         progress("compile", 0.0)
     seconds = kernel.warm_up()
+    if run.reduced.formulation == "QM":  # its own compiled loop (rom.manifold_kernel)
+        from quadmodes.rom import manifold_kernel
+
+        seconds += manifold_kernel.warm_up()
     _KERNEL_READY.append(True)
     if progress:
         progress("compile", 1.0)
