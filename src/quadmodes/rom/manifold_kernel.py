@@ -279,19 +279,25 @@ def _damping_force(b0, b1, cd, c0, s, sd, bm, bd, out):
 
 
 @_jit
-def _kinetic(xp, phi, e0, e1, s1, sm, x, numid, dt, r, f):
+def _kinetic(xp, phi, e0, e1, s1, sm, x0, x, numid, dt, r, f):
     """The kinetic terms of the residual at ν₁ = x: ``r = 𝕄(s₁)ν₁`` (3+N,) and ``f = ∂T/∂s``
-    (N,) at (s½, ν½ = numid) by the particles (module docstring), e0 = E(s₀), e1 = E(s₁)."""
+    (N,) at (s½, ν½ = numid) by the particles (module docstring), e0 = E(s₀), e1 = E(s₁).
+    Returns ν₀ᵀ(𝕄(s₁) − 𝕄(s₀))ν₁ (ν₀ = x0) through the particles' differences, as
+    :func:`quadmodes.rom.manifold_kinetics.kinetic_difference` takes it (Δw = E½Δs,
+    w̄ = w½ + ⅛ΔE·Δs, Ē = E½, the product rule; ΔE = E₁ − E₀ here): the discrete gradient's."""
     n = s1.shape[0]
     inv_dt = 1.0 / dt
-    buf = np.empty((6, 3))
+    buf = np.empty((12, 3))
     w1, v1, wm, vm, al, be = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
+    dw, wb, dv0, vb0, dv1, vb1 = buf[6], buf[7], buf[8], buf[9], buf[10], buf[11]
     o0, o1, o2 = numid[0], numid[1], numid[2]
     r[:] = 0.0
     f[:] = 0.0
+    diff = 0.0
     for p in range(xp.shape[0]):
         for c in range(3):
             a1 = d1 = am = dm = 0.0
+            aw = cw = de0 = de1 = em0 = em1 = 0.0
             for j in range(n):
                 pe, ea, eb = phi[p, c, j], e0[p, c, j], e1[p, c, j]
                 a1 += (pe + eb) * s1[j]
@@ -299,10 +305,28 @@ def _kinetic(xp, phi, e0, e1, s1, sm, x, numid, dt, r, f):
                 em = 0.5 * (ea + eb)
                 am += (pe + em) * sm[j]
                 dm += em * numid[3 + j]
+                de, dsj = eb - ea, dt * numid[3 + j]  # ΔE, Δs = Δt ṡ½
+                aw += em * dsj
+                cw += de * dsj
+                de0 += de * x0[3 + j]
+                de1 += de * x[3 + j]
+                em0 += em * x0[3 + j]
+                em1 += em * x[3 + j]
             w1[c] = xp[p, c] + 0.5 * a1
             v1[c] = d1
             wm[c] = xp[p, c] + 0.5 * am
             vm[c] = dm
+            dw[c], wb[c] = aw, wm[c] + 0.125 * cw
+            dv0[c], vb0[c], dv1[c], vb1[c] = de0, em0, de1, em1
+        # the kinetic difference: Δv(ν)·v̄(ν') with Δv = ω × Δw + ΔE ṡ, v̄ = ω × w̄ + Ē ṡ
+        for c in range(3):
+            c1, c2 = (c + 1) % 3, (c + 2) % 3
+            dv0[c] += x0[c1] * dw[c2] - x0[c2] * dw[c1]
+            vb0[c] += x0[c1] * wb[c2] - x0[c2] * wb[c1]
+            dv1[c] += x[c1] * dw[c2] - x[c2] * dw[c1]
+            vb1[c] += x[c1] * wb[c2] - x[c2] * wb[c1]
+        for c in range(3):
+            diff += dv0[c] * vb1[c] + vb0[c] * dv1[c]
         v1[0] += x[1] * w1[2] - x[2] * w1[1]
         v1[1] += x[2] * w1[0] - x[0] * w1[2]
         v1[2] += x[0] * w1[1] - x[1] * w1[0]
@@ -324,6 +348,26 @@ def _kinetic(xp, phi, e0, e1, s1, sm, x, numid, dt, r, f):
             for j in range(n):
                 r[3 + j] += ra[j] * vc
                 f[j] += ra[j] * ac + rb[j] * bc
+    return diff
+
+
+@_jit
+def _discrete_gradient(f, numid, dt, diff):
+    """``f`` (N,) = ∂T/∂s(s½, ν½) corrected along Δs = Δt ṡ½ so that f·Δs = ½ ``diff``
+    (= ½ν₀ᵀ(𝕄(s₁) − 𝕄(s₀))ν₁): the Gonzalez correction of
+    :meth:`quadmodes.rom.manifold_midpoint.ManifoldMidpointStep._kinetic_discrete_gradient`,
+    which makes the step's energy balance exact."""
+    n = f.shape[0]
+    dd = gds = 0.0
+    for j in range(n):
+        dsj = dt * numid[3 + j]
+        dd += dsj * dsj
+        gds += f[j] * dsj
+    if dd <= 1e-300:
+        return
+    k = (0.5 * diff - gds) / dd
+    for j in range(n):
+        f[j] += k * dt * numid[3 + j]
 
 
 @_jit_inline
@@ -350,7 +394,8 @@ def _residual(x, qm, dt, consts, wk, r, have_e1=False):
         sm[k] = sbm[k] + 0.25 * dt * x[3 + k]
     if not have_e1:
         _tangents(phi, g, s1, e1)
-    _kinetic(xp, phi, e0, e1, s1, sm, x, numid, dt, r, f)
+    diff = _kinetic(xp, phi, e0, e1, s1, sm, x0, x, numid, dt, r, f)
+    _discrete_gradient(f, numid, dt, diff)
     for a in range(3):  # rotational rows: 𝕄(s₁)ν₁ − exp(−Δt ω̂½) h₀
         theta[a] = -dt * numid[a]
     if not qk._rotate(theta, h0, rh0):
