@@ -34,8 +34,10 @@ step well inside the tolerance is grown and probed again before the chunk (:func
 over a fixed time, O(h²), not a local error per step); the next chunk starts from the accepted
 step grown or shrunk by the same rule, and no longer than the energy balance allows
 (:func:`balance_step`): the midpoint's discrete balance ``E₁ − E₀ = −Δt ṡ½ᵀCṡ½`` is exact for
-the quadratic part only; the quadratic modes' kinetic energy is not quadratic, and the balance
-defect, O(h²), drifts with the dissipation. After each chunk the change of E + E_d over it is
+the quadratic part only for formulations Q, P, L, Q4 (the quadratic modes' kinetic energy is
+not quadratic, and the balance defect, O(h²), drifts with the dissipation); formulation QM's
+step uses a discrete gradient of its kinetic energy and keeps the balance to the Newton
+tolerance, so for it this bound does not bind (docs/manifold-formulation.md). After each chunk the change of E + E_d over it is
 compared with :data:`BALANCE` × the larger of the energy it dissipated and E₀ × its time / the
 run's duration (over the run at most BALANCE (E_d + E₀) ≤ 1e-6 E₀), and the next step is cut
 by the square root of the excess. (A probe cannot measure that drift: over a probe the bounded
