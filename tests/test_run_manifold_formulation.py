@@ -79,3 +79,20 @@ def test_linearised_analyses_use_q4_and_hub_runs_refuse_qm():
     data["reduced"]["formulation"] = "QM"
     with pytest.raises(CaseError, match="QM"):
         simulate.simulate_spinup(run_case_from_dict(data, source="test"))
+
+
+def test_a_path_left_by_its_amplitudes_points_to_qm():
+    """The run's warning names formulation QM when the path leaves by the amplitude check under
+    another formulation of a model with the manifold potential; not for other reasons, not for
+    QM itself, not for a model without V3/V4."""
+    from types import SimpleNamespace
+
+    from quadmodes.cli.run_commands import path_hint
+
+    amp = SimpleNamespace(failures=((1.0, "the reduced potential is 2.3 % off the FE model's "
+                                     "condensed energy at the largest modal amplitude"),))  # fmt: skip
+    spin = SimpleNamespace(failures=((1.0, "the spin left the centrifugal range"),))
+    model, old = SimpleNamespace(manifold_potential=True), SimpleNamespace(manifold_potential=False)
+    assert 'reduced.formulation = "QM"' in path_hint(amp, "Q", model)
+    assert path_hint(amp, "QM", model) == "" and path_hint(amp, "Q", old) == ""
+    assert path_hint(spin, "Q", model) == ""

@@ -140,13 +140,25 @@ def _warn_validity(name: str, validity) -> None:
         )
 
 
-def _warn_path(name: str, path) -> None:
+def path_hint(path, formulation: str, model) -> str:
+    """What to change when a path leaves its range by its modal amplitudes under a formulation
+    whose potential or kinetics stop at second order ("" otherwise): formulation QM (the
+    manifold's exact kinetic energy, Q4's potential) holds the coarse 41 Hz body to a 60° cone
+    within 2 % of the full order where Q leaves at 32° (docs/manifold-formulation.md)."""
+    amplitude = any("condensed energy" in reason for _, reason in getattr(path, "failures", ()))
+    if not amplitude or formulation == "QM" or not getattr(model, "manifold_potential", False):
+        return ""
+    return ('; formulation QM (reduced.formulation = "QM": the exact kinetic energy of the '
+            "quadratic manifold and the quartic potential) holds larger amplitudes")
+
+
+def _warn_path(name: str, path, hint: str = "") -> None:
     """Warn (stderr) when the run's path leaves its reduced model's range (the summary, the
-    report and results.nc say where, too)."""
+    report and results.nc say where, too), with ``hint`` (:func:`path_hint`)."""
     if path is not None and path.left_at is not None:
         err.print(
             f"[bold yellow]warning:[/] {escape(name)}: {escape(path.message())}; past it the "
-            "results are outside the model's validity",
+            f"results are outside the model's validity{escape(hint)}",
             highlight=False,
             soft_wrap=True,
         )
@@ -300,7 +312,8 @@ def _execute_free(setup, folders: RunFolders, opts: _Options) -> tuple[Any, dict
             hint = f"; {again}" if stopped.saved else ""
             raise stop(f"{name} stopped ({stopped.reason}); {stopped.where}{hint}", opts.exit_code) from None
         result = with_linear_answer(result)  # energy-sink time constant, stability at the spin
-        _warn_path(name, result.path)  # also a membrane's loss of tension (path.message)
+        hint = path_hint(result.path, result.run.reduced.formulation, result.model)
+        _warn_path(name, result.path, hint)  # also a membrane's loss of tension (path.message)
         try:
             extra = _extras(setup, result, opts, bars)
         except KeyboardInterrupt:
