@@ -75,3 +75,24 @@ def test_compare_of_a_qm_run_case_compares_qm_by_default_and_at_a_point(folder):
         qm = payload["formulations"]["QM"]
         assert qm["cone_angle_error"] < 1e-2 and qm["spin_rate_error"] < 1e-3
     assert payload["start"]["step"] == 100 and payload["start"]["source"].endswith("results.nc")
+
+
+def test_the_library_compares_what_the_cli_compares(monkeypatch):
+    """``qm.compare`` without ``formulations`` compares the CLI's default list: rigid, L, P, Q,
+    Q4 and the run case's own formulation (QM here): library = CLI."""
+    import tomllib
+
+    import quadmodes as qm
+    from quadmodes.analysis import compare as cmp
+    from quadmodes.analysis import comparison_run as runner
+    from quadmodes.case import load_run_case, run_case_from_dict
+
+    data = tomllib.loads(load_run_case("paper-41hz-coarse").to_toml())
+    data["reduced"]["formulation"] = "QM"
+    run = run_case_from_dict(data, source="test")
+    seen = {}
+    monkeypatch.setattr(runner, "prepare_comparison", lambda r, span, cutoff, progress: (r, None))
+    monkeypatch.setattr(runner, "run_comparison",
+                        lambda resolved, span, formulations, **kw: seen.setdefault("names", formulations))  # fmt: skip
+    qm.compare(run, "0.1 s")
+    assert seen["names"] == cmp.default_formulations(run) == ("rigid", "L", "P", "Q", "Q4", "QM")

@@ -308,7 +308,7 @@ def rotating(
 
 
 def compare(
-    run, window: QuantityLike = "1 s", *, formulations: Sequence[str] = ("rigid", "L", "P", "Q"),
+    run, window: QuantityLike = "1 s", *, formulations: Sequence[str] | None = None,
     full_order_dt: QuantityLike | None = None, damping_cutoff: QuantityLike | None = None,
     checkpoint: str | os.PathLike[str] | None = None, resume: bool = False,
     checkpoint_every: int | None = None, output_dir: str | os.PathLike[str] | None = None, plots: bool = True,
@@ -321,6 +321,9 @@ def compare(
 
     Parameters
     ----------
+    formulations
+        The reduced formulations compared (default, as the CLI's: rigid, L, P, Q, Q4 and the run
+        case's own formulation, e.g. QM, :func:`quadmodes.analysis.compare.default_formulations`).
     at, results
         Start both sides at this point of the run's reduced path instead of t = 0 (an event:
         "cone 10 deg", "time 100 s", as ``compare --at``): the reduced run integrated to it, or
@@ -357,6 +360,7 @@ def compare(
         ``progress`` callback raising KeyboardInterrupt; its ``checkpoint`` continues it with
         ``resume=True``): it is never scored.
     """
+    from quadmodes.analysis import compare as cmp
     from quadmodes.analysis import comparison_run as runner
 
     span = si(window, "time", "window")
@@ -372,13 +376,15 @@ def compare(
     if path is not None and not resume:
         path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
     every = runner.FULL_ORDER_CHECKPOINT_EVERY if checkpoint_every is None else int(checkpoint_every)
+    run = _run(run)
+    names = cmp.default_formulations(run) if formulations is None else tuple(formulations)
     if at is None:
-        resolved, setup = runner.prepare_comparison(_run(run), span, cutoff, progress)
+        resolved, setup = runner.prepare_comparison(run, span, cutoff, progress)
         point = None
     else:
         resolved, setup, point = runner.prepare_path_comparison(
-            _run(run), span, at, results=results, damping_cutoff=cutoff, progress=progress)
-    result = runner.run_comparison(resolved, span, formulations=tuple(formulations),
+            run, span, at, results=results, damping_cutoff=cutoff, progress=progress)
+    result = runner.run_comparison(resolved, span, formulations=names,
                                    full_order_dt=dt, setup=setup, checkpoint=path, resume=resume,
                                    checkpoint_every=every, progress=progress, start=point)  # fmt: skip
     if output_dir is not None:  # the checkpoint is removed once the data are written
