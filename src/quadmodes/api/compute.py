@@ -307,6 +307,21 @@ def rotating(
                                          progress=progress)  # fmt: skip
 
 
+def _compare_checkpoint(checkpoint, resume: bool) -> Path | None:
+    """The full order's checkpoint path of :func:`compare`: checked readable with ``resume``,
+    removed without (a fresh run never continues an old checkpoint unasked)."""
+    from quadmodes.analysis import comparison_run as runner
+
+    path = None if checkpoint is None else Path(checkpoint)
+    if resume and (path is None or not path.is_file()):
+        raise runner.CheckpointError(f"resume: no checkpoint at {path}; run without resume")
+    if resume:
+        runner.check_checkpoint_readable(path, option="resume", fix="start again without resume")
+    if path is not None and not resume:
+        path.unlink(missing_ok=True)
+    return path
+
+
 def compare(
     run, window: QuantityLike = "1 s", *, formulations: Sequence[str] | None = None,
     full_order_dt: QuantityLike | None = None, damping_cutoff: QuantityLike | None = None,
@@ -366,15 +381,9 @@ def compare(
     span = si(window, "time", "window")
     dt = None if full_order_dt is None else si(full_order_dt, "time", "full_order_dt")
     cutoff = None if damping_cutoff is None else si(damping_cutoff, "frequency", "damping_cutoff")
-    path = None if checkpoint is None else Path(checkpoint)
     if output_dir is not None:  # before any work, as ``compare -o``: no link, no user file
         runner.check_comparison_folder(Path(output_dir), "output_dir")
-    if resume and (path is None or not path.is_file()):
-        raise runner.CheckpointError(f"resume: no checkpoint at {path}; run without resume")
-    if resume:
-        runner.check_checkpoint_readable(path, option="resume", fix="start again without resume")
-    if path is not None and not resume:
-        path.unlink(missing_ok=True)  # a fresh run: never continue an old checkpoint unasked
+    path = _compare_checkpoint(checkpoint, resume)
     every = runner.FULL_ORDER_CHECKPOINT_EVERY if checkpoint_every is None else int(checkpoint_every)
     run = _run(run)
     names = cmp.default_formulations(run) if formulations is None else tuple(formulations)
