@@ -88,10 +88,15 @@ def test_a_path_left_by_its_amplitudes_points_to_qm():
     from types import SimpleNamespace
 
     from quadmodes.cli.run_commands import path_hint
+    from quadmodes.runs.path_validity import PathValidity
 
-    amp = SimpleNamespace(failures=((1.0, "the reduced potential is 2.3 % off the FE model's "
-                                     "condensed energy at the largest modal amplitude"),))  # fmt: skip
-    spin = SimpleNamespace(failures=((1.0, "the spin left the centrifugal range"),))
+    def path(err):
+        return PathValidity(reference_spin=257.6, centrifugal_max=0.03, centrifugal_limit=0.02,
+                            spin_range=(255.0, 260.0), min_stiffness=1e3, amplitude_peak=5e-4,
+                            amplitude_peak_time=1.0, left_at=1.0, amplitude_error=err)  # fmt: skip
+
+    amp = path(0.023)  # the potential 2.3 % off the condensed energy: left by the amplitudes
+    spin = path(0.004)  # left by the spin (the centrifugal load); the amplitudes pass
     model, old = SimpleNamespace(manifold_potential=True), SimpleNamespace(manifold_potential=False)
     assert 'reduced.formulation = "QM"' in path_hint(amp, "Q", model)
     assert path_hint(amp, "QM", model) == "" and path_hint(amp, "Q", old) == ""

@@ -145,8 +145,7 @@ def path_hint(path, formulation: str, model) -> str:
     whose potential or kinetics stop at second order ("" otherwise): formulation QM (the
     manifold's exact kinetic energy, Q4's potential) holds the coarse 41 Hz body to a 60° cone
     within 2 % of the full order where Q leaves at 32° (docs/manifold-formulation.md)."""
-    amplitude = any("condensed energy" in reason for _, reason in getattr(path, "failures", ()))
-    if not amplitude or formulation == "QM" or not getattr(model, "manifold_potential", False):
+    if not path.amplitudes_fail or formulation == "QM" or not getattr(model, "manifold_potential", False):
         return ""
     return ('; formulation QM (reduced.formulation = "QM": the exact kinetic energy of the '
             "quadratic manifold and the quartic potential) holds larger amplitudes")

@@ -137,6 +137,20 @@ def _tangents2(phi, g, sa, sb, ea, eb):
         b1[i] = p1[i] + 2.0 * acc_b
 
 
+@_jit_inline
+def _particle(xp, phi, e, s, sd, p, w, d):
+    """Particle p's position w = X̃_p + ½(Φ̃_p + E_p)s and elastic velocity d = E_p ṡ (3,),
+    e = E(s), sd = ṡ (N,)."""
+    n = s.shape[0]
+    for c in range(3):
+        a = b = 0.0
+        for j in range(n):
+            a += (phi[p, c, j] + e[p, c, j]) * s[j]
+            b += e[p, c, j] * sd[j]
+        w[c] = xp[p, c] + 0.5 * a
+        d[c] = b
+
+
 @_jit
 def _momenta(xp, phi, e, s, x, out):
     """``out = 𝕄(s) ν`` (3+N,) = (Σ w × v, Σ Eᵀv) with v = ω × w + E ṡ, w = X̃ + ½(Φ̃ + E)s;
@@ -145,13 +159,7 @@ def _momenta(xp, phi, e, s, x, out):
     out[:] = 0.0
     w, v = np.empty(3), np.empty(3)
     for r in range(xp.shape[0]):
-        for c in range(3):
-            a = b = 0.0
-            for j in range(n):
-                a += (phi[r, c, j] + e[r, c, j]) * s[j]
-                b += e[r, c, j] * x[3 + j]
-            w[c] = xp[r, c] + 0.5 * a
-            v[c] = b
+        _particle(xp, phi, e, s, x[3:], r, w, v)
         v[0] += x[1] * w[2] - x[2] * w[1]
         v[1] += x[2] * w[0] - x[0] * w[2]
         v[2] += x[0] * w[1] - x[1] * w[0]
@@ -533,13 +541,7 @@ def _advance(qm, dt, x0, x1, consts, s1, phi, wk, lu3, piv3, sd_next):
     tgt, w, d = np.zeros(3), np.empty(3), np.empty(3)
     lu3[:, :] = 0.0
     for p in range(xp.shape[0]):
-        for c in range(3):
-            a = b = 0.0
-            for j in range(n):
-                a += (ph[p, c, j] + e1[p, c, j]) * s1[j]
-                b += e1[p, c, j] * x1[3 + j]
-            w[c] = xp[p, c] + 0.5 * a
-            d[c] = b
+        _particle(xp, ph, e1, s1, x1[3:], p, w, d)
         ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
         for a in range(3):
             lu3[a, a] += ww

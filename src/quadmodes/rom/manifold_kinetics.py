@@ -165,23 +165,25 @@ def mass_matrix(ma: ManifoldArrays, s: np.ndarray) -> np.ndarray:
     return np.block([[j, a.T], [a, mu]])
 
 
-def kinetic_gradient(ma: ManifoldArrays, s: np.ndarray, nu: np.ndarray) -> np.ndarray:
+def kinetic_gradient(ma: ManifoldArrays, s: np.ndarray, nu: np.ndarray,
+                     e: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
     """∂T/∂s (N,) at fixed ν = (ω, ṡ): Σ_ρ v_ρ · ∂v_ρ/∂s_j with v = ω × w + E ṡ and
-    ∂v/∂s_j = ω × E_j + 2 Σ_n g̃^{jn} ṡ_n."""
+    ∂v/∂s_j = ω × E_j + 2 Σ_n g̃^{jn} ṡ_n (``e``: E(s) when already known)."""
     w_rate, sd = nu[:3], nu[3:]
-    e = tangents(ma, s)
+    e = tangents(ma, s) if e is None else e
     v = np.cross(w_rate, positions(ma, s, e)) + e @ sd
     dv = np.cross(w_rate[None, :, None], e, axis=1) + 2.0 * (ma.G @ sd)
     return np.einsum("rc,rcj->j", v, dv)
 
 
 def kinetic_difference(ma: ManifoldArrays, sm: np.ndarray, ds: np.ndarray, nu0: np.ndarray,
-                       nu1: np.ndarray) -> float:  # fmt: skip
+                       nu1: np.ndarray, e: np.ndarray | None = None) -> float:  # fmt: skip
     """ν₀ᵀ(𝕄(s₁) − 𝕄(s₀))ν₁ (J) with s₀,₁ = sm ∓ ds/2, without cancellation: through the
     particles' differences, exact because w is quadratic and E linear in s:
     Δw = E(sm) Δs, ΔE = 2 g̃ Δs, w̄ = w(sm) + ¼ Δsᵀg̃Δs, Ē = E(sm), and for v(ν) = ω × w + E ṡ
-    the product rule v₁(ν₀)·v₁(ν₁) − v₀(ν₀)·v₀(ν₁) = Δv(ν₀)·v̄(ν₁) + v̄(ν₀)·Δv(ν₁)."""
-    e = tangents(ma, sm)
+    the product rule v₁(ν₀)·v₁(ν₁) − v₀(ν₀)·v₀(ν₁) = Δv(ν₀)·v̄(ν₁) + v̄(ν₀)·Δv(ν₁) (``e``:
+    E(sm) when already known)."""
+    e = tangents(ma, sm) if e is None else e
     de = 2.0 * (ma.G @ ds)
     dw = e @ ds
     w_bar = positions(ma, sm, e) + 0.125 * (de @ ds)

@@ -74,12 +74,13 @@ class ManifoldMidpointStep(MidpointStep):
         :func:`~quadmodes.rom.manifold_kinetics.kinetic_difference` (no cancellation: the
         correction keeps a round-off error of order ε|v|² as Δs → 0). It is O(Δt²) for any Δs
         (the defect is linear in Δs) and symmetric in the step's two ends."""
-        g = mk.kinetic_gradient(self.arrays, sm, numid)
+        e = mk.tangents(self.arrays, sm)  # E(s½): one sweep for both
+        g = mk.kinetic_gradient(self.arrays, sm, numid, e)
         ds = self.hdt * (self.x0[3:] + x[3:])  # s₁ − s₀ = Δt ṡ½
         dd = float(ds @ ds)
         if dd <= 1e-300:
             return g
-        kinetic = 0.5 * mk.kinetic_difference(self.arrays, sm, ds, self.x0, x)
+        kinetic = 0.5 * mk.kinetic_difference(self.arrays, sm, ds, self.x0, x, e)
         return g + ((kinetic - float(g @ ds)) / dd) * ds
 
     def residual(self, x, jac=False):

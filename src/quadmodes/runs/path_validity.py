@@ -141,6 +141,12 @@ class PathValidity:
         return self.left_at is None and not self.unchecked
 
     @property
+    def amplitudes_fail(self) -> bool:
+        """The modal-amplitude check failed somewhere on the path (its largest error, inf when
+        the FE energy did not converge, above the tolerance; False when not checked)."""
+        return bool(self.amplitude_error > DEFORMATION_ENERGY_TOLERANCE)
+
+    @property
     def taut(self) -> bool | None:
         """The membrane stays taut where it is taut at the reference (None: not judged)."""
         if math.isnan(self.least_tension) or not self.slack_judged:
